@@ -1,0 +1,390 @@
+//! Building programs: the API node lowerings use.
+//!
+//! The builder appends values to the innermost open block and infers each value's type with
+//! the rules of [`crate::ops`]. A lowering that asks for an ill-typed op is a bug in the
+//! lowering, not in the user's network; the builder records the first such error (and keeps
+//! going with a placeholder of a plausible type), and [`Builder::finish`] reports it.
+
+use super::{BinOp, Block, Expr, Intrinsic, Op, Output, Program, Space, Stream, UnOp, Value};
+use crate::ops;
+use crate::types::{ConstValue, Type};
+
+/// Appends typed values to a [`Program`].
+#[derive(Debug)]
+pub struct Builder {
+    program: Program,
+    /// Open blocks; the last is the innermost.
+    blocks: Vec<Block>,
+    error: Option<String>,
+}
+
+impl Builder {
+    /// A builder for an empty program called `name`.
+    pub fn new(name: &str) -> Builder {
+        Builder {
+            program: Program {
+                name: name.to_string(),
+                ..Program::default()
+            },
+            blocks: vec![Block::default()],
+            error: None,
+        }
+    }
+
+    /// The program so far (values, outputs, components), for reading types.
+    pub fn program(&self) -> &Program {
+        &self.program
+    }
+
+    /// The type of a value built so far.
+    pub fn ty(&self, v: Value) -> Type {
+        self.program.exprs[v.index()].ty.unwrap_or(Type::Float)
+    }
+
+    /// Records an internal error (the first one wins).
+    pub fn fail(&mut self, msg: impl Into<String>) {
+        if self.error.is_none() {
+            self.error = Some(msg.into());
+        }
+    }
+
+    /// Appends an expr to the innermost block.
+    pub fn push(&mut self, op: Op, ty: Option<Type>) -> Value {
+        let v = Value::new(self.program.exprs.len());
+        self.program.exprs.push(Expr { op, ty });
+        self.blocks
+            .last_mut()
+            .expect("builder always has a block")
+            .body
+            .push(v);
+        v
+    }
+
+    /// A constant.
+    pub fn constant(&mut self, c: ConstValue) -> Value {
+        let ty = c.ty();
+        self.push(Op::Const(c), Some(ty))
+    }
+
+    /// A float constant.
+    pub fn float(&mut self, x: f64) -> Value {
+        self.constant(ConstValue::Float(x))
+    }
+
+    /// An int constant.
+    pub fn int(&mut self, i: i32) -> Value {
+        self.constant(ConstValue::Int(i))
+    }
+
+    /// A bool constant.
+    pub fn boolean(&mut self, b: bool) -> Value {
+        self.constant(ConstValue::Bool(b))
+    }
+
+    /// A vec3 constant.
+    pub fn vec3(&mut self, v: [f64; 3]) -> Value {
+        self.constant(ConstValue::Vec3(v))
+    }
+
+    /// A color constant.
+    pub fn color(&mut self, v: [f64; 3]) -> Value {
+        self.constant(ConstValue::Color(v))
+    }
+
+    /// The zero of a type.
+    pub fn zero(&mut self, ty: Type) -> Value {
+        self.constant(ConstValue::zero(ty))
+    }
+
+    /// An implicit stream in world space.
+    pub fn stream(&mut self, s: Stream) -> Value {
+        self.push(Op::Stream(s), Some(s.ty()))
+    }
+
+    /// An implicit stream read in `space` (a transform is inserted unless `space` is world or
+    /// the stream does not transform).
+    pub fn stream_in(&mut self, s: Stream, space: Space) -> Value {
+        let v = self.stream(s);
+        match s.xform_kind() {
+            Some(kind) if space != Space::World => self.push(
+                Op::Transform {
+                    kind,
+                    from: Space::World,
+                    to: space,
+                    arg: v,
+                },
+                Some(Type::Vec3),
+            ),
+            _ => v,
+        }
+    }
+
+    /// Whether render component `name` is active (registers the component name).
+    pub fn component_enabled(&mut self, name: &str) -> Value {
+        let k = self.component(name);
+        self.push(Op::ComponentEnabled(k), Some(Type::Bool))
+    }
+
+    /// The index of a component name, registering it if new.
+    pub fn component(&mut self, name: &str) -> u8 {
+        if let Some(k) = self.program.component_index(name) {
+            return k;
+        }
+        if self.program.components.len() >= 32 {
+            self.fail("more than 32 render components");
+            return 31;
+        }
+        self.program.components.push(name.to_string());
+        (self.program.components.len() - 1) as u8
+    }
+
+    /// A unary op.
+    pub fn unary(&mut self, op: UnOp, a: Value) -> Value {
+        let at = self.ty(a);
+        let ty = ops::unary_type(op, at).unwrap_or_else(|| {
+            self.fail(format!("{} is not defined on {at}", op.name()));
+            at
+        });
+        self.push(Op::Unary(op, a), Some(ty))
+    }
+
+    /// A binary op.
+    pub fn binary(&mut self, op: BinOp, a: Value, b: Value) -> Value {
+        let (at, bt) = (self.ty(a), self.ty(b));
+        let ty = ops::binary_type(op, at, bt).unwrap_or_else(|| {
+            self.fail(format!("{} is not defined on ({at}, {bt})", op.name()));
+            at
+        });
+        self.push(Op::Binary(op, a, b), Some(ty))
+    }
+
+    /// `a + b`.
+    pub fn add(&mut self, a: Value, b: Value) -> Value {
+        self.binary(BinOp::Add, a, b)
+    }
+
+    /// `a - b`.
+    pub fn sub(&mut self, a: Value, b: Value) -> Value {
+        self.binary(BinOp::Sub, a, b)
+    }
+
+    /// `a * b`.
+    pub fn mul(&mut self, a: Value, b: Value) -> Value {
+        self.binary(BinOp::Mul, a, b)
+    }
+
+    /// `a / b` (total).
+    pub fn div(&mut self, a: Value, b: Value) -> Value {
+        self.binary(BinOp::Div, a, b)
+    }
+
+    /// `min(a, b)`.
+    pub fn min(&mut self, a: Value, b: Value) -> Value {
+        self.binary(BinOp::Min, a, b)
+    }
+
+    /// `max(a, b)`.
+    pub fn max(&mut self, a: Value, b: Value) -> Value {
+        self.binary(BinOp::Max, a, b)
+    }
+
+    /// `dot(a, b)`.
+    pub fn dot(&mut self, a: Value, b: Value) -> Value {
+        self.binary(BinOp::Dot, a, b)
+    }
+
+    /// `normalize(a)`.
+    pub fn normalize(&mut self, a: Value) -> Value {
+        self.unary(UnOp::Normalize, a)
+    }
+
+    /// `clamp(x, lo, hi) = min(max(x, lo), hi)`.
+    pub fn clamp(&mut self, x: Value, lo: Value, hi: Value) -> Value {
+        let m = self.max(x, lo);
+        self.min(m, hi)
+    }
+
+    /// `a * (1 - t) + b * t` with `t` a float or of `a`'s type (a float `t` is splatted).
+    pub fn mix(&mut self, a: Value, b: Value, t: Value) -> Value {
+        let ty = self.ty(a);
+        let t = self.splat_to(ty, t);
+        let one = self.constant(
+            ConstValue::from_floats(ty, &vec![1.0; ty.width()]).unwrap_or(ConstValue::Float(1.0)),
+        );
+        let omt = self.sub(one, t);
+        let x = self.mul(a, omt);
+        let y = self.mul(b, t);
+        self.add(x, y)
+    }
+
+    /// `cond ? a : b`, both evaluated.
+    pub fn select(&mut self, cond: Value, a: Value, b: Value) -> Value {
+        let (ct, at, bt) = (self.ty(cond), self.ty(a), self.ty(b));
+        if ct != Type::Bool || at != bt {
+            self.fail(format!("select({ct}, {at}, {bt}) is ill-typed"));
+        }
+        self.push(Op::Select { cond, a, b }, Some(at))
+    }
+
+    /// Builds a vector of type `ty` from floats.
+    pub fn construct(&mut self, ty: Type, args: &[Value]) -> Value {
+        let ok = ty.is_vector()
+            && args.len() == ty.width()
+            && args.iter().all(|a| self.ty(*a) == Type::Float);
+        if !ok {
+            self.fail(format!("cannot construct {ty} from {} values", args.len()));
+        }
+        self.push(Op::Construct(args.to_vec()), Some(ty))
+    }
+
+    /// Component `i` of a vector.
+    pub fn extract(&mut self, v: Value, i: usize) -> Value {
+        let t = self.ty(v);
+        if !t.is_vector() || i >= t.width() {
+            self.fail(format!("no component {i} in {t}"));
+        }
+        self.push(Op::Extract(v, i as u8), Some(Type::Float))
+    }
+
+    /// A float broadcast to the vector type `ty`.
+    pub fn splat(&mut self, ty: Type, f: Value) -> Value {
+        if self.ty(f) != Type::Float || !ty.is_vector() {
+            self.fail(format!("cannot splat {} to {ty}", self.ty(f)));
+        }
+        self.push(Op::Splat(f), Some(ty))
+    }
+
+    /// `v` unchanged if it has type `ty`, splatted if it is a float and `ty` a vector.
+    pub fn splat_to(&mut self, ty: Type, v: Value) -> Value {
+        if self.ty(v) == Type::Float && ty.is_vector() {
+            self.splat(ty, v)
+        } else {
+            v
+        }
+    }
+
+    /// A scalar conversion (bool/int/float); the identity if `v` already has type `ty`.
+    pub fn convert(&mut self, ty: Type, v: Value) -> Value {
+        let from = self.ty(v);
+        if from == ty {
+            return v;
+        }
+        if !ops::convert_ok(from, ty) {
+            self.fail(format!("cannot convert {from} to {ty}"));
+        }
+        self.push(Op::Convert(v), Some(ty))
+    }
+
+    /// Reinterprets a vec3 as a color or back (same components; no op is emitted, the IR
+    /// treats both as three floats). Returns a value of type `ty`.
+    pub fn retype(&mut self, ty: Type, v: Value) -> Value {
+        let from = self.ty(v);
+        if from == ty {
+            return v;
+        }
+        if !(matches!(from, Type::Vec3 | Type::Color) && matches!(ty, Type::Vec3 | Type::Color)) {
+            self.fail(format!("cannot retype {from} as {ty}"));
+            return v;
+        }
+        let parts: Vec<Value> = (0..3).map(|i| self.extract(v, i)).collect();
+        self.construct(ty, &parts)
+    }
+
+    /// A call of an intrinsic.
+    pub fn call(&mut self, i: Intrinsic, args: &[Value]) -> Value {
+        let tys: Vec<Type> = args.iter().map(|a| self.ty(*a)).collect();
+        let ty = ops::intrinsic_type(i, &tys).unwrap_or_else(|| {
+            self.fail(format!("{} does not take {tys:?}", i.name()));
+            Type::Float
+        });
+        self.push(Op::Call(i, args.to_vec()), Some(ty))
+    }
+
+    /// Sum of the ambient lights (color).
+    pub fn ambient(&mut self) -> Value {
+        self.push(Op::Ambient, Some(Type::Color))
+    }
+
+    fn build_block(&mut self, f: impl FnOnce(&mut Builder) -> Vec<Value>) -> Block {
+        self.blocks.push(Block::default());
+        let yields = f(self);
+        let mut block = self.blocks.pop().expect("pushed above");
+        block.yields = yields;
+        block
+    }
+
+    fn projections(&mut self, region: Value, tys: &[Type]) -> Vec<Value> {
+        tys.iter()
+            .enumerate()
+            .map(|(i, t)| self.push(Op::Proj(region, i as u8), Some(*t)))
+            .collect()
+    }
+
+    /// A structured conditional; `then_` and `else_` return their yields (same count and
+    /// types). Returns the region's results.
+    pub fn if_(
+        &mut self,
+        cond: Value,
+        then_: impl FnOnce(&mut Builder) -> Vec<Value>,
+        else_: impl FnOnce(&mut Builder) -> Vec<Value>,
+    ) -> Vec<Value> {
+        if self.ty(cond) != Type::Bool {
+            self.fail("if condition is not a bool");
+        }
+        let t = self.build_block(then_);
+        let e = self.build_block(else_);
+        let tt: Vec<Type> = t.yields.iter().map(|v| self.ty(*v)).collect();
+        let et: Vec<Type> = e.yields.iter().map(|v| self.ty(*v)).collect();
+        if tt != et {
+            self.fail(format!("if arms yield {tt:?} and {et:?}"));
+        }
+        let region = self.push(
+            Op::If {
+                cond,
+                then_: t,
+                else_: e,
+            },
+            None,
+        );
+        self.projections(region, &tt)
+    }
+
+    /// A light loop around point `p` (world space). `body` receives the builder, the light
+    /// direction `L` and the arriving color `Cl`, and returns per-sample values (floats or
+    /// vectors) to be summed. Returns the sums.
+    pub fn illuminance(
+        &mut self,
+        p: Value,
+        body: impl FnOnce(&mut Builder, Value, Value) -> Vec<Value>,
+    ) -> Vec<Value> {
+        let block = self.build_block(|b| {
+            let l = b.push(Op::LightL, Some(Type::Vec3));
+            let cl = b.push(Op::LightCl, Some(Type::Color));
+            body(b, l, cl)
+        });
+        let tys: Vec<Type> = block.yields.iter().map(|v| self.ty(*v)).collect();
+        if tys.iter().any(|t| !t.is_float_based()) {
+            self.fail(format!("illuminance can only sum floats and vectors, not {tys:?}"));
+        }
+        let region = self.push(Op::Illuminance { p, body: block }, None);
+        self.projections(region, &tys)
+    }
+
+    /// Declares a material output (or one component part of it).
+    pub fn output(&mut self, name: &str, component: Option<u8>, value: Value) {
+        self.program.outputs.push(Output {
+            name: name.to_string(),
+            component,
+            value,
+        });
+    }
+
+    /// Ends building; fails with the first internal typing error.
+    pub fn finish(mut self) -> Result<Program, String> {
+        if let Some(e) = self.error {
+            return Err(e);
+        }
+        self.program.body = self.blocks.pop().expect("top block");
+        Ok(self.program)
+    }
+}

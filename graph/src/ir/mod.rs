@@ -1,0 +1,681 @@
+//! The shading IR: typed SSA values in one arena, structured regions, no phis.
+//!
+//! A [`Program`] is one material. Every value is an [`Expr`] in `Program::exprs`, named by a
+//! [`Value`] handle; a [`Block`] lists, in order, the values it computes and the values it
+//! yields. Operands always come before their users (naga's rule), so one forward sweep
+//! evaluates a block and one backward sweep finds what is live.
+//!
+//! Control flow is structured:
+//! - [`Op::If`] evaluates one of two blocks; its results are the chosen block's yields, read
+//!   with [`Op::Proj`].
+//! - [`Op::Illuminance`] runs its body once per non-ambient light sample (inside it,
+//!   [`Op::LightL`] and [`Op::LightCl`] read the current sample); its results are the sums of
+//!   the body's yields over all samples (zero without lights).
+//!
+//! A value defined inside a block is visible in that block and the blocks nested in it, never
+//! outside: results leave a region only through its yields. Region exprs have no type of
+//! their own (`ty == None`); every other expr has exactly one type.
+//!
+//! Rates ([`Rate`]) are derived, not stored: see [`rates`].
+
+mod builder;
+
+pub use builder::Builder;
+
+use crate::types::{ConstValue, Type};
+use std::fmt;
+use std::marker::PhantomData;
+use std::num::NonZeroU32;
+
+/// A typed index into an arena (naga's `Handle`): a non-zero `u32`, so `Option<Handle<T>>` is
+/// four bytes.
+pub struct Handle<T> {
+    index: NonZeroU32,
+    _marker: PhantomData<fn() -> T>,
+}
+
+impl<T> Handle<T> {
+    /// The handle of the `index`-th (zero-based) element.
+    pub fn new(index: usize) -> Self {
+        let index = u32::try_from(index + 1)
+            .ok()
+            .and_then(NonZeroU32::new)
+            .expect("arena larger than u32::MAX");
+        Handle {
+            index,
+            _marker: PhantomData,
+        }
+    }
+
+    /// The zero-based index of this handle in its arena.
+    pub fn index(self) -> usize {
+        self.index.get() as usize - 1
+    }
+}
+
+impl<T> Clone for Handle<T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<T> Copy for Handle<T> {}
+impl<T> PartialEq for Handle<T> {
+    fn eq(&self, other: &Self) -> bool {
+        self.index == other.index
+    }
+}
+impl<T> Eq for Handle<T> {}
+impl<T> PartialOrd for Handle<T> {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl<T> Ord for Handle<T> {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        self.index.cmp(&other.index)
+    }
+}
+impl<T> std::hash::Hash for Handle<T> {
+    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
+        self.index.hash(state)
+    }
+}
+impl<T> fmt::Debug for Handle<T> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "v{}", self.index())
+    }
+}
+
+/// A value of a program: the handle of the [`Expr`] that computes it.
+pub type Value = Handle<Expr>;
+
+/// One SSA value: its operation and its type (`None` for region exprs, which have results
+/// instead, read by [`Op::Proj`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Expr {
+    /// What computes the value.
+    pub op: Op,
+    /// The value's type; `None` only for [`Op::If`] and [`Op::Illuminance`].
+    pub ty: Option<Type>,
+}
+
+/// A straight-line list of values and the values it yields to its region.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Block {
+    /// The values computed by this block, operands before users.
+    pub body: Vec<Value>,
+    /// The block's results (empty for the program's top-level block).
+    pub yields: Vec<Value>,
+}
+
+/// Implicit per-fragment inputs (DESIGN §3), stored by the renderer in world space.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Stream {
+    /// Shading position (vec3, point).
+    P,
+    /// Shading normal, unit length, facing the incoming ray (vec3, normal).
+    N,
+    /// Geometric normal (vec3, normal).
+    Ng,
+    /// Incident ray direction, from the eye to `P`, not normalized (vec3, vector).
+    I,
+    /// Surface parameterization (vec2).
+    Uv,
+    /// ∂P/∂u (vec3, vector).
+    DPdu,
+    /// ∂P/∂v (vec3, vector).
+    DPdv,
+    /// ∂P/∂x, the ray differential towards the next pixel in x (vec3, vector).
+    DPdx,
+    /// ∂P/∂y (vec3, vector).
+    DPdy,
+    /// Shutter time (float).
+    Time,
+    /// The ray type bit ([`RAY_CAMERA`] …) as an int.
+    RayType,
+    /// The ray depth: 0 for camera rays (int).
+    RayDepth,
+}
+
+/// Ray type codes carried by [`Stream::RayType`].
+pub const RAY_CAMERA: i32 = 1;
+/// Shadow ray.
+pub const RAY_SHADOW: i32 = 2;
+/// Reflection ray.
+pub const RAY_REFLECTION: i32 = 4;
+/// Refraction ray.
+pub const RAY_REFRACTION: i32 = 8;
+/// Diffuse (indirect) ray.
+pub const RAY_DIFFUSE: i32 = 16;
+
+impl Stream {
+    /// Every stream, in a fixed order.
+    pub const ALL: [Stream; 12] = [
+        Stream::P,
+        Stream::N,
+        Stream::Ng,
+        Stream::I,
+        Stream::Uv,
+        Stream::DPdu,
+        Stream::DPdv,
+        Stream::DPdx,
+        Stream::DPdy,
+        Stream::Time,
+        Stream::RayType,
+        Stream::RayDepth,
+    ];
+
+    /// The stream's name in network files and the IR text.
+    pub fn name(self) -> &'static str {
+        match self {
+            Stream::P => "P",
+            Stream::N => "N",
+            Stream::Ng => "Ng",
+            Stream::I => "I",
+            Stream::Uv => "uv",
+            Stream::DPdu => "dPdu",
+            Stream::DPdv => "dPdv",
+            Stream::DPdx => "dPdx",
+            Stream::DPdy => "dPdy",
+            Stream::Time => "time",
+            Stream::RayType => "raytype",
+            Stream::RayDepth => "raydepth",
+        }
+    }
+
+    /// Parses a stream name.
+    pub fn from_name(s: &str) -> Option<Stream> {
+        Stream::ALL.into_iter().find(|x| x.name() == s)
+    }
+
+    /// The stream's type.
+    pub fn ty(self) -> Type {
+        match self {
+            Stream::Uv => Type::Vec2,
+            Stream::Time => Type::Float,
+            Stream::RayType | Stream::RayDepth => Type::Int,
+            _ => Type::Vec3,
+        }
+    }
+
+    /// How the stream transforms between spaces (`None`: it does not).
+    pub fn xform_kind(self) -> Option<XformKind> {
+        match self {
+            Stream::P => Some(XformKind::Point),
+            Stream::N | Stream::Ng => Some(XformKind::Normal),
+            Stream::I | Stream::DPdu | Stream::DPdv | Stream::DPdx | Stream::DPdy => {
+                Some(XformKind::Vector)
+            }
+            _ => None,
+        }
+    }
+}
+
+/// Coordinate systems a stream can be read in (DESIGN §3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Space {
+    /// The renderer's world space (streams are stored in it).
+    World,
+    /// Camera space: the eye at the origin looking down −z.
+    Camera,
+    /// The shaded object's space.
+    Object,
+}
+
+impl Space {
+    /// Every space.
+    pub const ALL: [Space; 3] = [Space::World, Space::Camera, Space::Object];
+
+    /// The space's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Space::World => "world",
+            Space::Camera => "camera",
+            Space::Object => "object",
+        }
+    }
+
+    /// Parses a space name.
+    pub fn from_name(s: &str) -> Option<Space> {
+        Space::ALL.into_iter().find(|x| x.name() == s)
+    }
+}
+
+/// How a vec3 transforms under a matrix: as a point (with translation), a direction, or a
+/// normal (inverse transpose).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum XformKind {
+    /// `M * (p, 1)`.
+    Point,
+    /// `M * (v, 0)`.
+    Vector,
+    /// `(M⁻¹)ᵀ * (n, 0)`.
+    Normal,
+}
+
+impl XformKind {
+    /// Every kind.
+    pub const ALL: [XformKind; 3] = [XformKind::Point, XformKind::Vector, XformKind::Normal];
+
+    /// The kind's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            XformKind::Point => "point",
+            XformKind::Vector => "vector",
+            XformKind::Normal => "normal",
+        }
+    }
+
+    /// Parses a kind name.
+    pub fn from_name(s: &str) -> Option<XformKind> {
+        XformKind::ALL.into_iter().find(|x| x.name() == s)
+    }
+}
+
+macro_rules! named_enum {
+    ($(#[$m:meta])* $name:ident { $($(#[$vm:meta])* $v:ident = $s:literal),* $(,)? }) => {
+        $(#[$m])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+        pub enum $name { $($(#[$vm])* $v),* }
+        impl $name {
+            /// Every variant, in declaration order.
+            pub const ALL: &'static [$name] = &[$($name::$v),*];
+            /// The name used in the IR text form.
+            pub fn name(self) -> &'static str { match self { $($name::$v => $s),* } }
+            /// Parses a name written by [`Self::name`].
+            pub fn from_name(s: &str) -> Option<Self> {
+                Self::ALL.iter().copied().find(|x| x.name() == s)
+            }
+        }
+    };
+}
+
+named_enum! {
+    /// Unary operations. Component-wise on vectors unless noted; semantics in
+    /// [`crate::ops`].
+    UnOp {
+        /// `-x` (floats, vectors, ints wrapping).
+        Neg = "neg",
+        /// Logical not (bool).
+        Not = "not",
+        /// `|x|`.
+        Abs = "abs",
+        /// Largest integer ≤ x.
+        Floor = "floor",
+        /// Smallest integer ≥ x.
+        Ceil = "ceil",
+        /// `x - floor(x)`.
+        Fract = "fract",
+        /// Square root; 0 for negative x.
+        Sqrt = "sqrt",
+        /// `e^x`.
+        Exp = "exp",
+        /// Natural log; `ln(f32::MIN_POSITIVE)` for x ≤ 0.
+        Log = "log",
+        /// Sine (radians).
+        Sin = "sin",
+        /// Cosine.
+        Cos = "cos",
+        /// Tangent.
+        Tan = "tan",
+        /// Arc sine, argument clamped to [-1, 1].
+        Asin = "asin",
+        /// Arc cosine, argument clamped to [-1, 1].
+        Acos = "acos",
+        /// Euclidean length of a vector → float.
+        Length = "length",
+        /// Unit vector; the zero vector stays zero.
+        Normalize = "normalize",
+    }
+}
+
+named_enum! {
+    /// Binary operations. Arithmetic takes two operands of the same type (component-wise on
+    /// vectors); the result type is given per op in [`crate::ops::binary_type`].
+    BinOp {
+        /// `a + b`.
+        Add = "add",
+        /// `a - b`.
+        Sub = "sub",
+        /// `a * b`.
+        Mul = "mul",
+        /// `a / b`; 0 where b is 0.
+        Div = "div",
+        /// `a - b * floor(a / b)` (sign of b, as GLSL `mod`); 0 where b is 0.
+        Mod = "mod",
+        /// `a^b`; 0 for a negative base with a non-integer exponent.
+        Pow = "pow",
+        /// `a < b ? a : b`.
+        Min = "min",
+        /// `a > b ? a : b`.
+        Max = "max",
+        /// `atan2(a, b)`, angle of the point (b, a).
+        Atan2 = "atan2",
+        /// Dot product of two vectors → float.
+        Dot = "dot",
+        /// Cross product of two vec3 → vec3.
+        Cross = "cross",
+        /// `length(a - b)` → float.
+        Distance = "distance",
+        /// `a < b` on scalars → bool.
+        Lt = "lt",
+        /// `a <= b` → bool.
+        Le = "le",
+        /// `a > b` → bool.
+        Gt = "gt",
+        /// `a >= b` → bool.
+        Ge = "ge",
+        /// `a == b` → bool.
+        Eq = "eq",
+        /// `a != b` → bool.
+        Ne = "ne",
+        /// Logical and (bool).
+        And = "and",
+        /// Logical or (bool).
+        Or = "or",
+        /// matrix44 × point (vec3, w = 1) → vec3.
+        MulPoint = "mulpoint",
+        /// matrix44 × vector (vec3, w = 0) → vec3.
+        MulVector = "mulvector",
+    }
+}
+
+named_enum! {
+    /// Pure built-in functions with more than two operands or non-trivial bodies. Each is
+    /// defined once in [`crate::ops`] and called, never re-implemented, by every back end on
+    /// the CPU.
+    Intrinsic {
+        /// Improved Perlin noise (Perlin 2002) of a vec2 → float in about [-1, 1].
+        Noise2 = "noise2",
+        /// Improved Perlin noise of a vec3 → float in about [-1, 1].
+        Noise3 = "noise3",
+        /// Fractal Brownian motion of noise3: (p: vec3, octaves: int, lacunarity: float,
+        /// gain: float) → float.
+        Fbm3 = "fbm3",
+        /// Cell noise: a hash of floor(p) (vec3) → float in [0, 1).
+        CellNoise3 = "cellnoise3",
+        /// RGB → HSV (hue in [0, 1)) of a color.
+        RgbToHsv = "rgb_to_hsv",
+        /// HSV → RGB.
+        HsvToRgb = "hsv_to_rgb",
+    }
+}
+
+/// What computes a value.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Op {
+    /// A constant of the expr's type.
+    Const(ConstValue),
+    /// A uniform material parameter (class compilation): index into `Program::params`.
+    Param(u32),
+    /// An implicit stream, in world space.
+    Stream(Stream),
+    /// A vec3 moved between spaces with the shading context's matrices.
+    Transform {
+        /// Point, vector or normal.
+        kind: XformKind,
+        /// The space `arg` is in.
+        from: Space,
+        /// The space of the result.
+        to: Space,
+        /// The vec3 to transform.
+        arg: Value,
+    },
+    /// Whether render component `k` (index into `Program::components`) is active: bool,
+    /// uniform.
+    ComponentEnabled(u8),
+    /// A unary operation.
+    Unary(UnOp, Value),
+    /// A binary operation.
+    Binary(BinOp, Value, Value),
+    /// `cond ? a : b`, both evaluated (a varying select).
+    Select {
+        /// The bool condition.
+        cond: Value,
+        /// Result where `cond` holds.
+        a: Value,
+        /// Result elsewhere.
+        b: Value,
+    },
+    /// Merge: builds a vector of the expr's type from float scalars.
+    Construct(Vec<Value>),
+    /// Split: component `index` of a vector → float.
+    Extract(Value, u8),
+    /// A float broadcast to every component of the expr's vector type.
+    Splat(Value),
+    /// A scalar conversion to the expr's type: int → float, float → int (truncation toward
+    /// zero, saturating, NaN → 0), bool → int/float (0/1), int/float → bool (≠ 0).
+    Convert(Value),
+    /// A call of a pure built-in function.
+    Call(Intrinsic, Vec<Value>),
+    /// Structured conditional: evaluates `then_` where `cond` holds, `else_` elsewhere; results
+    /// are the chosen block's yields.
+    If {
+        /// The bool condition.
+        cond: Value,
+        /// The block run when `cond` is true.
+        then_: Block,
+        /// The block run when `cond` is false.
+        else_: Block,
+    },
+    /// Light loop: runs `body` once per non-ambient light sample seen from point `p` (world
+    /// space); results are the sums of its yields (float or vector) over the samples.
+    Illuminance {
+        /// The shaded point, world space.
+        p: Value,
+        /// The per-sample body.
+        body: Block,
+    },
+    /// Inside an illuminance body: unit direction from the shaded point towards the light
+    /// sample (vec3, world space).
+    LightL,
+    /// Inside an illuminance body: radiance-weighted color arriving from the sample, already
+    /// divided by distance² where the light has a position (color).
+    LightCl,
+    /// Sum of the ambient lights' colors (color): light without direction.
+    Ambient,
+    /// Result `index` of a region (`If` or `Illuminance`).
+    Proj(Value, u8),
+}
+
+impl Op {
+    /// Calls `f` on every operand of this op (not on values inside nested blocks).
+    pub fn for_each_operand(&self, mut f: impl FnMut(Value)) {
+        match self {
+            Op::Const(_)
+            | Op::Param(_)
+            | Op::Stream(_)
+            | Op::ComponentEnabled(_)
+            | Op::LightL
+            | Op::LightCl
+            | Op::Ambient => {}
+            Op::Transform { arg, .. } => f(*arg),
+            Op::Unary(_, a) | Op::Extract(a, _) | Op::Splat(a) | Op::Convert(a) => f(*a),
+            Op::Binary(_, a, b) => {
+                f(*a);
+                f(*b)
+            }
+            Op::Select { cond, a, b } => {
+                f(*cond);
+                f(*a);
+                f(*b)
+            }
+            Op::Construct(args) | Op::Call(_, args) => args.iter().copied().for_each(f),
+            Op::If { cond, .. } => f(*cond),
+            Op::Illuminance { p, .. } => f(*p),
+            Op::Proj(r, _) => f(*r),
+        }
+    }
+
+    /// The nested blocks of a region op (empty for other ops).
+    pub fn blocks(&self) -> Vec<&Block> {
+        match self {
+            Op::If { then_, else_, .. } => vec![then_, else_],
+            Op::Illuminance { body, .. } => vec![body],
+            _ => Vec::new(),
+        }
+    }
+}
+
+/// A declared uniform parameter of a program (class compilation).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParamDecl {
+    /// The parameter's name (`node.port`).
+    pub name: String,
+    /// Its type.
+    pub ty: Type,
+    /// Its value when not overridden.
+    pub default: ConstValue,
+}
+
+/// One material output: a named value, optionally the part of it that belongs to one render
+/// component. An output name with component parts has, as its total ("beauty"), the sum of
+/// its parts.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Output {
+    /// The material output's name as declared in the network.
+    pub name: String,
+    /// The render component this part belongs to (index into `Program::components`), or
+    /// `None` for an untagged output.
+    pub component: Option<u8>,
+    /// The value.
+    pub value: Value,
+}
+
+/// One material: values, the top-level block, outputs, component names and parameters.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Program {
+    /// The material's name.
+    pub name: String,
+    /// The arena of values; a [`Value`] indexes it.
+    pub exprs: Vec<Expr>,
+    /// The top-level block (its `yields` stay empty).
+    pub body: Block,
+    /// Outputs, in declaration order; parts of the same name are contiguous.
+    pub outputs: Vec<Output>,
+    /// Render component names; bit `i` of a component mask is `components[i]`.
+    pub components: Vec<String>,
+    /// Uniform parameters.
+    pub params: Vec<ParamDecl>,
+}
+
+impl Program {
+    /// The expr of a value.
+    pub fn expr(&self, v: Value) -> &Expr {
+        &self.exprs[v.index()]
+    }
+
+    /// The op of a value.
+    pub fn op(&self, v: Value) -> &Op {
+        &self.exprs[v.index()].op
+    }
+
+    /// The type of a non-region value. Region exprs have none: a valid program never uses
+    /// one as an operand other than of [`Op::Proj`].
+    pub fn ty(&self, v: Value) -> Type {
+        self.exprs[v.index()]
+            .ty
+            .expect("region expr used as a typed value")
+    }
+
+    /// The result types of a region expr (its yields' types).
+    pub fn region_types(&self, v: Value) -> Vec<Type> {
+        let block = match self.op(v) {
+            Op::If { then_, .. } => then_,
+            Op::Illuminance { body, .. } => body,
+            _ => return Vec::new(),
+        };
+        block.yields.iter().map(|y| self.ty(*y)).collect()
+    }
+
+    /// Index of a component name.
+    pub fn component_index(&self, name: &str) -> Option<u8> {
+        self.components
+            .iter()
+            .position(|c| c == name)
+            .map(|i| i as u8)
+    }
+
+    /// Distinct output names, in declaration order.
+    pub fn output_names(&self) -> Vec<&str> {
+        let mut names: Vec<&str> = Vec::new();
+        for o in &self.outputs {
+            if !names.contains(&o.name.as_str()) {
+                names.push(&o.name);
+            }
+        }
+        names
+    }
+
+    /// Calls `f` on every value of `block` and of the blocks nested in it, in evaluation
+    /// order (a region before the values of its blocks).
+    pub fn walk(&self, block: &Block, f: &mut impl FnMut(Value)) {
+        for &v in &block.body {
+            f(v);
+            for inner in self.op(v).blocks() {
+                self.walk(inner, f);
+            }
+        }
+    }
+
+    /// Number of values reachable from the top-level block (ops in the program).
+    pub fn op_count(&self) -> usize {
+        let mut n = 0;
+        self.walk(&self.body, &mut |_| n += 1);
+        n
+    }
+}
+
+/// How often a value changes (DESIGN §4).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Rate {
+    /// Known at compile time.
+    Const,
+    /// Fixed per material instance (parameters, the component mask).
+    Uniform,
+    /// Changes per fragment.
+    Varying,
+}
+
+impl Rate {
+    /// The rate's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Rate::Const => "const",
+            Rate::Uniform => "uniform",
+            Rate::Varying => "varying",
+        }
+    }
+}
+
+/// Derives the rate of every value (indexed like `Program::exprs`; values not reachable from
+/// the top-level block get `Const`). A value's rate is the highest of its operands'; streams,
+/// light samples and ambient light are varying; parameters and component queries uniform;
+/// a region's results are at least as varying as its condition or point and everything it
+/// yields.
+pub fn rates(program: &Program) -> Vec<Rate> {
+    let mut rates = vec![Rate::Const; program.exprs.len()];
+    rate_block(program, &program.body, &mut rates);
+    rates
+}
+
+fn rate_block(program: &Program, block: &Block, rates: &mut [Rate]) {
+    for &v in &block.body {
+        let op = program.op(v);
+        let mut r = match op {
+            Op::Const(_) => Rate::Const,
+            Op::Param(_) | Op::ComponentEnabled(_) => Rate::Uniform,
+            Op::Stream(_) | Op::LightL | Op::LightCl | Op::Ambient => Rate::Varying,
+            Op::Illuminance { .. } => Rate::Varying,
+            _ => Rate::Const,
+        };
+        op.for_each_operand(|a| r = r.max(rates[a.index()]));
+        for inner in op.blocks() {
+            rate_block(program, inner, rates);
+            for y in &inner.yields {
+                r = r.max(rates[y.index()]);
+            }
+        }
+        rates[v.index()] = r;
+    }
+}

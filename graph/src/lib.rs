@@ -1,0 +1,15 @@
+//! shadenet-graph: shading networks, the node library, the linker, the IR and its op
+//! semantics.
+//!
+//! This crate owns everything that happens before code runs: parsing a network file
+//! ([`network`]), resolving and type-checking it against a [`nodes::NodeLibrary`] ([`link`]),
+//! lowering it to the IR ([`lower`], [`ir`]) and the one definition of what each op computes
+//! ([`ops`]). It must not touch rendering, back ends or the shading context: the runtime, the
+//! JIT and the GPU back end depend on this crate, never the reverse (DESIGN §2).
+
+pub mod ir;
+pub mod nodes;
+pub mod ops;
+pub mod types;
+
+pub use types::{ConstValue, Type};

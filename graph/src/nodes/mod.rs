@@ -1,0 +1,558 @@
+//! The node library: every standard node defined once, as a lowering to IR ops.
+//!
+//! A [`NodeDef`] declares a node's typed inputs (with defaults), its outputs, its docs and its
+//! [`LowerFn`]. Back ends never see nodes: they implement IR ops, so adding a node is adding a
+//! lowering and its tests. `shadenet nodes` prints [`NodeLibrary::reference`], from which
+//! `docs/nodes.md` is generated.
+//!
+//! Generic nodes (`add`, `mix`, `clamp`, …) have ports of [`PortType::Generic`]: one type
+//! `T` per node instance, chosen by the linker from what is connected (see
+//! `docs/network-format.md`), one of the def's `generic` types.
+//!
+//! Render components: a surface node returns its color as a [`LowVal`] whose `parts` are
+//! the per-component contributions (each computed under `component_enabled(k)`); linear
+//! nodes (`add`, `multiply` by an untagged factor, `mix`, `blend`) carry parts through, so a
+//! material output knows each component separately (DESIGN §8).
+
+pub mod geometry;
+pub mod math;
+pub mod pattern;
+pub mod structure;
+pub mod surface;
+
+use crate::ir::{Builder, Space, Stream, Value};
+use crate::types::{ConstValue, Type};
+use std::collections::HashMap;
+use std::fmt::Write as _;
+
+/// The type of an input port.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PortType {
+    /// One simple type.
+    Simple(Type),
+    /// The node's generic type `T`.
+    Generic,
+    /// An array (fixed length per instance) of records with these simple-typed fields; the
+    /// field type [`Type::String`] is not allowed. A field of type `Generic` is written with
+    /// [`None`].
+    Array(Vec<(&'static str, Option<Type>)>),
+}
+
+/// What an unconnected input gets.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PortDefault {
+    /// A constant (for a generic port: a float, broadcast to `T`).
+    Value(ConstValue),
+    /// An implicit stream, in world space.
+    Stream(Stream),
+    /// An empty array.
+    EmptyArray,
+}
+
+/// One input port.
+#[derive(Clone, Debug)]
+pub struct PortDef {
+    /// The port's name.
+    pub name: &'static str,
+    /// Its type.
+    pub ty: PortType,
+    /// Its default.
+    pub default: PortDefault,
+    /// For string ports: the accepted values (empty: any string).
+    pub options: &'static [&'static str],
+    /// One line of documentation.
+    pub doc: &'static str,
+}
+
+/// One output port.
+#[derive(Clone, Debug)]
+pub struct OutDef {
+    /// The port's name.
+    pub name: &'static str,
+    /// Its type (`None`: the node's generic type `T`).
+    pub ty: Option<Type>,
+    /// One line of documentation.
+    pub doc: &'static str,
+}
+
+/// A lowered value: the total and, for shaded colors, its per-component parts (component
+/// index, value); the total equals the sum of the parts when there are any.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LowVal {
+    /// The value.
+    pub value: Value,
+    /// Per-component contributions.
+    pub parts: Vec<(u8, Value)>,
+}
+
+impl LowVal {
+    /// A value without component parts.
+    pub fn plain(value: Value) -> LowVal {
+        LowVal {
+            value,
+            parts: Vec::new(),
+        }
+    }
+}
+
+/// One resolved input, as a lowering sees it.
+#[derive(Clone, Debug)]
+pub enum InputVal {
+    /// A value of the port's type (defaults and coercions already applied).
+    Value(LowVal),
+    /// A string literal.
+    Str(String),
+    /// An array input: one entry per element, one value per record field.
+    Array(Vec<Vec<LowVal>>),
+}
+
+/// The inputs of one node instance, in the order of its def's ports.
+#[derive(Clone, Debug)]
+pub struct NodeInputs<'a> {
+    /// The node's name in the network (for error messages).
+    pub node: &'a str,
+    /// The node's definition.
+    pub def: &'a NodeDef,
+    /// The resolved generic type `T` (`Float` for non-generic nodes).
+    pub generic: Type,
+    /// One value per input port, in `def.inputs` order.
+    pub values: Vec<InputVal>,
+}
+
+impl NodeInputs<'_> {
+    fn slot(&self, port: &str) -> &InputVal {
+        let i = self
+            .def
+            .inputs
+            .iter()
+            .position(|p| p.name == port)
+            .unwrap_or_else(|| panic!("node {} has no input {port}", self.def.name));
+        &self.values[i]
+    }
+
+    /// The value of a simple or generic input (with its component parts).
+    pub fn low(&self, port: &str) -> &LowVal {
+        match self.slot(port) {
+            InputVal::Value(v) => v,
+            other => panic!("input {port} of {} is not a value: {other:?}", self.def.name),
+        }
+    }
+
+    /// The value of a simple or generic input.
+    pub fn get(&self, port: &str) -> Value {
+        self.low(port).value
+    }
+
+    /// A string input.
+    pub fn string(&self, port: &str) -> &str {
+        match self.slot(port) {
+            InputVal::Str(s) => s,
+            other => panic!("input {port} of {} is not a string: {other:?}", self.def.name),
+        }
+    }
+
+    /// An array input.
+    pub fn array(&self, port: &str) -> &[Vec<LowVal>] {
+        match self.slot(port) {
+            InputVal::Array(a) => a,
+            other => panic!("input {port} of {} is not an array: {other:?}", self.def.name),
+        }
+    }
+}
+
+/// Lowers one node instance: emits its ops with the builder and returns one value per
+/// output, in `def.outputs` order. An `Err` is a user-facing message about this node's
+/// inputs (the caller adds the node's name).
+pub type LowerFn = fn(&mut Builder, &NodeInputs) -> Result<Vec<LowVal>, String>;
+
+/// A light description built from a light node's constant inputs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LightDesc {
+    /// The light node's name.
+    pub name: String,
+    /// What kind of light and its geometry.
+    pub kind: LightKind,
+    /// Color × intensity: W/sr for point and spot lights, W/m² (irradiance) for distant
+    /// lights, radiance for ambient light.
+    pub power: [f64; 3],
+}
+
+/// The kinds of light and their geometry (world space, angles in radians).
+#[derive(Clone, Debug, PartialEq)]
+pub enum LightKind {
+    /// A point light at `position`.
+    Point {
+        /// World-space position.
+        position: [f64; 3],
+    },
+    /// A spot light at `position` aiming along `direction`.
+    Spot {
+        /// World-space position.
+        position: [f64; 3],
+        /// Unit direction the spot points in.
+        direction: [f64; 3],
+        /// Full cone angle.
+        cone_angle: f64,
+        /// Penumbra angle: > 0 softens outward, < 0 inward (Maya).
+        penumbra_angle: f64,
+        /// Exponent of `cos` to the axis.
+        dropoff: f64,
+    },
+    /// A distant (directional) light shining along `direction`.
+    Distant {
+        /// Unit direction the light travels in.
+        direction: [f64; 3],
+    },
+    /// Ambient light: no direction.
+    Ambient,
+}
+
+/// Builds a light from a light node's inputs (all constants, in `def.inputs` order).
+pub type LightFn = fn(name: &str, inputs: &[ConstValue]) -> Result<LightDesc, String>;
+
+/// What a node is.
+#[derive(Clone, Copy, Debug)]
+pub enum NodeKind {
+    /// A node evaluated by the material program.
+    Shading,
+    /// A light: its constant inputs make a [`LightDesc`]; it has no outputs.
+    Light(LightFn),
+}
+
+/// A node type of the library.
+#[derive(Clone, Debug)]
+pub struct NodeDef {
+    /// The type name used in network files.
+    pub name: &'static str,
+    /// Section in the reference (`math`, `structure`, `pattern`, `geometry`, `surface`,
+    /// `light`).
+    pub category: &'static str,
+    /// Documentation: what it computes, the formula, hard-input behaviour.
+    pub doc: &'static str,
+    /// The types a generic node may take (empty for non-generic nodes).
+    pub generic: &'static [Type],
+    /// Inputs.
+    pub inputs: Vec<PortDef>,
+    /// Outputs.
+    pub outputs: Vec<OutDef>,
+    /// The lowering (unused for lights).
+    pub lower: LowerFn,
+    /// Shading node or light.
+    pub kind: NodeKind,
+}
+
+impl NodeDef {
+    /// The input port called `name`.
+    pub fn input(&self, name: &str) -> Option<&PortDef> {
+        self.inputs.iter().find(|p| p.name == name)
+    }
+
+    /// The index of the output called `name`.
+    pub fn output_index(&self, name: &str) -> Option<usize> {
+        self.outputs.iter().position(|o| o.name == name)
+    }
+}
+
+/// Shorthand constructors for port definitions, used by the node modules.
+pub mod port {
+    use super::*;
+
+    /// A simple input with a constant default.
+    pub fn input(name: &'static str, ty: Type, default: ConstValue, doc: &'static str) -> PortDef {
+        PortDef {
+            name,
+            ty: PortType::Simple(ty),
+            default: PortDefault::Value(default),
+            options: &[],
+            doc,
+        }
+    }
+
+    /// A float input.
+    pub fn float(name: &'static str, default: f64, doc: &'static str) -> PortDef {
+        input(name, Type::Float, ConstValue::Float(default), doc)
+    }
+
+    /// An int input.
+    pub fn int(name: &'static str, default: i32, doc: &'static str) -> PortDef {
+        input(name, Type::Int, ConstValue::Int(default), doc)
+    }
+
+    /// A bool input.
+    pub fn boolean(name: &'static str, default: bool, doc: &'static str) -> PortDef {
+        input(name, Type::Bool, ConstValue::Bool(default), doc)
+    }
+
+    /// A color input.
+    pub fn color(name: &'static str, default: [f64; 3], doc: &'static str) -> PortDef {
+        input(name, Type::Color, ConstValue::Color(default), doc)
+    }
+
+    /// A vec3 input.
+    pub fn vec3(name: &'static str, default: [f64; 3], doc: &'static str) -> PortDef {
+        input(name, Type::Vec3, ConstValue::Vec3(default), doc)
+    }
+
+    /// A vec2 input.
+    pub fn vec2(name: &'static str, default: [f64; 2], doc: &'static str) -> PortDef {
+        input(name, Type::Vec2, ConstValue::Vec2(default), doc)
+    }
+
+    /// A generic input (type `T`) whose default is a float broadcast to `T`.
+    pub fn generic(name: &'static str, default: f64, doc: &'static str) -> PortDef {
+        PortDef {
+            name,
+            ty: PortType::Generic,
+            default: PortDefault::Value(ConstValue::Float(default)),
+            options: &[],
+            doc,
+        }
+    }
+
+    /// An input bound to an implicit stream unless connected.
+    pub fn stream(name: &'static str, ty: Type, s: Stream, doc: &'static str) -> PortDef {
+        PortDef {
+            name,
+            ty: PortType::Simple(ty),
+            default: PortDefault::Stream(s),
+            options: &[],
+            doc,
+        }
+    }
+
+    /// A string option input.
+    pub fn option(
+        name: &'static str,
+        default: &'static str,
+        options: &'static [&'static str],
+        doc: &'static str,
+    ) -> PortDef {
+        PortDef {
+            name,
+            ty: PortType::Simple(Type::String),
+            default: PortDefault::Value(ConstValue::String(default.to_string())),
+            options,
+            doc,
+        }
+    }
+
+    /// A space option input (`world`, `camera`, `object`).
+    pub fn space(name: &'static str, default: &'static str, doc: &'static str) -> PortDef {
+        option(name, default, &["world", "camera", "object"], doc)
+    }
+
+    /// An array-of-records input.
+    pub fn array(
+        name: &'static str,
+        fields: Vec<(&'static str, Option<Type>)>,
+        doc: &'static str,
+    ) -> PortDef {
+        PortDef {
+            name,
+            ty: PortType::Array(fields),
+            default: PortDefault::EmptyArray,
+            options: &[],
+            doc,
+        }
+    }
+
+    /// An output of a fixed type.
+    pub fn out(name: &'static str, ty: Type, doc: &'static str) -> OutDef {
+        OutDef {
+            name,
+            ty: Some(ty),
+            doc,
+        }
+    }
+
+    /// An output of the generic type `T`.
+    pub fn out_generic(name: &'static str, doc: &'static str) -> OutDef {
+        OutDef {
+            name,
+            ty: None,
+            doc,
+        }
+    }
+}
+
+/// Parses a space option (validated by the linker against the port's options).
+pub fn space_of(s: &str) -> Space {
+    Space::from_name(s).unwrap_or(Space::World)
+}
+
+/// The float types generic math nodes accept.
+pub const FLOAT_TYPES: &[Type] = &[Type::Float, Type::Vec2, Type::Vec3, Type::Color];
+
+/// A set of node definitions, by type name.
+#[derive(Clone, Debug, Default)]
+pub struct NodeLibrary {
+    defs: Vec<NodeDef>,
+    by_name: HashMap<&'static str, usize>,
+}
+
+impl NodeLibrary {
+    /// An empty library.
+    pub fn new() -> NodeLibrary {
+        NodeLibrary::default()
+    }
+
+    /// The standard node library.
+    pub fn standard() -> NodeLibrary {
+        let mut lib = NodeLibrary::new();
+        math::register(&mut lib);
+        structure::register(&mut lib);
+        pattern::register(&mut lib);
+        geometry::register(&mut lib);
+        surface::register(&mut lib);
+        lib
+    }
+
+    /// Adds a definition; a later definition of the same name replaces the earlier one.
+    pub fn add(&mut self, def: NodeDef) {
+        if let Some(&i) = self.by_name.get(def.name) {
+            self.defs[i] = def;
+        } else {
+            self.by_name.insert(def.name, self.defs.len());
+            self.defs.push(def);
+        }
+    }
+
+    /// The definition of a node type.
+    pub fn get(&self, name: &str) -> Option<&NodeDef> {
+        self.by_name.get(name).map(|&i| &self.defs[i])
+    }
+
+    /// Every definition, in registration order.
+    pub fn defs(&self) -> &[NodeDef] {
+        &self.defs
+    }
+
+    /// The node reference in Markdown (what `shadenet nodes` prints and `docs/nodes.md`
+    /// holds).
+    pub fn reference(&self) -> String {
+        let mut s = String::from(
+            "# Node reference\n\nGenerated by `shadenet nodes`; do not edit by hand.\n\
+             `T` is a generic node's type, chosen per instance by the linker.\n",
+        );
+        let mut categories: Vec<&str> = Vec::new();
+        for d in &self.defs {
+            if !categories.contains(&d.category) {
+                categories.push(d.category);
+            }
+        }
+        for cat in categories {
+            let _ = write!(s, "\n## {cat}\n");
+            for d in self.defs.iter().filter(|d| d.category == cat) {
+                let _ = write!(s, "\n### `{}`\n\n{}\n", d.name, d.doc.trim());
+                if !d.generic.is_empty() {
+                    let tys: Vec<&str> = d.generic.iter().map(|t| t.name()).collect();
+                    let _ = write!(s, "\n`T` ∈ {{{}}}.\n", tys.join(", "));
+                }
+                if !d.inputs.is_empty() {
+                    s.push_str("\n| input | type | default | |\n|---|---|---|---|\n");
+                    for p in &d.inputs {
+                        let ty = match &p.ty {
+                            PortType::Simple(t) => t.name().to_string(),
+                            PortType::Generic => "T".to_string(),
+                            PortType::Array(fields) => {
+                                let f: Vec<String> = fields
+                                    .iter()
+                                    .map(|(n, t)| format!("{n}: {}", t.map_or("T", |t| t.name())))
+                                    .collect();
+                                format!("[{{{}}}]", f.join(", "))
+                            }
+                        };
+                        let default = match &p.default {
+                            PortDefault::Value(v) => format!("`{v}`"),
+                            PortDefault::Stream(st) => format!("stream `{}`", st.name()),
+                            PortDefault::EmptyArray => "`[]`".to_string(),
+                        };
+                        let mut doc = p.doc.to_string();
+                        if !p.options.is_empty() {
+                            let _ = write!(doc, " One of: {}.", p.options.join(", "));
+                        }
+                        let _ = writeln!(s, "| `{}` | {ty} | {default} | {doc} |", p.name);
+                    }
+                }
+                if !d.outputs.is_empty() {
+                    s.push_str("\n| output | type | |\n|---|---|---|\n");
+                    for o in &d.outputs {
+                        let _ = writeln!(
+                            s,
+                            "| `{}` | {} | {} |",
+                            o.name,
+                            o.ty.map_or("T", |t| t.name()),
+                            o.doc
+                        );
+                    }
+                }
+            }
+        }
+        s
+    }
+}
+
+/// Helpers shared by lowerings.
+pub mod lowering {
+    use super::LowVal;
+    use crate::ir::{Builder, Value};
+    use crate::types::Type;
+
+    /// Computes a contribution to render component `name` only where the component is
+    /// active: `component_enabled(k) ? f() : 0`, as an `If` region so an inactive
+    /// component costs nothing. Returns the value and its part.
+    pub fn contribution(
+        b: &mut Builder,
+        name: &str,
+        ty: Type,
+        f: impl FnOnce(&mut Builder) -> Value,
+    ) -> (u8, Value) {
+        let k = b.component(name);
+        let on = b.component_enabled(name);
+        let r = b.if_(on, |b| vec![f(b)], |b| vec![b.zero(ty)]);
+        (k, r[0])
+    }
+
+    /// The sum of contributions as a [`LowVal`] whose parts are the contributions.
+    pub fn sum_parts(b: &mut Builder, ty: Type, parts: Vec<(u8, Value)>) -> LowVal {
+        let mut total = None;
+        for (_, v) in &parts {
+            total = Some(match total {
+                None => *v,
+                Some(t) => b.add(t, *v),
+            });
+        }
+        let value = total.unwrap_or_else(|| b.zero(ty));
+        LowVal { value, parts }
+    }
+
+    /// Applies `f` to the total and to each part (for ops linear in this input).
+    pub fn map_parts(
+        b: &mut Builder,
+        v: &LowVal,
+        mut f: impl FnMut(&mut Builder, Value) -> Value,
+    ) -> LowVal {
+        let value = f(b, v.value);
+        let parts = v.parts.iter().map(|(k, p)| (*k, f(b, *p))).collect();
+        LowVal { value, parts }
+    }
+
+    /// `a + b` with parts: the parts of both, summed per component.
+    pub fn add_parts(b: &mut Builder, x: &LowVal, y: &LowVal) -> LowVal {
+        let value = b.add(x.value, y.value);
+        if x.parts.is_empty() || y.parts.is_empty() {
+            // An untagged term has no component: the sum keeps no parts rather than
+            // misattributing it.
+            return LowVal::plain(value);
+        }
+        let mut parts = x.parts.clone();
+        for (k, p) in &y.parts {
+            if let Some(slot) = parts.iter_mut().find(|(j, _)| j == k) {
+                slot.1 = b.add(slot.1, *p);
+            } else {
+                parts.push((*k, *p));
+            }
+        }
+        LowVal { value, parts }
+    }
+}

@@ -1,0 +1,664 @@
+//! The meaning of every IR op, defined once (DESIGN §4, §7).
+//!
+//! The interpreter evaluates programs with these functions and the constant folder folds with
+//! them; the JIT and GPU back ends are tested against them, never the other way round. All
+//! functions are generic over [`Real`] (f32 for shading, f64 for the accuracy reference).
+//!
+//! Every op is **total**: `x/0 = 0`, `sqrt(x<0) = 0`, `normalize(0) = 0`,
+//! `pow(neg, non-integer) = 0`, `asin`/`acos` clamp their argument, `log(x<=0) =
+//! log(f32::MIN_POSITIVE)`, `mod(x, 0) = 0`, integer arithmetic wraps and integer division
+//! or modulo by zero gives 0. `min(a, b)` is `a < b ? a : b` and `max(a, b)` is
+//! `a > b ? a : b` exactly (so a NaN in `a` yields `b`, as x86 `minss`/`maxss` do).
+//! Non-finite values that still arise (overflow, a NaN from a stream) are left to the
+//! material output guard, which replaces them with 0 and counts them.
+
+pub mod noise;
+
+use crate::ir::{BinOp, Intrinsic, UnOp, XformKind};
+use crate::types::{ConstValue, Type};
+use std::fmt::Debug;
+use std::ops::{Add, Div, Mul, Neg, Sub};
+
+/// The floating-point types ops are evaluated in: `f32` and `f64`.
+pub trait Real:
+    Copy
+    + Debug
+    + PartialOrd
+    + Send
+    + Sync
+    + 'static
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+{
+    /// 0.
+    const ZERO: Self;
+    /// 1.
+    const ONE: Self;
+    /// Rounds an f64 to this type.
+    fn from_f64(x: f64) -> Self;
+    /// Widens to f64 (exact).
+    fn to_f64(self) -> f64;
+    /// Square root (IEEE).
+    fn sqrt(self) -> Self;
+    /// `e^x`.
+    fn exp(self) -> Self;
+    /// Natural logarithm.
+    fn ln(self) -> Self;
+    /// Sine.
+    fn sin(self) -> Self;
+    /// Cosine.
+    fn cos(self) -> Self;
+    /// Tangent.
+    fn tan(self) -> Self;
+    /// Arc sine.
+    fn asin(self) -> Self;
+    /// Arc cosine.
+    fn acos(self) -> Self;
+    /// `atan2(self, x)`.
+    fn atan2(self, x: Self) -> Self;
+    /// `self^e`.
+    fn powf(self, e: Self) -> Self;
+    /// Floor.
+    fn floor(self) -> Self;
+    /// Ceiling.
+    fn ceil(self) -> Self;
+    /// Absolute value.
+    fn abs(self) -> Self;
+    /// Rounds toward zero.
+    fn trunc(self) -> Self;
+    /// Neither infinite nor NaN.
+    fn is_finite(self) -> bool;
+    /// NaN.
+    fn is_nan(self) -> bool;
+    /// Conversion to i32: truncation toward zero, saturating, NaN → 0 (Rust `as`).
+    fn to_i32(self) -> i32;
+    /// Conversion from i32 (rounded to nearest).
+    fn from_i32(i: i32) -> Self;
+}
+
+macro_rules! impl_real {
+    ($t:ty) => {
+        impl Real for $t {
+            const ZERO: Self = 0.0;
+            const ONE: Self = 1.0;
+            fn from_f64(x: f64) -> Self {
+                x as $t
+            }
+            fn to_f64(self) -> f64 {
+                self as f64
+            }
+            fn sqrt(self) -> Self {
+                <$t>::sqrt(self)
+            }
+            fn exp(self) -> Self {
+                <$t>::exp(self)
+            }
+            fn ln(self) -> Self {
+                <$t>::ln(self)
+            }
+            fn sin(self) -> Self {
+                <$t>::sin(self)
+            }
+            fn cos(self) -> Self {
+                <$t>::cos(self)
+            }
+            fn tan(self) -> Self {
+                <$t>::tan(self)
+            }
+            fn asin(self) -> Self {
+                <$t>::asin(self)
+            }
+            fn acos(self) -> Self {
+                <$t>::acos(self)
+            }
+            fn atan2(self, x: Self) -> Self {
+                <$t>::atan2(self, x)
+            }
+            fn powf(self, e: Self) -> Self {
+                <$t>::powf(self, e)
+            }
+            fn floor(self) -> Self {
+                <$t>::floor(self)
+            }
+            fn ceil(self) -> Self {
+                <$t>::ceil(self)
+            }
+            fn abs(self) -> Self {
+                <$t>::abs(self)
+            }
+            fn trunc(self) -> Self {
+                <$t>::trunc(self)
+            }
+            fn is_finite(self) -> bool {
+                <$t>::is_finite(self)
+            }
+            fn is_nan(self) -> bool {
+                <$t>::is_nan(self)
+            }
+            fn to_i32(self) -> i32 {
+                self as i32
+            }
+            fn from_i32(i: i32) -> Self {
+                i as $t
+            }
+        }
+    };
+}
+impl_real!(f32);
+impl_real!(f64);
+
+/// A runtime value. Matrices are not carried in registers: a matrix-typed value is
+/// `Mat(i)`, an index into the evaluator's matrix table (matrices are only ever constant or
+/// uniform).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Val<F> {
+    /// A bool.
+    Bool(bool),
+    /// An int.
+    Int(i32),
+    /// A float.
+    Float(F),
+    /// A vec2.
+    Vec2([F; 2]),
+    /// A vec3 or color.
+    Vec3([F; 3]),
+    /// A matrix, by index into the evaluator's matrix table.
+    Mat(u32),
+}
+
+impl<F: Real> Val<F> {
+    /// The zero of a type (matrices: `Mat(0)`).
+    pub fn zero(ty: Type) -> Val<F> {
+        match ty {
+            Type::Bool => Val::Bool(false),
+            Type::Int | Type::String => Val::Int(0),
+            Type::Float => Val::Float(F::ZERO),
+            Type::Vec2 => Val::Vec2([F::ZERO; 2]),
+            Type::Vec3 | Type::Color => Val::Vec3([F::ZERO; 3]),
+            Type::Matrix44 => Val::Mat(0),
+        }
+    }
+
+    /// Converts a constant (floats rounded to `F`); matrices and strings become `Mat(0)` /
+    /// `Int(0)`: the caller keeps matrices in its own table.
+    pub fn from_const(c: &ConstValue) -> Val<F> {
+        let f = F::from_f64;
+        match c {
+            ConstValue::Bool(b) => Val::Bool(*b),
+            ConstValue::Int(i) => Val::Int(*i),
+            ConstValue::Float(x) => Val::Float(f(*x)),
+            ConstValue::Vec2(v) => Val::Vec2([f(v[0]), f(v[1])]),
+            ConstValue::Vec3(v) | ConstValue::Color(v) => Val::Vec3([f(v[0]), f(v[1]), f(v[2])]),
+            ConstValue::Matrix44(_) => Val::Mat(0),
+            ConstValue::String(_) => Val::Int(0),
+        }
+    }
+
+    /// Converts back to a constant of type `ty` (the constant folder's direction).
+    pub fn to_const(self, ty: Type) -> ConstValue {
+        match self {
+            Val::Bool(b) => ConstValue::Bool(b),
+            Val::Int(i) => ConstValue::Int(i),
+            Val::Float(x) => ConstValue::Float(x.to_f64()),
+            Val::Vec2(v) => ConstValue::Vec2([v[0].to_f64(), v[1].to_f64()]),
+            Val::Vec3(v) => {
+                let v = [v[0].to_f64(), v[1].to_f64(), v[2].to_f64()];
+                if ty == Type::Color {
+                    ConstValue::Color(v)
+                } else {
+                    ConstValue::Vec3(v)
+                }
+            }
+            Val::Mat(_) => ConstValue::identity(),
+        }
+    }
+
+    /// The float components (empty for bool, int and matrices).
+    pub fn floats(&self) -> &[F] {
+        match self {
+            Val::Float(x) => std::slice::from_ref(x),
+            Val::Vec2(v) => v,
+            Val::Vec3(v) => v,
+            _ => &[],
+        }
+    }
+
+    /// The value as a bool (false for non-bools).
+    pub fn as_bool(self) -> bool {
+        matches!(self, Val::Bool(true))
+    }
+
+    /// The value as an int (0 for non-ints).
+    pub fn as_int(self) -> i32 {
+        match self {
+            Val::Int(i) => i,
+            _ => 0,
+        }
+    }
+
+    /// The value as a float (0 for non-floats).
+    pub fn as_float(self) -> F {
+        match self {
+            Val::Float(x) => x,
+            _ => F::ZERO,
+        }
+    }
+
+    /// The value as a vec3 (zero for others).
+    pub fn as_vec3(self) -> [F; 3] {
+        match self {
+            Val::Vec3(v) => v,
+            _ => [F::ZERO; 3],
+        }
+    }
+
+    fn map(self, f: impl Fn(F) -> F) -> Val<F> {
+        match self {
+            Val::Float(x) => Val::Float(f(x)),
+            Val::Vec2(v) => Val::Vec2(v.map(f)),
+            Val::Vec3(v) => Val::Vec3(v.map(f)),
+            other => other,
+        }
+    }
+
+    fn zip(self, b: Val<F>, f: impl Fn(F, F) -> F) -> Val<F> {
+        match (self, b) {
+            (Val::Float(x), Val::Float(y)) => Val::Float(f(x, y)),
+            (Val::Vec2(x), Val::Vec2(y)) => Val::Vec2([f(x[0], y[0]), f(x[1], y[1])]),
+            (Val::Vec3(x), Val::Vec3(y)) => {
+                Val::Vec3([f(x[0], y[0]), f(x[1], y[1]), f(x[2], y[2])])
+            }
+            (a, _) => a,
+        }
+    }
+}
+
+// ---- scalar semantics: every back end on the CPU calls these ----
+
+/// `a / b`, 0 where `b == 0`.
+pub fn div<F: Real>(a: F, b: F) -> F {
+    if b == F::ZERO { F::ZERO } else { a / b }
+}
+
+/// `a - b * floor(a / b)`, 0 where `b == 0`.
+pub fn fmod<F: Real>(a: F, b: F) -> F {
+    if b == F::ZERO {
+        F::ZERO
+    } else {
+        a - b * (a / b).floor()
+    }
+}
+
+/// `a^b`; 0 for a negative base with a non-integer exponent; `0^negative = 0` (no infinity
+/// from a zero base).
+pub fn pow<F: Real>(a: F, b: F) -> F {
+    if a < F::ZERO && b.trunc() != b {
+        return F::ZERO;
+    }
+    if a == F::ZERO && b < F::ZERO {
+        return F::ZERO;
+    }
+    a.powf(b)
+}
+
+/// `sqrt(x)`, 0 for `x < 0`.
+pub fn sqrt<F: Real>(x: F) -> F {
+    if x < F::ZERO { F::ZERO } else { x.sqrt() }
+}
+
+/// `ln(x)`, `ln(f32::MIN_POSITIVE)` for `x <= 0`.
+pub fn log<F: Real>(x: F) -> F {
+    if x <= F::ZERO {
+        F::from_f64((f32::MIN_POSITIVE as f64).ln())
+    } else {
+        x.ln()
+    }
+}
+
+fn clamp_unit<F: Real>(x: F) -> F {
+    let lo = -F::ONE;
+    if x < lo {
+        lo
+    } else if x > F::ONE {
+        F::ONE
+    } else {
+        x
+    }
+}
+
+/// `asin(clamp(x, -1, 1))`.
+pub fn asin<F: Real>(x: F) -> F {
+    clamp_unit(x).asin()
+}
+
+/// `acos(clamp(x, -1, 1))`.
+pub fn acos<F: Real>(x: F) -> F {
+    clamp_unit(x).acos()
+}
+
+/// `a < b ? a : b`.
+pub fn min<F: Real>(a: F, b: F) -> F {
+    if a < b { a } else { b }
+}
+
+/// `a > b ? a : b`.
+pub fn max<F: Real>(a: F, b: F) -> F {
+    if a > b { a } else { b }
+}
+
+/// `x - floor(x)`.
+pub fn fract<F: Real>(x: F) -> F {
+    x - x.floor()
+}
+
+/// Dot product, summed left to right.
+pub fn dot<F: Real>(a: &[F], b: &[F]) -> F {
+    let mut s = F::ZERO;
+    for (x, y) in a.iter().zip(b) {
+        s = s + *x * *y;
+    }
+    s
+}
+
+/// Euclidean length: `sqrt(dot(v, v))`.
+pub fn length<F: Real>(v: &[F]) -> F {
+    sqrt(dot(v, v))
+}
+
+/// Cross product.
+pub fn cross<F: Real>(a: [F; 3], b: [F; 3]) -> [F; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// `v / length(v)` component-wise (with the total division: zero stays zero).
+pub fn normalize<F: Real, const N: usize>(v: [F; N]) -> [F; N] {
+    let l = length(&v);
+    v.map(|x| div(x, l))
+}
+
+/// `M * (p, 1)` for a row-major matrix (the w row is ignored: affine transforms).
+pub fn mul_point<F: Real>(m: &[F; 16], p: [F; 3]) -> [F; 3] {
+    std::array::from_fn(|r| m[r * 4] * p[0] + m[r * 4 + 1] * p[1] + m[r * 4 + 2] * p[2] + m[r * 4 + 3])
+}
+
+/// `M * (v, 0)`.
+pub fn mul_vector<F: Real>(m: &[F; 16], v: [F; 3]) -> [F; 3] {
+    std::array::from_fn(|r| m[r * 4] * v[0] + m[r * 4 + 1] * v[1] + m[r * 4 + 2] * v[2])
+}
+
+/// Transforms a vec3 as `kind` by the matrix `m`; `m_inv` is its inverse, used for normals
+/// (multiplied by the transpose of the inverse).
+pub fn transform<F: Real>(kind: XformKind, m: &[F; 16], m_inv: &[F; 16], v: [F; 3]) -> [F; 3] {
+    match kind {
+        XformKind::Point => mul_point(m, v),
+        XformKind::Vector => mul_vector(m, v),
+        XformKind::Normal => std::array::from_fn(|c| {
+            m_inv[c] * v[0] + m_inv[4 + c] * v[1] + m_inv[8 + c] * v[2]
+        }),
+    }
+}
+
+// ---- typing ----
+
+/// The result type of a unary op on an operand of type `a`, or `None` if not defined.
+pub fn unary_type(op: UnOp, a: Type) -> Option<Type> {
+    use UnOp::*;
+    match op {
+        Not => (a == Type::Bool).then_some(Type::Bool),
+        Neg | Abs => (a == Type::Int || a.is_float_based()).then_some(a),
+        Length => a.is_vector().then_some(Type::Float),
+        Normalize => a.is_vector().then_some(a),
+        _ => a.is_float_based().then_some(a),
+    }
+}
+
+/// The result type of a binary op on operands of types `a` and `b`, or `None`.
+pub fn binary_type(op: BinOp, a: Type, b: Type) -> Option<Type> {
+    use BinOp::*;
+    match op {
+        MulPoint | MulVector => {
+            (a == Type::Matrix44 && b == Type::Vec3).then_some(Type::Vec3)
+        }
+        _ if a != b => None,
+        Add | Sub | Mul | Div | Mod | Min | Max => {
+            (a == Type::Int || a.is_float_based()).then_some(a)
+        }
+        Pow | Atan2 => a.is_float_based().then_some(a),
+        Dot | Distance => a.is_vector().then_some(Type::Float),
+        Cross => (a == Type::Vec3 || a == Type::Color).then_some(a),
+        Lt | Le | Gt | Ge => matches!(a, Type::Int | Type::Float).then_some(Type::Bool),
+        Eq | Ne => matches!(a, Type::Int | Type::Float | Type::Bool).then_some(Type::Bool),
+        And | Or => (a == Type::Bool).then_some(Type::Bool),
+    }
+}
+
+/// The result type of an intrinsic call, or `None` if the operand types do not fit.
+pub fn intrinsic_type(i: Intrinsic, args: &[Type]) -> Option<Type> {
+    use Intrinsic::*;
+    let ok = match i {
+        Noise2 => args == [Type::Vec2],
+        Noise3 | CellNoise3 => args == [Type::Vec3],
+        Fbm3 => args == [Type::Vec3, Type::Int, Type::Float, Type::Float],
+        RgbToHsv | HsvToRgb => args == [Type::Color],
+    };
+    ok.then_some(match i {
+        RgbToHsv | HsvToRgb => Type::Color,
+        _ => Type::Float,
+    })
+}
+
+/// Whether `Convert` from `from` to `to` is defined (between bool, int and float).
+pub fn convert_ok(from: Type, to: Type) -> bool {
+    let scalar = |t: Type| matches!(t, Type::Bool | Type::Int | Type::Float);
+    scalar(from) && scalar(to)
+}
+
+// ---- evaluation ----
+
+/// Evaluates a unary op.
+pub fn unary<F: Real>(op: UnOp, a: Val<F>) -> Val<F> {
+    use UnOp::*;
+    match (op, a) {
+        (Not, Val::Bool(b)) => Val::Bool(!b),
+        (Neg, Val::Int(i)) => Val::Int(i.wrapping_neg()),
+        (Abs, Val::Int(i)) => Val::Int(i.wrapping_abs()),
+        (Length, v) => Val::Float(length(v.floats())),
+        (Normalize, Val::Vec2(v)) => Val::Vec2(normalize(v)),
+        (Normalize, Val::Vec3(v)) => Val::Vec3(normalize(v)),
+        (Neg, v) => v.map(|x| -x),
+        (Abs, v) => v.map(F::abs),
+        (Floor, v) => v.map(F::floor),
+        (Ceil, v) => v.map(F::ceil),
+        (Fract, v) => v.map(fract),
+        (Sqrt, v) => v.map(sqrt),
+        (Exp, v) => v.map(F::exp),
+        (Log, v) => v.map(log),
+        (Sin, v) => v.map(F::sin),
+        (Cos, v) => v.map(F::cos),
+        (Tan, v) => v.map(F::tan),
+        (Asin, v) => v.map(asin),
+        (Acos, v) => v.map(acos),
+        (Not | Normalize, v) => v,
+    }
+}
+
+/// Evaluates a binary op (not `MulPoint`/`MulVector`, which need the matrix table: see
+/// [`mul_point`], [`mul_vector`]).
+pub fn binary<F: Real>(op: BinOp, a: Val<F>, b: Val<F>) -> Val<F> {
+    use BinOp::*;
+    if let (Val::Int(x), Val::Int(y)) = (a, b) {
+        return match op {
+            Add => Val::Int(x.wrapping_add(y)),
+            Sub => Val::Int(x.wrapping_sub(y)),
+            Mul => Val::Int(x.wrapping_mul(y)),
+            Div => Val::Int(if y == 0 { 0 } else { x.wrapping_div(y) }),
+            Mod => Val::Int(if y == 0 { 0 } else { x.wrapping_rem_euclid(y) }),
+            Min => Val::Int(x.min(y)),
+            Max => Val::Int(x.max(y)),
+            Lt => Val::Bool(x < y),
+            Le => Val::Bool(x <= y),
+            Gt => Val::Bool(x > y),
+            Ge => Val::Bool(x >= y),
+            Eq => Val::Bool(x == y),
+            Ne => Val::Bool(x != y),
+            _ => Val::Int(0),
+        };
+    }
+    if let (Val::Bool(x), Val::Bool(y)) = (a, b) {
+        return Val::Bool(match op {
+            And => x && y,
+            Or => x || y,
+            Eq => x == y,
+            Ne => x != y,
+            _ => false,
+        });
+    }
+    match op {
+        Add => a.zip(b, |x, y| x + y),
+        Sub => a.zip(b, |x, y| x - y),
+        Mul => a.zip(b, |x, y| x * y),
+        Div => a.zip(b, div),
+        Mod => a.zip(b, fmod),
+        Pow => a.zip(b, pow),
+        Min => a.zip(b, min),
+        Max => a.zip(b, max),
+        Atan2 => a.zip(b, F::atan2),
+        Dot => Val::Float(dot(a.floats(), b.floats())),
+        Distance => {
+            let d = a.zip(b, |x, y| x - y);
+            Val::Float(length(d.floats()))
+        }
+        Cross => Val::Vec3(cross(a.as_vec3(), b.as_vec3())),
+        Lt => Val::Bool(a.as_float() < b.as_float()),
+        Le => Val::Bool(a.as_float() <= b.as_float()),
+        Gt => Val::Bool(a.as_float() > b.as_float()),
+        Ge => Val::Bool(a.as_float() >= b.as_float()),
+        Eq => Val::Bool(a.as_float() == b.as_float()),
+        Ne => Val::Bool(a.as_float() != b.as_float()),
+        And | Or | MulPoint | MulVector => Val::Bool(false),
+    }
+}
+
+/// `cond ? a : b`.
+pub fn select<F: Real>(cond: Val<F>, a: Val<F>, b: Val<F>) -> Val<F> {
+    if cond.as_bool() { a } else { b }
+}
+
+/// Builds a vector of type `ty` from float scalars.
+pub fn construct<F: Real>(ty: Type, args: &[Val<F>]) -> Val<F> {
+    let c = |i: usize| args.get(i).map_or(F::ZERO, |v| v.as_float());
+    match ty {
+        Type::Vec2 => Val::Vec2([c(0), c(1)]),
+        Type::Vec3 | Type::Color => Val::Vec3([c(0), c(1), c(2)]),
+        _ => Val::Float(c(0)),
+    }
+}
+
+/// Component `i` of a vector.
+pub fn extract<F: Real>(v: Val<F>, i: u8) -> Val<F> {
+    Val::Float(v.floats().get(i as usize).copied().unwrap_or(F::ZERO))
+}
+
+/// A float broadcast to a vector type.
+pub fn splat<F: Real>(ty: Type, x: Val<F>) -> Val<F> {
+    let x = x.as_float();
+    match ty {
+        Type::Vec2 => Val::Vec2([x; 2]),
+        Type::Vec3 | Type::Color => Val::Vec3([x; 3]),
+        _ => Val::Float(x),
+    }
+}
+
+/// Scalar conversion to `to` (see [`crate::ir::Op::Convert`]).
+pub fn convert<F: Real>(to: Type, v: Val<F>) -> Val<F> {
+    let as_f = match v {
+        Val::Bool(b) => {
+            if b {
+                F::ONE
+            } else {
+                F::ZERO
+            }
+        }
+        Val::Int(i) => F::from_i32(i),
+        Val::Float(x) => x,
+        _ => F::ZERO,
+    };
+    match (to, v) {
+        (Type::Bool, Val::Bool(b)) => Val::Bool(b),
+        (Type::Bool, Val::Int(i)) => Val::Bool(i != 0),
+        (Type::Bool, _) => Val::Bool(as_f != F::ZERO),
+        (Type::Int, Val::Int(i)) => Val::Int(i),
+        (Type::Int, Val::Bool(b)) => Val::Int(b as i32),
+        (Type::Int, _) => Val::Int(as_f.to_i32()),
+        _ => Val::Float(as_f),
+    }
+}
+
+/// Evaluates an intrinsic.
+pub fn intrinsic<F: Real>(i: Intrinsic, args: &[Val<F>]) -> Val<F> {
+    let arg = |k: usize| args.get(k).copied().unwrap_or(Val::Int(0));
+    match i {
+        Intrinsic::Noise2 => {
+            let p = arg(0);
+            let p = p.floats();
+            Val::Float(noise::noise2(p[0], p[1]))
+        }
+        Intrinsic::Noise3 => Val::Float(noise::noise3(arg(0).as_vec3())),
+        Intrinsic::Fbm3 => Val::Float(noise::fbm3(
+            arg(0).as_vec3(),
+            arg(1).as_int(),
+            arg(2).as_float(),
+            arg(3).as_float(),
+        )),
+        Intrinsic::CellNoise3 => Val::Float(noise::cellnoise3(arg(0).as_vec3())),
+        Intrinsic::RgbToHsv => Val::Vec3(rgb_to_hsv(arg(0).as_vec3())),
+        Intrinsic::HsvToRgb => Val::Vec3(hsv_to_rgb(arg(0).as_vec3())),
+    }
+}
+
+/// RGB → HSV: hue in [0, 1) (0 for greys), saturation `(max-min)/max` (0 for black), value
+/// `max`.
+pub fn rgb_to_hsv<F: Real>(c: [F; 3]) -> [F; 3] {
+    let [r, g, b] = c;
+    let mx = max(r, max(g, b));
+    let mn = min(r, min(g, b));
+    let d = mx - mn;
+    let six = F::from_f64(6.0);
+    let h = if d == F::ZERO {
+        F::ZERO
+    } else if mx == r {
+        fmod(div(g - b, d), six)
+    } else if mx == g {
+        div(b - r, d) + F::from_f64(2.0)
+    } else {
+        div(r - g, d) + F::from_f64(4.0)
+    };
+    [div(h, six), div(d, mx), mx]
+}
+
+/// HSV → RGB (hue wraps modulo 1, saturation used as given).
+pub fn hsv_to_rgb<F: Real>(c: [F; 3]) -> [F; 3] {
+    let [h, s, v] = c;
+    let six = F::from_f64(6.0);
+    let h6 = fract(h) * six;
+    let sector = h6.floor();
+    let f = h6 - sector;
+    let p = v * (F::ONE - s);
+    let q = v * (F::ONE - s * f);
+    let t = v * (F::ONE - s * (F::ONE - f));
+    match sector.to_i32() {
+        0 => [v, t, p],
+        1 => [q, v, p],
+        2 => [p, v, t],
+        3 => [p, q, v],
+        4 => [t, p, v],
+        _ => [v, p, q],
+    }
+}
