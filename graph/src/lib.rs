@@ -8,6 +8,7 @@
 //! JIT and the GPU back end depend on this crate, never the reverse (DESIGN §2).
 
 pub mod ir;
+pub mod lower;
 pub mod nodes;
 pub mod ops;
 pub mod types;

@@ -364,7 +364,9 @@ impl Builder {
         });
         let tys: Vec<Type> = block.yields.iter().map(|v| self.ty(*v)).collect();
         if tys.iter().any(|t| !t.is_float_based()) {
-            self.fail(format!("illuminance can only sum floats and vectors, not {tys:?}"));
+            self.fail(format!(
+                "illuminance can only sum floats and vectors, not {tys:?}"
+            ));
         }
         let region = self.push(Op::Illuminance { p, body: block }, None);
         self.projections(region, &tys)

@@ -134,7 +134,10 @@ impl NodeInputs<'_> {
     pub fn low(&self, port: &str) -> &LowVal {
         match self.slot(port) {
             InputVal::Value(v) => v,
-            other => panic!("input {port} of {} is not a value: {other:?}", self.def.name),
+            other => panic!(
+                "input {port} of {} is not a value: {other:?}",
+                self.def.name
+            ),
         }
     }
 
@@ -147,7 +150,10 @@ impl NodeInputs<'_> {
     pub fn string(&self, port: &str) -> &str {
         match self.slot(port) {
             InputVal::Str(s) => s,
-            other => panic!("input {port} of {} is not a string: {other:?}", self.def.name),
+            other => panic!(
+                "input {port} of {} is not a string: {other:?}",
+                self.def.name
+            ),
         }
     }
 
@@ -155,7 +161,10 @@ impl NodeInputs<'_> {
     pub fn array(&self, port: &str) -> &[Vec<LowVal>] {
         match self.slot(port) {
             InputVal::Array(a) => a,
-            other => panic!("input {port} of {} is not an array: {other:?}", self.def.name),
+            other => panic!(
+                "input {port} of {} is not an array: {other:?}",
+                self.def.name
+            ),
         }
     }
 }

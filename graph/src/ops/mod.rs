@@ -385,7 +385,9 @@ pub fn normalize<F: Real, const N: usize>(v: [F; N]) -> [F; N] {
 
 /// `M * (p, 1)` for a row-major matrix (the w row is ignored: affine transforms).
 pub fn mul_point<F: Real>(m: &[F; 16], p: [F; 3]) -> [F; 3] {
-    std::array::from_fn(|r| m[r * 4] * p[0] + m[r * 4 + 1] * p[1] + m[r * 4 + 2] * p[2] + m[r * 4 + 3])
+    std::array::from_fn(|r| {
+        m[r * 4] * p[0] + m[r * 4 + 1] * p[1] + m[r * 4 + 2] * p[2] + m[r * 4 + 3]
+    })
 }
 
 /// `M * (v, 0)`.
@@ -399,9 +401,9 @@ pub fn transform<F: Real>(kind: XformKind, m: &[F; 16], m_inv: &[F; 16], v: [F; 
     match kind {
         XformKind::Point => mul_point(m, v),
         XformKind::Vector => mul_vector(m, v),
-        XformKind::Normal => std::array::from_fn(|c| {
-            m_inv[c] * v[0] + m_inv[4 + c] * v[1] + m_inv[8 + c] * v[2]
-        }),
+        XformKind::Normal => {
+            std::array::from_fn(|c| m_inv[c] * v[0] + m_inv[4 + c] * v[1] + m_inv[8 + c] * v[2])
+        }
     }
 }
 
@@ -423,9 +425,7 @@ pub fn unary_type(op: UnOp, a: Type) -> Option<Type> {
 pub fn binary_type(op: BinOp, a: Type, b: Type) -> Option<Type> {
     use BinOp::*;
     match op {
-        MulPoint | MulVector => {
-            (a == Type::Matrix44 && b == Type::Vec3).then_some(Type::Vec3)
-        }
+        MulPoint | MulVector => (a == Type::Matrix44 && b == Type::Vec3).then_some(Type::Vec3),
         _ if a != b => None,
         Add | Sub | Mul | Div | Mod | Min | Max => {
             (a == Type::Int || a.is_float_based()).then_some(a)

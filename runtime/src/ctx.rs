@@ -1,0 +1,208 @@
+//! The shading context: what the renderer tells a material about one fragment.
+//!
+//! [`Fragment`] is plain `#[repr(C)]` data (the streams, in world space) so compiled back ends
+//! can read it at fixed offsets; [`ShadeEnv`] holds what is shared by many fragments (lights,
+//! space transforms); [`ShadeCtx`] ties one fragment to its environment and the active
+//! render-component mask.
+
+use crate::lights::Light;
+use shadenet_graph::ir::{RAY_CAMERA, Space};
+use shadenet_graph::nodes::LightDesc;
+
+/// The implicit streams of one fragment, world space (DESIGN §3).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Fragment {
+    /// Shading position.
+    pub p: [f32; 3],
+    /// Shading normal (unit, facing the viewer).
+    pub n: [f32; 3],
+    /// Geometric normal.
+    pub ng: [f32; 3],
+    /// Incident direction, eye → P.
+    pub i: [f32; 3],
+    /// Surface parameterization.
+    pub uv: [f32; 2],
+    /// ∂P/∂u.
+    pub dpdu: [f32; 3],
+    /// ∂P/∂v.
+    pub dpdv: [f32; 3],
+    /// ∂P/∂x (ray differential).
+    pub dpdx: [f32; 3],
+    /// ∂P/∂y (ray differential).
+    pub dpdy: [f32; 3],
+    /// Shutter time.
+    pub time: f32,
+    /// Ray type bit (`shadenet_graph::ir::RAY_CAMERA` …).
+    pub ray_type: i32,
+    /// Ray depth (0 for camera rays).
+    pub ray_depth: i32,
+}
+
+/// A rigid or affine transform with its inverse, row-major 4×4.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Transform {
+    /// world → space.
+    pub m: [f64; 16],
+    /// space → world.
+    pub inv: [f64; 16],
+}
+
+impl Transform {
+    /// The identity.
+    pub const IDENTITY: Transform = Transform {
+        m: IDENTITY,
+        inv: IDENTITY,
+    };
+
+    /// A transform from its matrix; `None` if the matrix is singular or not finite.
+    pub fn new(m: [f64; 16]) -> Option<Transform> {
+        invert(&m).map(|inv| Transform { m, inv })
+    }
+
+    /// A look-at camera transform: world → camera space, the eye at the origin looking down
+    /// −z with `up` as +y.
+    pub fn look_at(eye: [f64; 3], target: [f64; 3], up: [f64; 3]) -> Option<Transform> {
+        let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+        let norm = |v: [f64; 3]| {
+            let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            (l > 0.0).then(|| [v[0] / l, v[1] / l, v[2] / l])
+        };
+        let cross = |a: [f64; 3], b: [f64; 3]| {
+            [
+                a[1] * b[2] - a[2] * b[1],
+                a[2] * b[0] - a[0] * b[2],
+                a[0] * b[1] - a[1] * b[0],
+            ]
+        };
+        let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let f = norm(sub(target, eye))?;
+        let r = norm(cross(f, up))?;
+        let u = cross(r, f);
+        let m = [
+            r[0],
+            r[1],
+            r[2],
+            -dot(r, eye), //
+            u[0],
+            u[1],
+            u[2],
+            -dot(u, eye), //
+            -f[0],
+            -f[1],
+            -f[2],
+            dot(f, eye), //
+            0.0,
+            0.0,
+            0.0,
+            1.0,
+        ];
+        Transform::new(m)
+    }
+}
+
+const IDENTITY: [f64; 16] = [
+    1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0,
+];
+
+/// Inverts a 4×4 matrix (Gauss–Jordan with partial pivoting); `None` if singular or not
+/// finite.
+pub fn invert(m: &[f64; 16]) -> Option<[f64; 16]> {
+    if m.iter().any(|x| !x.is_finite()) {
+        return None;
+    }
+    let mut a = *m;
+    let mut inv = IDENTITY;
+    for col in 0..4 {
+        let pivot =
+            (col..4).max_by(|&i, &j| a[i * 4 + col].abs().total_cmp(&a[j * 4 + col].abs()))?;
+        if a[pivot * 4 + col].abs() < 1e-300 {
+            return None;
+        }
+        for k in 0..4 {
+            a.swap(col * 4 + k, pivot * 4 + k);
+            inv.swap(col * 4 + k, pivot * 4 + k);
+        }
+        let d = a[col * 4 + col];
+        for k in 0..4 {
+            a[col * 4 + k] /= d;
+            inv[col * 4 + k] /= d;
+        }
+        for row in 0..4 {
+            if row != col {
+                let f = a[row * 4 + col];
+                for k in 0..4 {
+                    a[row * 4 + k] -= f * a[col * 4 + k];
+                    inv[row * 4 + k] -= f * inv[col * 4 + k];
+                }
+            }
+        }
+    }
+    Some(inv)
+}
+
+/// What many fragments share: the light list and the space transforms.
+#[derive(Clone, Debug)]
+pub struct ShadeEnv {
+    /// Lights, world space.
+    pub lights: Vec<Light>,
+    /// world → camera.
+    pub camera: Transform,
+    /// world → object (of the shaded object).
+    pub object: Transform,
+}
+
+impl Default for ShadeEnv {
+    fn default() -> Self {
+        ShadeEnv {
+            lights: Vec::new(),
+            camera: Transform::IDENTITY,
+            object: Transform::IDENTITY,
+        }
+    }
+}
+
+impl ShadeEnv {
+    /// An environment with these lights and identity transforms.
+    pub fn with_lights(lights: &[LightDesc]) -> ShadeEnv {
+        ShadeEnv {
+            lights: lights.iter().map(Light::from_desc).collect(),
+            ..ShadeEnv::default()
+        }
+    }
+
+    /// The transform world → `space` (`None` for world).
+    pub fn transform(&self, space: Space) -> Option<&Transform> {
+        match space {
+            Space::World => None,
+            Space::Camera => Some(&self.camera),
+            Space::Object => Some(&self.object),
+        }
+    }
+}
+
+/// One shading call's input: the fragment, its environment and the active components.
+#[derive(Clone, Copy, Debug)]
+pub struct ShadeCtx<'a> {
+    /// The fragment's streams.
+    pub frag: Fragment,
+    /// Lights and transforms.
+    pub env: &'a ShadeEnv,
+    /// Active render components: bit `i` is `Program::components[i]`.
+    pub mask: u32,
+}
+
+impl<'a> ShadeCtx<'a> {
+    /// A camera-ray context with every component active.
+    pub fn new(frag: Fragment, env: &'a ShadeEnv) -> ShadeCtx<'a> {
+        let mut frag = frag;
+        if frag.ray_type == 0 {
+            frag.ray_type = RAY_CAMERA;
+        }
+        ShadeCtx {
+            frag,
+            env,
+            mask: u32::MAX,
+        }
+    }
+}

@@ -1,0 +1,309 @@
+//! The interpreter: runs any valid program, in f32 (shading) or f64 (the accuracy reference).
+//!
+//! It walks the program's blocks in order, evaluating each op with [`shadenet_graph::ops`];
+//! an `If` runs only the arm its condition picks, and `Illuminance` runs its body once per
+//! light sample. Every output then passes the guard: a non-finite component becomes 0 and is
+//! counted in [`ShadeOut::nonfinite`].
+
+use crate::ctx::{ShadeCtx, ShadeEnv};
+use crate::lights;
+use shadenet_graph::ir::{BinOp, Block, Op, Program, Space, Stream, Value, XformKind};
+use shadenet_graph::ops::{self, Real, Val};
+use shadenet_graph::types::{ConstValue, Type};
+
+/// Where each output's floats live in [`ShadeOut::values`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct OutputSlot {
+    /// The output's name.
+    pub name: String,
+    /// Its render component, if it is a component part.
+    pub component: Option<u8>,
+    /// Its type.
+    pub ty: Type,
+    /// First float in `values`.
+    pub offset: usize,
+}
+
+/// The result of one shading call: every program output (each component part separately),
+/// flattened to floats (bools and ints as 0/1 and their value).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShadeOut<F> {
+    /// The output floats, laid out by the program's [`OutputSlot`]s.
+    pub values: Vec<F>,
+    /// Non-finite floats the guard replaced with 0 in this call.
+    pub nonfinite: u32,
+}
+
+/// A program prepared for interpretation in precision `F`.
+#[derive(Clone, Debug)]
+pub struct Interpreter<F: Real> {
+    program: Program,
+    /// Constants converted to `F` once, by arena index.
+    consts: Vec<Option<Val<F>>>,
+    /// Matrix table: constants and parameters of type matrix44.
+    mats: Vec<[F; 16]>,
+    slots: Vec<OutputSlot>,
+    width: usize,
+    /// For each region (by arena index): its `Proj` users as (arena index, result index).
+    projs: Vec<Vec<(usize, u8)>>,
+}
+
+/// Reusable per-thread storage for [`Interpreter::shade_with`].
+#[derive(Clone, Debug)]
+pub struct Scratch<F> {
+    regs: Vec<Val<F>>,
+    light: Option<lights::Sample<F>>,
+}
+
+impl<F> Default for Scratch<F> {
+    fn default() -> Self {
+        Scratch {
+            regs: Vec::new(),
+            light: None,
+        }
+    }
+}
+
+impl<F: Real> Interpreter<F> {
+    /// Prepares a program. The program must be valid (see `shadenet_graph::ir::validate`).
+    pub fn new(program: &Program) -> Interpreter<F> {
+        let mut mats: Vec<[F; 16]> = Vec::new();
+        let mut mat_of = |c: &ConstValue| -> Val<F> {
+            let ConstValue::Matrix44(m) = c else {
+                return Val::from_const(c);
+            };
+            mats.push(m.map(F::from_f64));
+            Val::Mat((mats.len() - 1) as u32)
+        };
+        let consts = program
+            .exprs
+            .iter()
+            .map(|e| match &e.op {
+                Op::Const(c) => Some(mat_of(c)),
+                Op::Param(i) => program.params.get(*i as usize).map(|p| mat_of(&p.default)),
+                _ => None,
+            })
+            .collect();
+        let mut slots = Vec::new();
+        let mut width = 0;
+        for o in &program.outputs {
+            let ty = program.ty(o.value);
+            slots.push(OutputSlot {
+                name: o.name.clone(),
+                component: o.component,
+                ty,
+                offset: width,
+            });
+            width += ty.width().max(1);
+        }
+        let mut projs = vec![Vec::new(); program.exprs.len()];
+        for (i, e) in program.exprs.iter().enumerate() {
+            if let Op::Proj(r, k) = &e.op {
+                if let Some(list) = projs.get_mut(r.index()) {
+                    list.push((i, *k));
+                }
+            }
+        }
+        Interpreter {
+            projs,
+            program: program.clone(),
+            consts,
+            mats,
+            slots,
+            width,
+        }
+    }
+
+    /// The program being run.
+    pub fn program(&self) -> &Program {
+        &self.program
+    }
+
+    /// The output layout.
+    pub fn slots(&self) -> &[OutputSlot] {
+        &self.slots
+    }
+
+    /// Shades one fragment (allocates scratch; see [`Interpreter::shade_with`] to reuse it).
+    pub fn shade(&self, ctx: &ShadeCtx) -> ShadeOut<F> {
+        let mut scratch = Scratch::default();
+        let mut out = ShadeOut {
+            values: Vec::new(),
+            nonfinite: 0,
+        };
+        self.shade_with(ctx, &mut scratch, &mut out);
+        out
+    }
+
+    /// Shades one fragment into `out`, reusing `scratch`.
+    pub fn shade_with(&self, ctx: &ShadeCtx, scratch: &mut Scratch<F>, out: &mut ShadeOut<F>) {
+        scratch.regs.clear();
+        scratch.regs.resize(self.program.exprs.len(), Val::Int(0));
+        scratch.light = None;
+        self.block(&self.program.body, ctx, scratch);
+        out.values.clear();
+        out.values.resize(self.width, F::ZERO);
+        out.nonfinite = 0;
+        for (o, slot) in self.program.outputs.iter().zip(&self.slots) {
+            let v = scratch.regs[o.value.index()];
+            let dst = &mut out.values[slot.offset..];
+            match v {
+                Val::Bool(b) => dst[0] = if b { F::ONE } else { F::ZERO },
+                Val::Int(i) => dst[0] = F::from_i32(i),
+                Val::Mat(_) => {}
+                v => {
+                    for (d, x) in dst.iter_mut().zip(v.floats()) {
+                        if x.is_finite() {
+                            *d = *x;
+                        } else {
+                            out.nonfinite += 1;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    fn block(&self, block: &Block, ctx: &ShadeCtx, s: &mut Scratch<F>) {
+        for &v in &block.body {
+            let r = self.eval(v, ctx, s);
+            s.regs[v.index()] = r;
+        }
+    }
+
+    fn eval(&self, v: Value, ctx: &ShadeCtx, s: &mut Scratch<F>) -> Val<F> {
+        let expr = &self.program.exprs[v.index()];
+        let reg = |x: &Value| s.regs[x.index()];
+        match &expr.op {
+            Op::Const(_) | Op::Param(_) => self.consts[v.index()].unwrap_or(Val::Int(0)),
+            Op::Stream(st) => stream(*st, ctx),
+            Op::Transform {
+                kind,
+                from,
+                to,
+                arg,
+            } => Val::Vec3(transform(ctx.env, *kind, *from, *to, reg(arg).as_vec3())),
+            Op::ComponentEnabled(k) => Val::Bool(ctx.mask & (1u32 << (*k as u32 & 31)) != 0),
+            Op::Unary(op, a) => ops::unary(*op, reg(a)),
+            Op::Binary(BinOp::MulPoint, m, p) => {
+                Val::Vec3(ops::mul_point(self.mat(reg(m)), reg(p).as_vec3()))
+            }
+            Op::Binary(BinOp::MulVector, m, p) => {
+                Val::Vec3(ops::mul_vector(self.mat(reg(m)), reg(p).as_vec3()))
+            }
+            Op::Binary(op, a, b) => ops::binary(*op, reg(a), reg(b)),
+            Op::Select { cond, a, b } => ops::select(reg(cond), reg(a), reg(b)),
+            Op::Construct(args) => {
+                let vals: [Val<F>; 3] =
+                    std::array::from_fn(|i| args.get(i).map_or(Val::Int(0), reg));
+                ops::construct(expr.ty.unwrap_or(Type::Vec3), &vals[..args.len().min(3)])
+            }
+            Op::Extract(a, i) => ops::extract(reg(a), *i),
+            Op::Splat(a) => ops::splat(expr.ty.unwrap_or(Type::Vec3), reg(a)),
+            Op::Convert(a) => ops::convert(expr.ty.unwrap_or(Type::Float), reg(a)),
+            Op::Call(i, args) => {
+                let vals: Vec<Val<F>> = args.iter().map(reg).collect();
+                ops::intrinsic(*i, &vals)
+            }
+            Op::If { cond, then_, else_ } => {
+                let arm = if reg(cond).as_bool() { then_ } else { else_ };
+                self.block(arm, ctx, s);
+                self.store_results(v, &arm.yields, s);
+                Val::Int(0)
+            }
+            Op::Illuminance { p, body } => {
+                let p = reg(p).as_vec3();
+                let n = body.yields.len();
+                let mut sums: Vec<Val<F>> = body
+                    .yields
+                    .iter()
+                    .map(|y| Val::zero(self.program.ty(*y)))
+                    .collect();
+                let outer = s.light;
+                for light in &ctx.env.lights {
+                    let Some(sample) = lights::sample(light, p) else {
+                        continue;
+                    };
+                    s.light = Some(sample);
+                    self.block(body, ctx, s);
+                    for (sum, y) in sums.iter_mut().zip(&body.yields) {
+                        *sum = ops::binary(BinOp::Add, *sum, s.regs[y.index()]);
+                    }
+                }
+                s.light = outer;
+                debug_assert_eq!(sums.len(), n);
+                self.store_sums(v, sums, s);
+                Val::Int(0)
+            }
+            Op::LightL => Val::Vec3(s.light.map_or([F::ZERO; 3], |l| l.l)),
+            Op::LightCl => Val::Vec3(s.light.map_or([F::ZERO; 3], |l| l.cl)),
+            Op::Ambient => Val::Vec3(lights::ambient(&ctx.env.lights)),
+            Op::Proj(..) => s.regs[v.index()],
+        }
+    }
+
+    fn store_results(&self, region: Value, yields: &[Value], s: &mut Scratch<F>) {
+        for &(i, k) in &self.projs[region.index()] {
+            if let Some(y) = yields.get(k as usize) {
+                s.regs[i] = s.regs[y.index()];
+            }
+        }
+    }
+
+    fn store_sums(&self, region: Value, vals: Vec<Val<F>>, s: &mut Scratch<F>) {
+        for &(i, k) in &self.projs[region.index()] {
+            if let Some(v) = vals.get(k as usize) {
+                s.regs[i] = *v;
+            }
+        }
+    }
+
+    fn mat(&self, v: Val<F>) -> &[F; 16] {
+        match v {
+            Val::Mat(i) => &self.mats[i as usize],
+            _ => &self.mats[0],
+        }
+    }
+}
+
+fn stream<F: Real>(st: Stream, ctx: &ShadeCtx) -> Val<F> {
+    let f = &ctx.frag;
+    let v3 = |v: [f32; 3]| Val::Vec3(v.map(|x| F::from_f64(x as f64)));
+    match st {
+        Stream::P => v3(f.p),
+        Stream::N => v3(f.n),
+        Stream::Ng => v3(f.ng),
+        Stream::I => v3(f.i),
+        Stream::Uv => Val::Vec2(f.uv.map(|x| F::from_f64(x as f64))),
+        Stream::DPdu => v3(f.dpdu),
+        Stream::DPdv => v3(f.dpdv),
+        Stream::DPdx => v3(f.dpdx),
+        Stream::DPdy => v3(f.dpdy),
+        Stream::Time => Val::Float(F::from_f64(f.time as f64)),
+        Stream::RayType => Val::Int(f.ray_type),
+        Stream::RayDepth => Val::Int(f.ray_depth),
+    }
+}
+
+/// Moves a vec3 from space `from` to space `to` through world space.
+pub fn transform<F: Real>(
+    env: &ShadeEnv,
+    kind: XformKind,
+    from: Space,
+    to: Space,
+    v: [F; 3],
+) -> [F; 3] {
+    if from == to {
+        return v;
+    }
+    let conv = |m: &[f64; 16]| m.map(F::from_f64);
+    let mut v = v;
+    if let Some(t) = env.transform(from) {
+        // space → world: the inverse matrix (and for normals, the transpose of the forward one)
+        v = ops::transform(kind, &conv(&t.inv), &conv(&t.m), v);
+    }
+    if let Some(t) = env.transform(to) {
+        v = ops::transform(kind, &conv(&t.m), &conv(&t.inv), v);
+    }
+    v
+}

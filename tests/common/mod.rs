@@ -1,0 +1,141 @@
+//! Helpers shared by the integration tests: run one node or one network through the
+//! interpreter in f32 and f64.
+#![allow(dead_code)]
+
+use shadenet_graph::ir::Program;
+use shadenet_graph::lower::{Literal, lower_single};
+use shadenet_graph::nodes::{LightDesc, NodeLibrary};
+use shadenet_graph::types::{ConstValue, Type};
+use shadenet_runtime::{Fragment, Interpreter, ShadeCtx, ShadeEnv};
+
+/// The outputs of one shading call, in f32 and in f64.
+#[derive(Debug, Clone)]
+pub struct Outputs {
+    /// (output name, component name or None, f32 values widened, f64 values)
+    pub entries: Vec<(String, Option<String>, Vec<f64>, Vec<f64>)>,
+    /// Non-finite values caught by the guard in the f32 run.
+    pub nonfinite32: u32,
+}
+
+impl Outputs {
+    /// Total of output `name` in the f64 run (sum of its component parts).
+    pub fn get(&self, name: &str) -> Vec<f64> {
+        self.total(name, |e| &e.3)
+    }
+
+    /// Total of output `name` in the f32 run.
+    pub fn get32(&self, name: &str) -> Vec<f64> {
+        self.total(name, |e| &e.2)
+    }
+
+    /// The f64 value of one component part of output `name`.
+    pub fn part(&self, name: &str, component: &str) -> Option<Vec<f64>> {
+        self.entries
+            .iter()
+            .find(|e| e.0 == name && e.1.as_deref() == Some(component))
+            .map(|e| e.3.clone())
+    }
+
+    fn total(
+        &self,
+        name: &str,
+        pick: impl Fn(&(String, Option<String>, Vec<f64>, Vec<f64>)) -> &Vec<f64>,
+    ) -> Vec<f64> {
+        let mut sum: Option<Vec<f64>> = None;
+        for e in self.entries.iter().filter(|e| e.0 == name) {
+            let v = pick(e);
+            sum = Some(match sum {
+                None => v.clone(),
+                Some(s) => s.iter().zip(v).map(|(a, b)| a + b).collect(),
+            });
+        }
+        sum.unwrap_or_else(|| panic!("no output {name}; have {:?}", self.entries))
+    }
+}
+
+/// A fragment at the origin of the z = 0 plane, facing +z, seen from (0, 0, 1).
+pub fn plane_fragment() -> Fragment {
+    Fragment {
+        p: [0.0, 0.0, 0.0],
+        n: [0.0, 0.0, 1.0],
+        ng: [0.0, 0.0, 1.0],
+        i: [0.0, 0.0, -1.0],
+        uv: [0.5, 0.5],
+        dpdu: [1.0, 0.0, 0.0],
+        dpdv: [0.0, 1.0, 0.0],
+        ..Fragment::default()
+    }
+}
+
+/// Runs `program` on one fragment in f32 and f64.
+pub fn run_program(program: &Program, frag: &Fragment, lights: &[LightDesc], mask: u32) -> Outputs {
+    let env = ShadeEnv::with_lights(lights);
+    let mut ctx = ShadeCtx::new(*frag, &env);
+    ctx.mask = mask;
+    let i32_ = Interpreter::<f32>::new(program);
+    let i64_ = Interpreter::<f64>::new(program);
+    let o32 = i32_.shade(&ctx);
+    let o64 = i64_.shade(&ctx);
+    let mut entries = Vec::new();
+    for slot in i32_.slots() {
+        let w = slot.ty.width().max(1);
+        let comp = slot
+            .component
+            .map(|k| program.components[k as usize].clone());
+        let v32 = o32.values[slot.offset..slot.offset + w]
+            .iter()
+            .map(|x| *x as f64)
+            .collect();
+        let v64 = o64.values[slot.offset..slot.offset + w].to_vec();
+        entries.push((slot.name.clone(), comp, v32, v64));
+    }
+    Outputs {
+        entries,
+        nonfinite32: o32.nonfinite,
+    }
+}
+
+/// Lowers a single node with literal inputs and runs it on `frag` with `lights`, every
+/// component active.
+pub fn eval_node(
+    node: &str,
+    generic: Type,
+    inputs: &[(&str, Literal)],
+    frag: &Fragment,
+    lights: &[LightDesc],
+) -> Outputs {
+    let lib = NodeLibrary::standard();
+    let program = lower_single(&lib, node, generic, inputs).unwrap_or_else(|e| panic!("{e}"));
+    run_program(&program, frag, lights, u32::MAX)
+}
+
+/// Shorthand: a float literal.
+pub fn f(x: f64) -> Literal {
+    Literal::Const(ConstValue::Float(x))
+}
+
+/// Shorthand: a color literal.
+pub fn c(r: f64, g: f64, b: f64) -> Literal {
+    Literal::Const(ConstValue::Color([r, g, b]))
+}
+
+/// Shorthand: a vec3 literal.
+pub fn v(x: f64, y: f64, z: f64) -> Literal {
+    Literal::Const(ConstValue::Vec3([x, y, z]))
+}
+
+/// Shorthand: a string literal.
+pub fn s(x: &str) -> Literal {
+    Literal::Const(ConstValue::String(x.to_string()))
+}
+
+/// Asserts two float slices agree within `tol` (absolute), with a message.
+pub fn assert_close(got: &[f64], want: &[f64], tol: f64, what: &str) {
+    assert_eq!(got.len(), want.len(), "{what}: length");
+    for (i, (g, w)) in got.iter().zip(want).enumerate() {
+        assert!(
+            (g - w).abs() <= tol || (g.is_nan() && w.is_nan()),
+            "{what}[{i}]: got {g}, want {w} (tol {tol}); all: {got:?} vs {want:?}"
+        );
+    }
+}
