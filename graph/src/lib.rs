@@ -8,9 +8,15 @@
 //! JIT and the GPU back end depend on this crate, never the reverse (DESIGN §2).
 
 pub mod ir;
+pub mod link;
 pub mod lower;
+pub mod network;
 pub mod nodes;
 pub mod ops;
 pub mod types;
 
+pub use link::{LinkError, LinkErrors, Linked, link};
+pub use lower::{CompileError, Compiled, compile_json, lower};
+pub use network::Network;
+pub use nodes::NodeLibrary;
 pub use types::{ConstValue, Type};

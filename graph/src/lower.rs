@@ -6,6 +6,7 @@
 //! render-component parts becomes one program output per part (DESIGN §8).
 
 use crate::ir::{Builder, Program, Value};
+use crate::link::{LinkError, LinkErrors, Linked, LinkedInput, Source};
 use crate::nodes::{InputVal, LowVal, NodeDef, NodeInputs, NodeLibrary, PortDefault, PortType};
 use crate::types::{ConstValue, Type};
 
@@ -139,4 +140,191 @@ pub fn declare_output(b: &mut Builder, name: &str, v: &LowVal) {
             b.output(name, Some(*k), *p);
         }
     }
+}
+
+/// Converts a connected value from `src.from` to `src.to` (the linker checked the pair):
+/// component selection, broadcast, color ↔ vec3, int/bool → float. Component parts follow
+/// the linear conversions.
+fn coerce(b: &mut Builder, v: &LowVal, src: &Source) -> LowVal {
+    use crate::nodes::lowering::map_parts;
+    let mut v = v.clone();
+    if let Some(k) = src.component {
+        v = map_parts(b, &v, |b, x| b.extract(x, k as usize));
+    }
+    let (from, to) = (src.from, src.to);
+    if from == to {
+        v
+    } else if from == Type::Float && to.is_vector() {
+        map_parts(b, &v, |b, x| b.splat(to, x))
+    } else if from.is_vector() && to.is_vector() {
+        map_parts(b, &v, |b, x| b.retype(to, x))
+    } else {
+        LowVal::plain(b.convert(to, v.value))
+    }
+}
+
+/// Lowers a linked network to a program. Only nodes that some material output depends on
+/// are lowered. Errors name the node whose lowering failed.
+pub fn lower(linked: &Linked, lib: &NodeLibrary) -> Result<Program, LinkErrors> {
+    // Which nodes reach an output.
+    let mut live = vec![false; linked.nodes.len()];
+    for (_, s) in &linked.outputs {
+        live[s.node] = true;
+    }
+    for i in (0..linked.nodes.len()).rev() {
+        if !live[i] {
+            continue;
+        }
+        for input in &linked.nodes[i].inputs {
+            mark_sources(input, &mut live);
+        }
+    }
+
+    let mut b = Builder::new(&linked.name);
+    let mut outs: Vec<Vec<LowVal>> = vec![Vec::new(); linked.nodes.len()];
+    let mut errors = Vec::new();
+    for (i, node) in linked.nodes.iter().enumerate() {
+        if !live[i] {
+            continue;
+        }
+        let def = lib.get(&node.ty).ok_or_else(|| {
+            LinkErrors(vec![LinkError::UnknownType {
+                node: node.name.clone(),
+                ty: node.ty.clone(),
+                hint: String::new(),
+            }])
+        })?;
+        let mut values = Vec::new();
+        for (pi, input) in node.inputs.iter().enumerate() {
+            let port_ty = match &def.inputs[pi].ty {
+                PortType::Simple(t) => *t,
+                _ => node.generic,
+            };
+            let v = match input {
+                LinkedInput::Default => default_input(&mut b, def, pi, node.generic),
+                LinkedInput::Array(elems) => {
+                    let PortType::Array(fields) = &def.inputs[pi].ty else {
+                        unreachable_input(&mut b, &mut errors, node, def, pi);
+                        continue;
+                    };
+                    let mut arr = Vec::new();
+                    for rec in elems {
+                        let mut r = Vec::new();
+                        for ((_, fty), fv) in fields.iter().zip(rec) {
+                            let fty = fty.unwrap_or(node.generic);
+                            let lv = match fv {
+                                LinkedInput::Const(c) => LowVal::plain(constant_as(&mut b, c, fty)),
+                                LinkedInput::Conn(s) => coerce(&mut b, &outs[s.node][s.output], s),
+                                _ => LowVal::plain(b.zero(fty)),
+                            };
+                            r.push(lv);
+                        }
+                        arr.push(r);
+                    }
+                    InputVal::Array(arr)
+                }
+                LinkedInput::Const(c) => InputVal::Value(LowVal::plain(constant_as(&mut b, c, port_ty))),
+                LinkedInput::Str(s) => InputVal::Str(s.clone()),
+                LinkedInput::Conn(s) => InputVal::Value(coerce(&mut b, &outs[s.node][s.output], s)),
+            };
+            values.push(v);
+        }
+        let ni = NodeInputs {
+            node: &node.name,
+            def,
+            generic: node.generic,
+            values,
+        };
+        match (def.lower)(&mut b, &ni) {
+            Ok(o) if o.len() == def.outputs.len() => outs[i] = o,
+            Ok(o) => {
+                errors.push(LinkError::Lowering {
+                    node: node.name.clone(),
+                    ty: node.ty.clone(),
+                    msg: format!(
+                        "internal error: lowering returned {} outputs, the def declares {}",
+                        o.len(),
+                        def.outputs.len()
+                    ),
+                });
+                outs[i] = def.outputs.iter().map(|o| LowVal::plain(b.zero(o.ty.unwrap_or(node.generic)))).collect();
+            }
+            Err(msg) => {
+                errors.push(LinkError::Lowering {
+                    node: node.name.clone(),
+                    ty: node.ty.clone(),
+                    msg,
+                });
+                outs[i] = def.outputs.iter().map(|o| LowVal::plain(b.zero(o.ty.unwrap_or(node.generic)))).collect();
+            }
+        }
+    }
+    for (name, s) in &linked.outputs {
+        let v = coerce(&mut b, &outs[s.node][s.output], s);
+        declare_output(&mut b, name, &v);
+    }
+    if !errors.is_empty() {
+        return Err(LinkErrors(errors));
+    }
+    b.finish().map_err(|msg| {
+        LinkErrors(vec![LinkError::Lowering {
+            node: linked.name.clone(),
+            ty: "(program)".into(),
+            msg: format!("internal error: {msg}"),
+        }])
+    })
+}
+
+fn unreachable_input(
+    b: &mut Builder,
+    errors: &mut Vec<LinkError>,
+    node: &crate::link::LinkedNode,
+    def: &NodeDef,
+    pi: usize,
+) {
+    b.fail("array input on a non-array port");
+    errors.push(LinkError::Lowering {
+        node: node.name.clone(),
+        ty: node.ty.clone(),
+        msg: format!("internal error: input `{}` is not an array port", def.inputs[pi].name),
+    });
+}
+
+fn mark_sources(input: &LinkedInput, live: &mut [bool]) {
+    match input {
+        LinkedInput::Conn(s) => live[s.node] = true,
+        LinkedInput::Array(a) => a.iter().flatten().for_each(|i| mark_sources(i, live)),
+        _ => {}
+    }
+}
+
+/// A network compiled to a program, with the lights it declares.
+#[derive(Clone, Debug)]
+pub struct Compiled {
+    /// The material program.
+    pub program: Program,
+    /// The network's lights.
+    pub lights: Vec<crate::nodes::LightDesc>,
+}
+
+/// Any error from network text to program.
+#[derive(Debug, thiserror::Error)]
+pub enum CompileError {
+    /// The text is not a valid network file.
+    #[error("malformed network: {0}")]
+    Parse(#[from] crate::network::ParseError),
+    /// Linking or lowering found problems.
+    #[error("{0}")]
+    Link(#[from] LinkErrors),
+}
+
+/// Parses, links and lowers a network given as JSON text.
+pub fn compile_json(src: &str, lib: &NodeLibrary) -> Result<Compiled, CompileError> {
+    let net = crate::network::Network::from_json(src)?;
+    let linked = crate::link::link(&net, lib)?;
+    let program = lower(&linked, lib)?;
+    Ok(Compiled {
+        program,
+        lights: linked.lights,
+    })
 }
