@@ -1,0 +1,96 @@
+//! `shadenet shade`: shading a network over a grid of fragments on a unit plane, without a
+//! renderer (the counterpart of OSL's testshade).
+//!
+//! The plane is z = 0, x and y in [−0.5, 0.5], normal +z, seen from a camera at (0, 0, 1.5)
+//! looking at the origin. Pixel (x, y) (row 0 at the top) gets `uv = ((x+½)/W, 1 − (y+½)/H)`,
+//! `P = (u − ½, v − ½, 0)`, `dPdu = (1, 0, 0)`, `dPdv = (0, 1, 0)`, ray differentials of one
+//! pixel, and `I = P − eye`.
+
+use rayon::prelude::*;
+use shadenet_graph::ir::{Program, RAY_CAMERA};
+use shadenet_runtime::{Fragment, Interpreter, ShadeCtx, ShadeEnv, ShadeOut, Transform};
+use shadenet_graph::ops::Real;
+
+/// The eye position of the shade camera.
+pub const EYE: [f64; 3] = [0.0, 0.0, 1.5];
+
+/// The fragment of pixel (x, y) of a `w × h` grid.
+pub fn grid_fragment(x: u32, y: u32, w: u32, h: u32) -> Fragment {
+    let u = (x as f32 + 0.5) / w as f32;
+    let v = 1.0 - (y as f32 + 0.5) / h as f32;
+    let p = [u - 0.5, v - 0.5, 0.0];
+    Fragment {
+        p,
+        n: [0.0, 0.0, 1.0],
+        ng: [0.0, 0.0, 1.0],
+        i: [p[0] - EYE[0] as f32, p[1] - EYE[1] as f32, p[2] - EYE[2] as f32],
+        uv: [u, v],
+        dpdu: [1.0, 0.0, 0.0],
+        dpdv: [0.0, 1.0, 0.0],
+        dpdx: [1.0 / w as f32, 0.0, 0.0],
+        dpdy: [0.0, -1.0 / h as f32, 0.0],
+        time: 0.0,
+        ray_type: RAY_CAMERA,
+        ray_depth: 0,
+    }
+}
+
+/// The environment of the shade grid: the given lights, the camera at [`EYE`], identity
+/// object space.
+pub fn grid_env(lights: &[shadenet_graph::nodes::LightDesc]) -> ShadeEnv {
+    let mut env = ShadeEnv::with_lights(lights);
+    env.camera = Transform::look_at(EYE, [0.0; 3], [0.0, 1.0, 0.0]).unwrap_or(Transform::IDENTITY);
+    env
+}
+
+/// The result of shading a grid: per pixel, every program output flattened (see
+/// [`shadenet_runtime::OutputSlot`]), as f64 whatever the precision used.
+#[derive(Clone, Debug)]
+pub struct Grid {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Floats per pixel.
+    pub stride: usize,
+    /// `width * height * stride` values, rows top to bottom.
+    pub values: Vec<f64>,
+    /// Non-finite values replaced by the output guard.
+    pub nonfinite: u64,
+}
+
+/// Shades every pixel of a `w × h` grid with the interpreter in precision `F`, on the rayon
+/// thread pool, with the components in `mask` active.
+pub fn shade_grid<F: Real>(program: &Program, env: &ShadeEnv, w: u32, h: u32, mask: u32) -> Grid {
+    let interp = Interpreter::<F>::new(program);
+    let stride: usize = interp.slots().iter().map(|s| s.ty.width().max(1)).sum();
+    let mut values = vec![0.0f64; (w * h) as usize * stride];
+    let nonfinite: u64 = values
+        .par_chunks_mut(w as usize * stride)
+        .enumerate()
+        .map_init(
+            || (Default::default(), ShadeOut { values: Vec::new(), nonfinite: 0 }),
+            |(scratch, out), (y, row)| {
+                let mut bad = 0u64;
+                for x in 0..w {
+                    let mut ctx = ShadeCtx::new(grid_fragment(x, y as u32, w, h), env);
+                    ctx.mask = mask;
+                    interp.shade_with(&ctx, scratch, out);
+                    bad += out.nonfinite as u64;
+                    let dst = &mut row[x as usize * stride..(x as usize + 1) * stride];
+                    for (d, s) in dst.iter_mut().zip(&out.values) {
+                        *d = s.to_f64();
+                    }
+                }
+                bad
+            },
+        )
+        .sum();
+    Grid {
+        width: w,
+        height: h,
+        stride,
+        values,
+        nonfinite,
+    }
+}

@@ -1,0 +1,115 @@
+//! The `shadenet` binary: exit codes, messages, images, and no damage to existing files.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn shadenet(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_shadenet"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run shadenet");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("shadenet-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+#[test]
+fn shade_writes_a_real_png_and_exr() {
+    let png = tmp("marble.png");
+    let exr = tmp("marble.exr");
+    let (code, out, err) = shadenet(&[
+        "shade",
+        "examples/networks/marble.json",
+        "-o",
+        png.to_str().unwrap(),
+        "-o",
+        exr.to_str().unwrap(),
+        "--res",
+        "64x48",
+    ]);
+    assert_eq!(code, 0, "{out}\n{err}");
+    assert!(out.contains("fragments/s"), "{out}");
+    let img = image::open(&png).expect("png decodes").to_rgb8();
+    assert_eq!(img.dimensions(), (64, 48));
+    let distinct: std::collections::HashSet<_> = img.pixels().map(|p| p.0).collect();
+    assert!(distinct.len() > 50, "image is nearly flat: {} colors", distinct.len());
+    let bytes = std::fs::read(&exr).unwrap();
+    assert_eq!(&bytes[..4], &[0x76, 0x2f, 0x31, 0x01], "EXR magic");
+    let text = String::from_utf8_lossy(&bytes);
+    for ch in ["color.R", "color.diffuse.R", "color.specular.G"] {
+        assert!(text.contains(ch), "EXR lacks channel {ch}");
+    }
+}
+
+#[test]
+fn bad_network_fails_with_message_and_leaves_output_untouched() {
+    let bad = tmp("bad.json");
+    std::fs::write(
+        &bad,
+        r#"{"nodes": [{"name": "s", "type": "lambert", "inputs": {"color": "nope.outColor"}}],
+            "outputs": {"c": "s.outColor"}}"#,
+    )
+    .unwrap();
+    let png = tmp("keep.png");
+    std::fs::write(&png, b"precious").unwrap();
+    let (code, _, err) = shadenet(&["shade", bad.to_str().unwrap(), "-o", png.to_str().unwrap()]);
+    assert_eq!(code, 1);
+    assert!(err.contains("node `s` input `color`") && err.contains("no node `nope`"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(std::fs::read(&png).unwrap(), b"precious");
+}
+
+#[test]
+fn malformed_json_and_missing_file() {
+    let bad = tmp("broken.json");
+    std::fs::write(&bad, "{ \"nodes\": [ }").unwrap();
+    let (code, _, err) = shadenet(&["check", bad.to_str().unwrap()]);
+    assert_eq!(code, 1);
+    assert!(err.contains("malformed network") && err.contains("line 1"), "{err}");
+    let (code, _, err) = shadenet(&["check", "does/not/exist.json"]);
+    assert_eq!(code, 1);
+    assert!(err.contains("cannot read network does/not/exist.json"), "{err}");
+}
+
+#[test]
+fn unknown_component_flag_is_an_error() {
+    let png = tmp("x.png");
+    let (code, _, err) = shadenet(&[
+        "shade",
+        "examples/networks/marble.json",
+        "-o",
+        png.to_str().unwrap(),
+        "--components",
+        "diffuse,sparkle",
+    ]);
+    assert_eq!(code, 1);
+    assert!(err.contains("`sparkle` is not a component"), "{err}");
+}
+
+#[test]
+fn compile_emits_ir_that_parses_back() {
+    let (code, out, err) = shadenet(&["compile", "examples/networks/marble.json", "--emit", "ir"]);
+    assert_eq!(code, 0, "{err}");
+    let p = shadenet_graph::ir::parse(&out).expect("emitted IR parses");
+    assert_eq!(p.to_string(), out);
+}
+
+#[test]
+fn nodes_reference_matches_docs() {
+    let (code, out, _) = shadenet(&["nodes"]);
+    assert_eq!(code, 0);
+    let doc = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/nodes.md")).unwrap();
+    assert!(
+        doc == out,
+        "docs/nodes.md is stale: run `cargo run -- nodes > docs/nodes.md`"
+    );
+}
