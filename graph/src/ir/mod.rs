@@ -17,10 +17,15 @@
 //! their own (`ty == None`); every other expr has exactly one type.
 //!
 //! Rates ([`Rate`]) are derived, not stored: see [`rates`].
+//!
+//! [`validate`](fn@validate) checks that a program is well formed; passes and back ends
+//! may rely on what it checks.
 
 mod builder;
+mod validate;
 
 pub use builder::Builder;
+pub use validate::{ValidationError, validate};
 
 use crate::types::{ConstValue, Type};
 use std::fmt;
