@@ -18,13 +18,16 @@
 //!
 //! Rates ([`Rate`]) are derived, not stored: see [`rates`].
 //!
-//! [`validate`](fn@validate) checks that a program is well formed; passes and back ends
-//! may rely on what it checks.
+//! A program prints in the IR text form (`Display`) and [`parse`] reads it back; the syntax
+//! is documented at the top of `graph/src/ir/text.rs`. [`validate`](fn@validate) checks
+//! that a program is well formed; passes and back ends may rely on what it checks.
 
 mod builder;
+mod text;
 mod validate;
 
 pub use builder::Builder;
+pub use text::{ParseError, ParseErrorKind, parse};
 pub use validate::{ValidationError, validate};
 
 use crate::types::{ConstValue, Type};
