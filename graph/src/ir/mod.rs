@@ -17,10 +17,18 @@
 //! their own (`ty == None`); every other expr has exactly one type.
 //!
 //! Rates ([`Rate`]) are derived, not stored: see [`rates`].
+//!
+//! A program prints in the IR text form (`Display`) and [`parse`] reads it back; the syntax
+//! is documented at the top of `graph/src/ir/text.rs`. [`validate`](fn@validate) checks
+//! that a program is well formed; passes and back ends may rely on what it checks.
 
 mod builder;
+mod text;
+mod validate;
 
 pub use builder::Builder;
+pub use text::{ParseError, ParseErrorKind, parse};
+pub use validate::{ValidationError, validate};
 
 use crate::types::{ConstValue, Type};
 use std::fmt;
