@@ -266,13 +266,17 @@ pub fn lower(linked: &Linked, lib: &NodeLibrary) -> Result<Program, LinkErrors> 
     if !errors.is_empty() {
         return Err(LinkErrors(errors));
     }
-    b.finish().map_err(|msg| {
+    let internal = |msg: String| {
         LinkErrors(vec![LinkError::Lowering {
             node: linked.name.clone(),
             ty: "(program)".into(),
             msg: format!("internal error: {msg}"),
         }])
-    })
+    };
+    let program = b.finish().map_err(internal)?;
+    // Validate once: after this, nothing downstream may panic on the program.
+    crate::ir::validate(&program).map_err(|e| internal(e.to_string()))?;
+    Ok(program)
 }
 
 fn unreachable_input(
