@@ -10,7 +10,11 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 #[derive(Parser)]
-#[command(name = "shadenet", version, about = "Shading networks, partially evaluated and compiled")]
+#[command(
+    name = "shadenet",
+    version,
+    about = "Shading networks, partially evaluated and compiled"
+)]
 struct Cli {
     #[command(subcommand)]
     cmd: Cmd,
@@ -92,7 +96,9 @@ fn parse_res(s: &str) -> Result<(u32, u32), String> {
     let w: u32 = w.parse().map_err(|_| format!("bad width in `{s}`"))?;
     let h: u32 = h.parse().map_err(|_| format!("bad height in `{s}`"))?;
     if w == 0 || h == 0 || w > 16384 || h > 16384 {
-        return Err(format!("resolution `{s}` must be between 1x1 and 16384x16384"));
+        return Err(format!(
+            "resolution `{s}` must be between 1x1 and 16384x16384"
+        ));
     }
     Ok((w, h))
 }
@@ -118,7 +124,8 @@ fn load(path: &Path) -> Result<shadenet::Compiled> {
     let src = std::fs::read_to_string(path)
         .with_context(|| format!("cannot read network {}", path.display()))?;
     let lib = NodeLibrary::standard();
-    let mut compiled = compile_json(&src, &lib).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let mut compiled =
+        compile_json(&src, &lib).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     if compiled.program.name == "material" {
         if let Some(stem) = path.file_stem() {
             compiled.program.name = stem.to_string_lossy().into_owned();
@@ -242,7 +249,9 @@ fn shade(args: ShadeArgs) -> Result<()> {
     }
     if lights.is_empty() {
         if !args.quiet {
-            eprintln!("note: no lights in the network or on the command line; using --light point:1,1,2:20");
+            eprintln!(
+                "note: no lights in the network or on the command line; using --light point:1,1,2:20"
+            );
         }
         lights.push(parse_light("point:1,1,2:20", 0)?);
     }
@@ -254,7 +263,11 @@ fn shade(args: ShadeArgs) -> Result<()> {
                 Some(k) => mask |= 1 << k,
                 None => bail!(
                     "--components: `{c}` is not a component of this material (it has: {})",
-                    if program.components.is_empty() { "none".to_string() } else { program.components.join(", ") }
+                    if program.components.is_empty() {
+                        "none".to_string()
+                    } else {
+                        program.components.join(", ")
+                    }
                 ),
             }
         }
@@ -262,14 +275,18 @@ fn shade(args: ShadeArgs) -> Result<()> {
     let names = program.output_names();
     let aov = args.aov.clone().unwrap_or_else(|| names[0].to_string());
     if !names.contains(&aov.as_str()) {
-        bail!("--aov: the material has no output `{aov}` (it has: {})", names.join(", "));
+        bail!(
+            "--aov: the material has no output `{aov}` (it has: {})",
+            names.join(", ")
+        );
     }
-    let component = match &args.component {
-        None => None,
-        Some(c) => Some(program.component_index(c).with_context(|| {
-            format!("--component: `{c}` is not a component of this material")
-        })?),
-    };
+    let component =
+        match &args.component {
+            None => None,
+            Some(c) => Some(program.component_index(c).with_context(|| {
+                format!("--component: `{c}` is not a component of this material")
+            })?),
+        };
     let load_time = t0.elapsed();
 
     let env = grid_env(&lights);
@@ -320,7 +337,11 @@ fn shade(args: ShadeArgs) -> Result<()> {
         } else {
             let mut chans = Vec::new();
             for name in &names {
-                let ty = slots.iter().find(|s| &s.0 == name).map(|s| s.2).expect("output");
+                let ty = slots
+                    .iter()
+                    .find(|s| &s.0 == name)
+                    .map(|s| s.2)
+                    .expect("output");
                 let suffixes: &[&str] = match ty.width() {
                     2 => &["X", "Y"],
                     3 => &["R", "G", "B"],
@@ -329,12 +350,16 @@ fn shade(args: ShadeArgs) -> Result<()> {
                 let mut layers: Vec<(String, Option<Option<u8>>)> = vec![(name.to_string(), None)];
                 for (sn, comp, _, _) in &slots {
                     if sn == name && comp.is_some() {
-                        layers.push((format!("{name}.{}", program.components[comp.unwrap() as usize]), Some(*comp)));
+                        layers.push((
+                            format!("{name}.{}", program.components[comp.unwrap() as usize]),
+                            Some(*comp),
+                        ));
                     }
                 }
                 for (layer, only) in layers {
                     for (ci, suf) in suffixes.iter().enumerate() {
-                        let pred = |n: &str, c: Option<u8>| n == *name && only.is_none_or(|o| o == c);
+                        let pred =
+                            |n: &str, c: Option<u8>| n == *name && only.is_none_or(|o| o == c);
                         chans.push((format!("{layer}.{suf}"), channel(&pred, ci)));
                     }
                 }
@@ -349,7 +374,10 @@ fn shade(args: ShadeArgs) -> Result<()> {
             secs,
             n as f64 / secs / 1e6,
             rayon::current_num_threads(),
-            match args.precision { Precision::F32 => "f32", Precision::F64 => "f64" },
+            match args.precision {
+                Precision::F32 => "f32",
+                Precision::F64 => "f64",
+            },
             load_time.as_secs_f64() * 1e3,
             program.op_count(),
             grid.nonfinite

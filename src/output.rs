@@ -34,7 +34,11 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Res
 
 /// Linear → sRGB transfer function, clamped to [0, 1].
 pub fn linear_to_srgb(x: f32) -> f32 {
-    let x = if x.is_finite() { x.clamp(0.0, 1.0) } else { 0.0 };
+    let x = if x.is_finite() {
+        x.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     if x <= 0.003_130_8 {
         12.92 * x
     } else {

@@ -8,8 +8,8 @@
 
 use rayon::prelude::*;
 use shadenet_graph::ir::{Program, RAY_CAMERA};
-use shadenet_runtime::{Fragment, Interpreter, ShadeCtx, ShadeEnv, ShadeOut, Transform};
 use shadenet_graph::ops::Real;
+use shadenet_runtime::{Fragment, Interpreter, ShadeCtx, ShadeEnv, ShadeOut, Transform};
 
 /// The eye position of the shade camera.
 pub const EYE: [f64; 3] = [0.0, 0.0, 1.5];
@@ -23,7 +23,11 @@ pub fn grid_fragment(x: u32, y: u32, w: u32, h: u32) -> Fragment {
         p,
         n: [0.0, 0.0, 1.0],
         ng: [0.0, 0.0, 1.0],
-        i: [p[0] - EYE[0] as f32, p[1] - EYE[1] as f32, p[2] - EYE[2] as f32],
+        i: [
+            p[0] - EYE[0] as f32,
+            p[1] - EYE[1] as f32,
+            p[2] - EYE[2] as f32,
+        ],
         uv: [u, v],
         dpdu: [1.0, 0.0, 0.0],
         dpdv: [0.0, 1.0, 0.0],
@@ -69,7 +73,15 @@ pub fn shade_grid<F: Real>(program: &Program, env: &ShadeEnv, w: u32, h: u32, ma
         .par_chunks_mut(w as usize * stride)
         .enumerate()
         .map_init(
-            || (Default::default(), ShadeOut { values: Vec::new(), nonfinite: 0 }),
+            || {
+                (
+                    Default::default(),
+                    ShadeOut {
+                        values: Vec::new(),
+                        nonfinite: 0,
+                    },
+                )
+            },
             |(scratch, out), (y, row)| {
                 let mut bad = 0u64;
                 for x in 0..w {

@@ -41,7 +41,11 @@ fn shade_writes_a_real_png_and_exr() {
     let img = image::open(&png).expect("png decodes").to_rgb8();
     assert_eq!(img.dimensions(), (64, 48));
     let distinct: std::collections::HashSet<_> = img.pixels().map(|p| p.0).collect();
-    assert!(distinct.len() > 50, "image is nearly flat: {} colors", distinct.len());
+    assert!(
+        distinct.len() > 50,
+        "image is nearly flat: {} colors",
+        distinct.len()
+    );
     let bytes = std::fs::read(&exr).unwrap();
     assert_eq!(&bytes[..4], &[0x76, 0x2f, 0x31, 0x01], "EXR magic");
     let text = String::from_utf8_lossy(&bytes);
@@ -63,7 +67,10 @@ fn bad_network_fails_with_message_and_leaves_output_untouched() {
     std::fs::write(&png, b"precious").unwrap();
     let (code, _, err) = shadenet(&["shade", bad.to_str().unwrap(), "-o", png.to_str().unwrap()]);
     assert_eq!(code, 1);
-    assert!(err.contains("node `s` input `color`") && err.contains("no node `nope`"), "{err}");
+    assert!(
+        err.contains("node `s` input `color`") && err.contains("no node `nope`"),
+        "{err}"
+    );
     assert!(!err.contains("panicked"), "{err}");
     assert_eq!(std::fs::read(&png).unwrap(), b"precious");
 }
@@ -74,10 +81,16 @@ fn malformed_json_and_missing_file() {
     std::fs::write(&bad, "{ \"nodes\": [ }").unwrap();
     let (code, _, err) = shadenet(&["check", bad.to_str().unwrap()]);
     assert_eq!(code, 1);
-    assert!(err.contains("malformed network") && err.contains("line 1"), "{err}");
+    assert!(
+        err.contains("malformed network") && err.contains("line 1"),
+        "{err}"
+    );
     let (code, _, err) = shadenet(&["check", "does/not/exist.json"]);
     assert_eq!(code, 1);
-    assert!(err.contains("cannot read network does/not/exist.json"), "{err}");
+    assert!(
+        err.contains("cannot read network does/not/exist.json"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -107,7 +120,8 @@ fn compile_emits_ir_that_parses_back() {
 fn nodes_reference_matches_docs() {
     let (code, out, _) = shadenet(&["nodes"]);
     assert_eq!(code, 0);
-    let doc = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/nodes.md")).unwrap();
+    let doc =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/nodes.md")).unwrap();
     assert!(
         doc == out,
         "docs/nodes.md is stale: run `cargo run -- nodes > docs/nodes.md`"

@@ -28,7 +28,12 @@ fn every_example_compiles_and_its_ir_round_trips() {
         let text = c.program.to_string();
         let back = parse(&text).unwrap_or_else(|e| panic!("{}: {e}\n{text}", path.display()));
         validate(&back).unwrap();
-        assert_eq!(back.to_string(), text, "{}: print → parse → print differs", path.display());
+        assert_eq!(
+            back.to_string(),
+            text,
+            "{}: print → parse → print differs",
+            path.display()
+        );
         assert_eq!(back.op_count(), c.program.op_count());
     }
 }
@@ -47,7 +52,9 @@ fn every_example_shades_finite_and_f32_agrees_with_f64() {
         if lights.is_empty() {
             lights.push(shadenet_graph::nodes::LightDesc {
                 name: "key".into(),
-                kind: shadenet_graph::nodes::LightKind::Point { position: [1.0, 1.0, 2.0] },
+                kind: shadenet_graph::nodes::LightKind::Point {
+                    position: [1.0, 1.0, 2.0],
+                },
                 power: [20.0; 3],
             });
         }
@@ -62,10 +69,17 @@ fn every_example_shades_finite_and_f32_agrees_with_f64() {
             worst = worst.max((a - b).abs() / b.abs().max(1.0));
         }
         println!("{}: max f32/f64 difference {worst:.3e}", path.display());
-        assert!(worst <= 1e-4, "{}: f32 differs from f64 by {worst}", path.display());
+        assert!(
+            worst <= 1e-4,
+            "{}: f32 differs from f64 by {worst}",
+            path.display()
+        );
         // Not a flat image: the examples are meant to show something.
         let first: Vec<f64> = g64.values[..g64.stride].to_vec();
-        let varies = g64.values.chunks(g64.stride).any(|px| px != first.as_slice());
+        let varies = g64
+            .values
+            .chunks(g64.stride)
+            .any(|px| px != first.as_slice());
         assert!(varies, "{} shades to a constant", path.display());
     }
 }

@@ -39,9 +39,8 @@ fn unknown_top_level_key_is_an_error() {
 
 #[test]
 fn unknown_node_type_names_node_and_suggests() {
-    let m = one(
-        r#"{"nodes": [{"name": "chk", "type": "chekcer"}], "outputs": {"c": "chk.outColor"}}"#,
-    );
+    let m =
+        one(r#"{"nodes": [{"name": "chk", "type": "chekcer"}], "outputs": {"c": "chk.outColor"}}"#);
     assert!(m.contains("node `chk`") && m.contains("`chekcer`"), "{m}");
     assert!(m.contains("did you mean `checker`"), "{m}");
 }
@@ -52,30 +51,32 @@ fn unknown_port_lists_valid_ports() {
         r#"{"nodes": [{"name": "chk", "type": "checker", "inputs": {"colour1": [1,0,0]}}],
             "outputs": {"c": "chk.outColor"}}"#,
     );
-    assert!(m.contains("node `chk` (checker): unknown input `colour1`"), "{m}");
+    assert!(
+        m.contains("node `chk` (checker): unknown input `colour1`"),
+        "{m}"
+    );
     assert!(m.contains("color1"), "{m}");
 }
 
 #[test]
 fn type_mismatch_names_port_and_both_types() {
-    let m = one(
-        r#"{"nodes": [
+    let m = one(r#"{"nodes": [
               {"name": "uvs", "type": "place2d"},
               {"name": "surf", "type": "lambert", "inputs": {"color": "uvs.outUV"}}],
-            "outputs": {"c": "surf.outColor"}}"#,
-    );
+            "outputs": {"c": "surf.outColor"}}"#);
     assert!(m.contains("node `surf` input `color`"), "{m}");
-    assert!(m.contains("color") && m.contains("vec2") && m.contains("uvs.outUV"), "{m}");
+    assert!(
+        m.contains("color") && m.contains("vec2") && m.contains("uvs.outUV"),
+        "{m}"
+    );
 }
 
 #[test]
 fn cycle_is_reported_with_its_path() {
-    let m = one(
-        r#"{"nodes": [
+    let m = one(r#"{"nodes": [
               {"name": "a", "type": "multiply", "inputs": {"input1": "b.out"}},
               {"name": "b", "type": "multiply", "inputs": {"input1": "a.out"}}],
-            "outputs": {"c": "a.out"}}"#,
-    );
+            "outputs": {"c": "a.out"}}"#);
     assert!(m.starts_with("cycle: "), "{m}");
     assert!(m.contains("a → b → a") || m.contains("b → a → b"), "{m}");
 }
@@ -95,18 +96,22 @@ fn dangling_connection_names_missing_node() {
         r#"{"nodes": [{"name": "surf", "type": "lambert", "inputs": {"color": "tex.outColor"}}],
             "outputs": {"c": "surf.outColor"}}"#,
     );
-    assert!(m.contains("node `surf` input `color`") && m.contains("no node `tex`"), "{m}");
+    assert!(
+        m.contains("node `surf` input `color`") && m.contains("no node `tex`"),
+        "{m}"
+    );
 }
 
 #[test]
 fn unknown_output_port_lists_outputs() {
-    let m = one(
-        r#"{"nodes": [
+    let m = one(r#"{"nodes": [
               {"name": "chk", "type": "checker"},
               {"name": "surf", "type": "lambert", "inputs": {"color": "chk.outColour"}}],
-            "outputs": {"c": "surf.outColor"}}"#,
+            "outputs": {"c": "surf.outColor"}}"#);
+    assert!(
+        m.contains("has no output `outColour`") && m.contains("outColor"),
+        "{m}"
     );
-    assert!(m.contains("has no output `outColour`") && m.contains("outColor"), "{m}");
 }
 
 #[test]
@@ -120,12 +125,10 @@ fn duplicate_names_are_reported() {
 
 #[test]
 fn bad_component_is_reported() {
-    let m = one(
-        r#"{"nodes": [
+    let m = one(r#"{"nodes": [
               {"name": "chk", "type": "checker"},
               {"name": "surf", "type": "lambert", "inputs": {"diffuse": "chk.outColor.w"}}],
-            "outputs": {"c": "surf.outColor"}}"#,
-    );
+            "outputs": {"c": "surf.outColor"}}"#);
     assert!(m.contains("`w` is not a component"), "{m}");
 }
 
@@ -138,9 +141,21 @@ fn out_of_range_and_wrong_shape_literals() {
     );
     let all: Vec<String> = e.iter().map(|e| e.to_string()).collect();
     assert_eq!(all.len(), 3, "{all:#?}");
-    assert!(all.iter().any(|m| m.contains("`diffuse`") && m.contains("out of range")), "{all:#?}");
-    assert!(all.iter().any(|m| m.contains("`color`") && m.contains("3 numbers")), "{all:#?}");
-    assert!(all.iter().any(|m| m.contains("`transparency`") && m.contains("not a connection")), "{all:#?}");
+    assert!(
+        all.iter()
+            .any(|m| m.contains("`diffuse`") && m.contains("out of range")),
+        "{all:#?}"
+    );
+    assert!(
+        all.iter()
+            .any(|m| m.contains("`color`") && m.contains("3 numbers")),
+        "{all:#?}"
+    );
+    assert!(
+        all.iter()
+            .any(|m| m.contains("`transparency`") && m.contains("not a connection")),
+        "{all:#?}"
+    );
 }
 
 #[test]
@@ -149,7 +164,10 @@ fn invalid_option_lists_choices() {
         r#"{"nodes": [{"name": "s", "type": "samplerInfo", "inputs": {"space": "screen"}}],
             "outputs": {"p": "s.P"}}"#,
     );
-    assert!(m.contains("`screen` is not one of: world, camera, object"), "{m}");
+    assert!(
+        m.contains("`screen` is not one of: world, camera, object"),
+        "{m}"
+    );
 }
 
 #[test]
@@ -172,12 +190,10 @@ fn every_error_is_reported_not_just_the_first() {
 
 #[test]
 fn connection_to_a_light_is_rejected() {
-    let m = one(
-        r#"{"nodes": [
+    let m = one(r#"{"nodes": [
               {"name": "l", "type": "pointLight"},
               {"name": "s", "type": "lambert", "inputs": {"color": "l.color"}}],
-            "outputs": {"c": "s.outColor"}}"#,
-    );
+            "outputs": {"c": "s.outColor"}}"#);
     assert!(m.contains("node `s` input `color`"), "{m}");
 }
 
@@ -195,19 +211,28 @@ fn compound_recursion_and_missing_input() {
             ]}"#,
     );
     let all: Vec<String> = e.iter().map(|e| e.to_string()).collect();
-    assert!(all.iter().any(|m| m.contains("compound `loop`: uses itself")), "{all:#?}");
-    assert!(all.iter().any(|m| m.contains("node `y` input `k`") && m.contains("requires")), "{all:#?}");
+    assert!(
+        all.iter()
+            .any(|m| m.contains("compound `loop`: uses itself")),
+        "{all:#?}"
+    );
+    assert!(
+        all.iter()
+            .any(|m| m.contains("node `y` input `k`") && m.contains("requires")),
+        "{all:#?}"
+    );
 }
 
 #[test]
 fn compound_inner_errors_name_the_inner_node() {
-    let m = one(
-        r#"{"nodes": [{"name": "inst", "type": "c"}],
+    let m = one(r#"{"nodes": [{"name": "inst", "type": "c"}],
             "outputs": {"o": "inst.out"},
             "compounds": [{"name": "c", "outputs": {"out": "m.out"},
-               "nodes": [{"name": "m", "type": "multiply", "inputs": {"input1": "ghost.out"}}]}]}"#,
+               "nodes": [{"name": "m", "type": "multiply", "inputs": {"input1": "ghost.out"}}]}]}"#);
+    assert!(
+        m.contains("node `inst/m` input `input1`") && m.contains("no node `inst/ghost`"),
+        "{m}"
     );
-    assert!(m.contains("node `inst/m` input `input1`") && m.contains("no node `inst/ghost`"), "{m}");
 }
 
 #[test]

@@ -47,13 +47,22 @@ fn check_total<F: Real>() {
         ops::binary::<F>(BinOp::Add, Val::Int(i32::MAX), Val::Int(1)),
         Val::Int(i32::MIN)
     );
-    assert_eq!(ops::binary::<F>(BinOp::Div, Val::Int(7), Val::Int(0)), Val::Int(0));
-    assert_eq!(ops::binary::<F>(BinOp::Mod, Val::Int(7), Val::Int(0)), Val::Int(0));
+    assert_eq!(
+        ops::binary::<F>(BinOp::Div, Val::Int(7), Val::Int(0)),
+        Val::Int(0)
+    );
+    assert_eq!(
+        ops::binary::<F>(BinOp::Mod, Val::Int(7), Val::Int(0)),
+        Val::Int(0)
+    );
     assert_eq!(
         ops::binary::<F>(BinOp::Div, Val::Int(i32::MIN), Val::Int(-1)),
         Val::Int(i32::MIN)
     );
-    assert_eq!(ops::unary::<F>(UnOp::Neg, Val::Int(i32::MIN)), Val::Int(i32::MIN));
+    assert_eq!(
+        ops::unary::<F>(UnOp::Neg, Val::Int(i32::MIN)),
+        Val::Int(i32::MIN)
+    );
     // float → int conversion saturates, NaN → 0
     let to_int = |x: f64| ops::convert(shadenet_graph::Type::Int, Val::Float(f(x)));
     assert_eq!(to_int(1e20), Val::Int(i32::MAX));
@@ -91,9 +100,16 @@ fn guard_zeroes_and_counts_nonfinite_outputs() {
     };
     let ctx = ShadeCtx::new(frag, &env);
     let o32 = Interpreter::<f32>::new(&prog).shade(&ctx);
-    assert_eq!(o32.nonfinite, 2, "x and y components overflow to ±inf in f32");
+    assert_eq!(
+        o32.nonfinite, 2,
+        "x and y components overflow to ±inf in f32"
+    );
     assert_eq!(&o32.values[..3], &[0.0, 0.0, 0.0]);
-    assert_eq!(&o32.values[3..], &[1.0, 1.0, 0.0], "0/0 = 0 by the total division");
+    assert_eq!(
+        &o32.values[3..],
+        &[1.0, 1.0, 0.0],
+        "0/0 = 0 by the total division"
+    );
     let o64 = Interpreter::<f64>::new(&prog).shade(&ctx);
     assert_eq!(o64.nonfinite, 0);
     assert_eq!(o64.values[0], 1e30 * 1e30);

@@ -185,7 +185,9 @@ pub enum LinkError {
         msg: String,
     },
     /// The network declares no material output.
-    #[error("the network declares no material outputs (add \"outputs\": {{\"color\": \"node.outColor\"}})")]
+    #[error(
+        "the network declares no material outputs (add \"outputs\": {{\"color\": \"node.outColor\"}})"
+    )]
     NoOutputs,
     /// A compound definition that cannot be used.
     #[error("compound `{compound}`: {msg}")]
@@ -278,7 +280,12 @@ impl<'n, 'l> Expander<'n, 'l> {
                             node: full.clone(),
                             ty: spec.ty.clone(),
                             port: port.clone(),
-                            valid: def.inputs.iter().map(|p| p.name).collect::<Vec<_>>().join(", "),
+                            valid: def
+                                .inputs
+                                .iter()
+                                .map(|p| p.name)
+                                .collect::<Vec<_>>()
+                                .join(", "),
                         });
                         continue;
                     };
@@ -287,7 +294,9 @@ impl<'n, 'l> Expander<'n, 'l> {
                             let names: Vec<&str> = fields.iter().map(|f| f.0).collect();
                             self.array(json, &names, prefix, args, &full, port)
                         }
-                        ty => self.classify(json, port_is_string(Some(ty)), prefix, args, &full, port),
+                        ty => {
+                            self.classify(json, port_is_string(Some(ty)), prefix, args, &full, port)
+                        }
                     };
                     if let Some(raw) = raw {
                         inputs.push((port.clone(), raw));
@@ -324,10 +333,7 @@ impl<'n, 'l> Expander<'n, 'l> {
         if self.stack.contains(&comp.name.as_str()) {
             self.errors.push(LinkError::Compound {
                 compound: comp.name.clone(),
-                msg: format!(
-                    "uses itself (through {})",
-                    self.stack.join(" → ")
-                ),
+                msg: format!("uses itself (through {})", self.stack.join(" → ")),
             });
             return;
         }
@@ -338,7 +344,12 @@ impl<'n, 'l> Expander<'n, 'l> {
                     node: full.to_string(),
                     ty: spec.ty.clone(),
                     port: port.clone(),
-                    valid: comp.inputs.iter().map(|i| i.name.as_str()).collect::<Vec<_>>().join(", "),
+                    valid: comp
+                        .inputs
+                        .iter()
+                        .map(|i| i.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", "),
                 });
                 continue;
             };
@@ -471,10 +482,10 @@ impl<'n, 'l> Expander<'n, 'l> {
         port: &str,
     ) -> Option<Raw> {
         let Json::Array(elems) = json else {
-            if let Json::String(s) = json {
-                if s.starts_with('$') {
-                    return self.classify(json, false, prefix, args, node, port);
-                }
+            if let Json::String(s) = json
+                && s.starts_with('$')
+            {
+                return self.classify(json, false, prefix, args, node, port);
             }
             self.errors.push(LinkError::BadInput {
                 node: node.to_string(),
@@ -689,7 +700,11 @@ pub fn link(net: &Network, lib: &NodeLibrary) -> Result<Linked, LinkErrors> {
         component: Option<u8>,
         text: String,
     }
-    let resolve = |conn: &str, node: &str, port: &str, errors: &mut Vec<LinkError>| -> Option<Conn> {
+    let resolve = |conn: &str,
+                   node: &str,
+                   port: &str,
+                   errors: &mut Vec<LinkError>|
+     -> Option<Conn> {
         let mut cur = conn.to_string();
         let mut hops = 0;
         loop {
@@ -736,22 +751,32 @@ pub fn link(net: &Network, lib: &NodeLibrary) -> Result<Linked, LinkErrors> {
                     target: n.into(),
                     ty: def.name.into(),
                     output: o.into(),
-                    valid: def.outputs.iter().map(|x| x.name).collect::<Vec<_>>().join(", "),
+                    valid: def
+                        .outputs
+                        .iter()
+                        .map(|x| x.name)
+                        .collect::<Vec<_>>()
+                        .join(", "),
                 });
                 return None;
             };
             // The component index is checked against the type once generics are known.
             let component = match c {
                 None => None,
-                Some(c) => match ["x", "y", "z"].iter().position(|x| *x == c).or_else(|| {
-                    ["r", "g", "b"].iter().position(|x| *x == c)
-                }).or_else(|| ["u", "v"].iter().position(|x| *x == c)) {
+                Some(c) => match ["x", "y", "z"]
+                    .iter()
+                    .position(|x| *x == c)
+                    .or_else(|| ["r", "g", "b"].iter().position(|x| *x == c))
+                    .or_else(|| ["u", "v"].iter().position(|x| *x == c))
+                {
                     Some(k) => Some(k as u8),
                     None => {
                         errors.push(LinkError::BadInput {
                             node: node.into(),
                             port: port.into(),
-                            msg: format!("`{conn}`: `{c}` is not a component (use r/g/b, x/y/z or u/v)"),
+                            msg: format!(
+                                "`{conn}`: `{c}` is not a component (use r/g/b, x/y/z or u/v)"
+                            ),
                         });
                         return None;
                     }
@@ -777,7 +802,12 @@ pub fn link(net: &Network, lib: &NodeLibrary) -> Result<Linked, LinkErrors> {
     for n in &flat {
         let mut ports: Vec<In> = n.def.inputs.iter().map(|_| In::Default).collect();
         for (port, raw) in &n.inputs {
-            let pi = n.def.inputs.iter().position(|p| p.name == port).expect("checked");
+            let pi = n
+                .def
+                .inputs
+                .iter()
+                .position(|p| p.name == port)
+                .expect("checked");
             ports[pi] = match raw {
                 Raw::Lit(j) => In::Lit(j.clone()),
                 Raw::Conn(c) => match resolve(c, &n.name, port, &mut errors) {
@@ -869,8 +899,10 @@ pub fn link(net: &Network, lib: &NodeLibrary) -> Result<Linked, LinkErrors> {
                     1 => {
                         if !cyclic {
                             let start = stack.iter().position(|(n, _)| *n == d).unwrap_or(0);
-                            let mut path: Vec<&str> =
-                                stack[start..].iter().map(|(n, _)| flat[*n].name.as_str()).collect();
+                            let mut path: Vec<&str> = stack[start..]
+                                .iter()
+                                .map(|(n, _)| flat[*n].name.as_str())
+                                .collect();
                             path.push(&flat[d].name);
                             errors.push(LinkError::Cycle {
                                 path: path.join(" → "),
@@ -898,7 +930,11 @@ pub fn link(net: &Network, lib: &NodeLibrary) -> Result<Linked, LinkErrors> {
     };
     let conn_ty = |c: &Conn, generic: &[Type]| -> Type {
         let t = out_ty(c.node, c.output, generic);
-        if c.component.is_some() { Type::Float } else { t }
+        if c.component.is_some() {
+            Type::Float
+        } else {
+            t
+        }
     };
     for &i in &order {
         let def = flat[i].def;
@@ -913,10 +949,7 @@ pub fn link(net: &Network, lib: &NodeLibrary) -> Result<Linked, LinkErrors> {
                 _ => false,
             };
             match (&p.ty, &ins[i][pi]) {
-                (PortType::Generic, In::Lit(j)) => match j {
-                    Json::Array(a) => width = width.max(a.len()),
-                    _ => {}
-                },
+                (PortType::Generic, In::Lit(Json::Array(a))) => width = width.max(a.len()),
                 (PortType::Generic, In::Conn(c)) => seen.push(conn_ty(c, &generic)),
                 (PortType::Array(_), In::Array(a)) => {
                     for rec in a {
@@ -969,7 +1002,11 @@ pub fn link(net: &Network, lib: &NodeLibrary) -> Result<Linked, LinkErrors> {
                 msg: format!(
                     "its inputs make it {t}, which {} does not support (it takes {})",
                     def.name,
-                    def.generic.iter().map(|t| t.name()).collect::<Vec<_>>().join(", ")
+                    def.generic
+                        .iter()
+                        .map(|t| t.name())
+                        .collect::<Vec<_>>()
+                        .join(", ")
                 ),
             });
             def.generic[0]
@@ -987,65 +1024,68 @@ pub fn link(net: &Network, lib: &NodeLibrary) -> Result<Linked, LinkErrors> {
     for (k, &i) in shading.iter().enumerate() {
         pos[i] = k;
     }
-    let check = |i: usize, port: &str, ty: Type, v: &In, errors: &mut Vec<LinkError>| -> LinkedInput {
-        let n = &flat[i];
-        match v {
-            In::Default => LinkedInput::Default,
-            In::Lit(j) => match literal(j, ty) {
-                Ok(ConstValue::String(s)) => LinkedInput::Str(s),
-                Ok(c) => LinkedInput::Const(c),
-                Err(msg) => {
-                    errors.push(LinkError::BadInput {
-                        node: n.name.clone(),
-                        port: port.into(),
-                        msg,
-                    });
-                    LinkedInput::Default
-                }
-            },
-            In::Conn(c) => {
-                let src = &flat[c.node];
-                let full = out_ty(c.node, c.output, &generic);
-                if let Some(k) = c.component {
-                    if !full.is_vector() || k as usize >= full.width() {
+    let check =
+        |i: usize, port: &str, ty: Type, v: &In, errors: &mut Vec<LinkError>| -> LinkedInput {
+            let n = &flat[i];
+            match v {
+                In::Default => LinkedInput::Default,
+                In::Lit(j) => match literal(j, ty) {
+                    Ok(ConstValue::String(s)) => LinkedInput::Str(s),
+                    Ok(c) => LinkedInput::Const(c),
+                    Err(msg) => {
                         errors.push(LinkError::BadInput {
                             node: n.name.clone(),
                             port: port.into(),
-                            msg: format!("`{}`: a {full} has no such component", c.text),
+                            msg,
+                        });
+                        LinkedInput::Default
+                    }
+                },
+                In::Conn(c) => {
+                    let src = &flat[c.node];
+                    let full = out_ty(c.node, c.output, &generic);
+                    if let Some(k) = c.component
+                        && (!full.is_vector() || k as usize >= full.width())
+                    {
+                        {
+                            errors.push(LinkError::BadInput {
+                                node: n.name.clone(),
+                                port: port.into(),
+                                msg: format!("`{}`: a {full} has no such component", c.text),
+                            });
+                            return LinkedInput::Default;
+                        }
+                    }
+                    if !matches!(src.def.kind, NodeKind::Shading) {
+                        errors.push(LinkError::BadInput {
+                            node: n.name.clone(),
+                            port: port.into(),
+                            msg: format!("`{}` is a light; lights have no outputs", c.text),
                         });
                         return LinkedInput::Default;
                     }
+                    let from = conn_ty(c, &generic);
+                    if ty == Type::String || !coercible(from, ty) {
+                        errors.push(LinkError::TypeMismatch {
+                            node: n.name.clone(),
+                            port: port.into(),
+                            expected: ty,
+                            conn: c.text.clone(),
+                            found: from,
+                        });
+                        return LinkedInput::Default;
+                    }
+                    LinkedInput::Conn(Source {
+                        node: pos[c.node],
+                        output: c.output,
+                        component: c.component,
+                        from,
+                        to: ty,
+                    })
                 }
-                if !matches!(src.def.kind, NodeKind::Shading) {
-                    errors.push(LinkError::BadInput {
-                        node: n.name.clone(),
-                        port: port.into(),
-                        msg: format!("`{}` is a light; lights have no outputs", c.text),
-                    });
-                    return LinkedInput::Default;
-                }
-                let from = conn_ty(c, &generic);
-                if ty == Type::String || !coercible(from, ty) {
-                    errors.push(LinkError::TypeMismatch {
-                        node: n.name.clone(),
-                        port: port.into(),
-                        expected: ty,
-                        conn: c.text.clone(),
-                        found: from,
-                    });
-                    return LinkedInput::Default;
-                }
-                LinkedInput::Conn(Source {
-                    node: pos[c.node],
-                    output: c.output,
-                    component: c.component,
-                    from,
-                    to: ty,
-                })
+                In::Array(_) => LinkedInput::Default,
             }
-            In::Array(_) => LinkedInput::Default,
-        }
-    };
+        };
 
     let mut nodes = Vec::new();
     let mut lights = Vec::new();
@@ -1073,8 +1113,10 @@ pub fn link(net: &Network, lib: &NodeLibrary) -> Result<Linked, LinkErrors> {
                 }
                 (PortType::Array(_), _) => LinkedInput::Default,
             };
-            if let (LinkedInput::Str(s), false) = (&li, p.options.is_empty()) {
-                if !p.options.contains(&s.as_str()) {
+            if let (LinkedInput::Str(s), false) = (&li, p.options.is_empty())
+                && !p.options.contains(&s.as_str())
+            {
+                {
                     errors.push(LinkError::BadInput {
                         node: n.name.clone(),
                         port: p.name.into(),
@@ -1153,7 +1195,9 @@ pub fn link(net: &Network, lib: &NodeLibrary) -> Result<Linked, LinkErrors> {
             continue;
         }
         let full = out_ty(c.node, c.output, &generic);
-        if c.component.is_some_and(|k| !full.is_vector() || k as usize >= full.width()) {
+        if c.component
+            .is_some_and(|k| !full.is_vector() || k as usize >= full.width())
+        {
             errors.push(LinkError::BadOutput {
                 output: name.clone(),
                 msg: format!("`{t}`: a {full} has no such component"),

@@ -223,7 +223,9 @@ pub fn lower(linked: &Linked, lib: &NodeLibrary) -> Result<Program, LinkErrors> 
                     }
                     InputVal::Array(arr)
                 }
-                LinkedInput::Const(c) => InputVal::Value(LowVal::plain(constant_as(&mut b, c, port_ty))),
+                LinkedInput::Const(c) => {
+                    InputVal::Value(LowVal::plain(constant_as(&mut b, c, port_ty)))
+                }
                 LinkedInput::Str(s) => InputVal::Str(s.clone()),
                 LinkedInput::Conn(s) => InputVal::Value(coerce(&mut b, &outs[s.node][s.output], s)),
             };
@@ -247,7 +249,11 @@ pub fn lower(linked: &Linked, lib: &NodeLibrary) -> Result<Program, LinkErrors> 
                         def.outputs.len()
                     ),
                 });
-                outs[i] = def.outputs.iter().map(|o| LowVal::plain(b.zero(o.ty.unwrap_or(node.generic)))).collect();
+                outs[i] = def
+                    .outputs
+                    .iter()
+                    .map(|o| LowVal::plain(b.zero(o.ty.unwrap_or(node.generic))))
+                    .collect();
             }
             Err(msg) => {
                 errors.push(LinkError::Lowering {
@@ -255,7 +261,11 @@ pub fn lower(linked: &Linked, lib: &NodeLibrary) -> Result<Program, LinkErrors> 
                     ty: node.ty.clone(),
                     msg,
                 });
-                outs[i] = def.outputs.iter().map(|o| LowVal::plain(b.zero(o.ty.unwrap_or(node.generic)))).collect();
+                outs[i] = def
+                    .outputs
+                    .iter()
+                    .map(|o| LowVal::plain(b.zero(o.ty.unwrap_or(node.generic))))
+                    .collect();
             }
         }
     }
@@ -290,7 +300,10 @@ fn unreachable_input(
     errors.push(LinkError::Lowering {
         node: node.name.clone(),
         ty: node.ty.clone(),
-        msg: format!("internal error: input `{}` is not an array port", def.inputs[pi].name),
+        msg: format!(
+            "internal error: input `{}` is not an array port",
+            def.inputs[pi].name
+        ),
     });
 }
 

@@ -98,10 +98,10 @@ impl<F: Real> Interpreter<F> {
         }
         let mut projs = vec![Vec::new(); program.exprs.len()];
         for (i, e) in program.exprs.iter().enumerate() {
-            if let Op::Proj(r, k) = &e.op {
-                if let Some(list) = projs.get_mut(r.index()) {
-                    list.push((i, *k));
-                }
+            if let Op::Proj(r, k) = &e.op
+                && let Some(list) = projs.get_mut(r.index())
+            {
+                list.push((i, *k));
             }
         }
         Interpreter {

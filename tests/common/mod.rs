@@ -8,11 +8,14 @@ use shadenet_graph::nodes::{LightDesc, NodeLibrary};
 use shadenet_graph::types::{ConstValue, Type};
 use shadenet_runtime::{Fragment, Interpreter, ShadeCtx, ShadeEnv};
 
+/// One output entry: name, component (None for untagged), f32 values widened, f64 values.
+pub type Entry = (String, Option<String>, Vec<f64>, Vec<f64>);
+
 /// The outputs of one shading call, in f32 and in f64.
 #[derive(Debug, Clone)]
 pub struct Outputs {
     /// (output name, component name or None, f32 values widened, f64 values)
-    pub entries: Vec<(String, Option<String>, Vec<f64>, Vec<f64>)>,
+    pub entries: Vec<Entry>,
     /// Non-finite values caught by the guard in the f32 run.
     pub nonfinite32: u32,
 }
@@ -39,7 +42,7 @@ impl Outputs {
     fn total(
         &self,
         name: &str,
-        pick: impl Fn(&(String, Option<String>, Vec<f64>, Vec<f64>)) -> &Vec<f64>,
+        pick: impl Fn(&Entry) -> &Vec<f64>,
     ) -> Vec<f64> {
         let mut sum: Option<Vec<f64>> = None;
         for e in self.entries.iter().filter(|e| e.0 == name) {
