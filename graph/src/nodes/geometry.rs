@@ -34,8 +34,8 @@ pub fn register(lib: &mut NodeLibrary) {
         "samplerInfo",
         "The fragment's geometry (Maya `samplerInfo`), every vector in the space chosen by \
          `space`: `P` the shading point; `N` and `Ng` the shading and geometric normals, unit \
-         length (renormalized after the transform in camera and object space; a zero normal \
-         stays zero); `I` the normalized incident direction, eye → P (zero if the stream is \
+         length (in world space as the renderer supplies them, unit by contract; in camera \
+         and object space renormalized after the transform; a zero normal stays zero); `I` the normalized incident direction, eye → P (zero if the stream is \
          zero); `uv` the surface parameters (no space); `dPdu`, `dPdv` the surface \
          derivatives, transformed as vectors and not normalized. `facingRatio = max(0, \
          dot(N, −normalize(I)))` is computed from the world-space streams whatever `space` \

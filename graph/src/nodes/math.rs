@@ -289,9 +289,10 @@ pub fn register(lib: &mut NodeLibrary) {
     ));
     lib.add(node(
         "normalize",
-        "Unit vector: `out = input / length(input)`; total: the zero vector stays zero. A \
-         vector whose length overflows (components above about 1.8e19 in f32) normalizes to \
-         zero as well; tiny (denormal) vectors may lose accuracy.",
+        "Unit vector: `out = input / length(input)`; total: the zero vector stays zero. In \
+         f32 a vector whose squared length overflows (components above about 1.8e19) \
+         normalizes to zero too, and so does one whose squared length underflows \
+         (components below about 1e−23); components below about 1e−19 lose accuracy.",
         VECTOR_TYPES,
         vec![port::generic("input", 0.0, "The vector.")],
         vec![port::out_generic("out", "The unit vector (or zero).")],
