@@ -431,6 +431,13 @@ fn trigonometry() {
         "out",
         &[0.0, 1.0, (-1f64).sin()],
     );
+    for (node, fun) in [("cos", f64::cos as fn(f64) -> f64), ("tan", f64::tan)] {
+        expect(
+            &run(node, Type::Color, &[("input", c(0.0, 1.25, -0.5))]),
+            "out",
+            &[fun(0.0), fun(1.25), fun(-0.5)],
+        );
+    }
     // asin/acos clamp their argument.
     expect(
         &run("asin", Type::Color, &[("input", c(0.5, 2.0, -5.0))]),
@@ -877,7 +884,7 @@ fn non_finite_inputs_are_caught_by_the_output_guard() {
     );
     assert_eq!(o.get32("out"), vec![0.0, 0.0, 0.0]);
     assert!(o.nonfinite32 >= 1);
-    // Ops that select instead of computing absorb a NaN: clamp, smoothstep.
+    // Ops that select instead of computing absorb a NaN: clamp (smoothstep: see its test).
     let o = run("clamp", Type::Float, &[("input", f(f64::NAN))]);
     assert_eq!((o.get32("output")[0], o.nonfinite32), (0.0, 0));
 }
