@@ -126,10 +126,10 @@ fn load(path: &Path) -> Result<shadenet::Compiled> {
     let lib = NodeLibrary::standard();
     let mut compiled =
         compile_json(&src, &lib).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    if compiled.program.name == "material" {
-        if let Some(stem) = path.file_stem() {
-            compiled.program.name = stem.to_string_lossy().into_owned();
-        }
+    if compiled.program.name == "material"
+        && let Some(stem) = path.file_stem()
+    {
+        compiled.program.name = stem.to_string_lossy().into_owned();
     }
     shadenet::graph::ir::validate(&compiled.program)
         .map_err(|e| anyhow::anyhow!("{}: internal error: invalid IR: {e}", path.display()))?;

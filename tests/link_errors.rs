@@ -243,3 +243,14 @@ fn dollar_reference_outside_a_compound() {
     );
     assert!(m.contains("outside any compound"), "{m}");
 }
+
+#[test]
+fn unknown_node_type_does_not_cascade_into_dangling_errors() {
+    let e = errors(
+        r#"{"nodes": [
+              {"name": "tex", "type": "nosuchnode"},
+              {"name": "s", "type": "lambert", "inputs": {"color": "tex.outColor"}}],
+            "outputs": {"c": "s.outColor", "t": "tex.outColor"}}"#,
+    );
+    assert_eq!(e.len(), 1, "{e:#?}");
+}

@@ -253,6 +253,9 @@ struct Expander<'n, 'l> {
     aliases: HashMap<(String, String), String>,
     errors: Vec<LinkError>,
     stack: Vec<&'n str>,
+    /// Nodes already reported as unusable (unknown type): connections to them are not
+    /// reported again.
+    broken: std::collections::HashSet<String>,
 }
 
 /// The type a port of a library node or a compound instance takes (None for arrays and
@@ -313,6 +316,7 @@ impl<'n, 'l> Expander<'n, 'l> {
                 let hint = suggest(&spec.ty, self.lib)
                     .map(|s| format!(" (did you mean `{s}`?)"))
                     .unwrap_or_default();
+                self.broken.insert(full.clone());
                 self.errors.push(LinkError::UnknownType {
                     node: full,
                     ty: spec.ty.clone(),
@@ -655,6 +659,7 @@ pub fn link(net: &Network, lib: &NodeLibrary) -> Result<Linked, LinkErrors> {
         aliases: HashMap::new(),
         errors: Vec::new(),
         stack: Vec::new(),
+        broken: Default::default(),
     };
     if net.version != 1 {
         ex.errors.push(LinkError::BadOutput {
@@ -680,6 +685,7 @@ pub fn link(net: &Network, lib: &NodeLibrary) -> Result<Linked, LinkErrors> {
         flat,
         aliases,
         mut errors,
+        broken,
         ..
     } = ex;
 
@@ -735,6 +741,9 @@ pub fn link(net: &Network, lib: &NodeLibrary) -> Result<Linked, LinkErrors> {
                 continue;
             }
             let Some(&i) = index.get(n) else {
+                if broken.contains(n) {
+                    return None;
+                }
                 errors.push(LinkError::Dangling {
                     node: node.into(),
                     port: port.into(),
@@ -1181,9 +1190,13 @@ pub fn link(net: &Network, lib: &NodeLibrary) -> Result<Linked, LinkErrors> {
         };
         let mut errs = Vec::new();
         let Some(c) = resolve(t, "(outputs)", name, &mut errs) else {
-            errors.extend(errs.into_iter().map(|e| LinkError::BadOutput {
-                output: name.clone(),
-                msg: e.to_string().replace("node `(outputs)` input ", ""),
+            errors.extend(errs.into_iter().map(|e| {
+                LinkError::BadOutput {
+                    output: name.clone(),
+                    msg: e
+                        .to_string()
+                        .replace(&format!("node `(outputs)` input `{name}`: "), ""),
+                }
             }));
             continue;
         };

@@ -39,11 +39,7 @@ impl Outputs {
             .map(|e| e.3.clone())
     }
 
-    fn total(
-        &self,
-        name: &str,
-        pick: impl Fn(&Entry) -> &Vec<f64>,
-    ) -> Vec<f64> {
+    fn total(&self, name: &str, pick: impl Fn(&Entry) -> &Vec<f64>) -> Vec<f64> {
         let mut sum: Option<Vec<f64>> = None;
         for e in self.entries.iter().filter(|e| e.0 == name) {
             let v = pick(e);
