@@ -67,12 +67,12 @@ pub fn noise3<F: Real>(p: [F; 3]) -> F {
     let (zi, z) = cell(p[2]);
     let (u, v, w) = (fade(x), fade(y), fade(z));
     let one = F::ONE;
-    let a = perm(xi) + yi;
-    let aa = perm(a) + zi;
-    let ab = perm(a.wrapping_add(1)) + zi;
-    let b = perm(xi.wrapping_add(1)) + yi;
-    let ba = perm(b) + zi;
-    let bb = perm(b.wrapping_add(1)) + zi;
+    let a = perm(xi).wrapping_add(yi);
+    let aa = perm(a).wrapping_add(zi);
+    let ab = perm(a.wrapping_add(1)).wrapping_add(zi);
+    let b = perm(xi.wrapping_add(1)).wrapping_add(yi);
+    let ba = perm(b).wrapping_add(zi);
+    let bb = perm(b.wrapping_add(1)).wrapping_add(zi);
     lerp(
         w,
         lerp(
