@@ -14,4 +14,54 @@ pub use shadenet_graph as graph;
 pub use shadenet_runtime as runtime;
 
 pub use shadenet_graph::{CompileError, Compiled, NodeLibrary, compile_json};
+
+use std::path::{Path, PathBuf};
+
+/// A network file that could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum LoadError {
+    /// The file could not be read.
+    #[error("cannot read network {}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The file is not a valid network.
+    #[error("{}: {source}", path.display())]
+    Compile {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong with it.
+        source: CompileError,
+    },
+}
+
+/// Reads, links and lowers a network file with the standard library. The material is named
+/// after the file's stem unless the network names it, and relative texture paths are made
+/// relative to the file's directory.
+pub fn load_network(path: &Path) -> Result<Compiled, LoadError> {
+    let src = std::fs::read_to_string(path).map_err(|source| LoadError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let mut compiled =
+        compile_json(&src, &NodeLibrary::standard()).map_err(|source| LoadError::Compile {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    if compiled.program.name == "material"
+        && let Some(stem) = path.file_stem()
+    {
+        compiled.program.name = stem.to_string_lossy().into_owned();
+    }
+    let dir = path.parent().unwrap_or(Path::new(""));
+    for t in &mut compiled.program.textures {
+        if Path::new(t.as_str()).is_relative() {
+            *t = dir.join(&*t).to_string_lossy().into_owned();
+        }
+    }
+    Ok(compiled)
+}
 pub use shadenet_runtime::{Fragment, Interpreter, ShadeCtx, ShadeEnv};

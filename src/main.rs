@@ -2,8 +2,8 @@
 
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand, ValueEnum};
+use shadenet::graph::NodeLibrary;
 use shadenet::graph::nodes::{LightDesc, LightKind};
-use shadenet::graph::{NodeLibrary, compile_json};
 use shadenet::output::{write_exr, write_png};
 use shadenet::shade::{grid_env, shade_grid};
 use std::path::{Path, PathBuf};
@@ -121,16 +121,7 @@ fn main() {
 }
 
 fn load(path: &Path) -> Result<shadenet::Compiled> {
-    let src = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read network {}", path.display()))?;
-    let lib = NodeLibrary::standard();
-    let mut compiled =
-        compile_json(&src, &lib).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    if compiled.program.name == "material"
-        && let Some(stem) = path.file_stem()
-    {
-        compiled.program.name = stem.to_string_lossy().into_owned();
-    }
+    let compiled = shadenet::load_network(path)?;
     shadenet::graph::ir::validate(&compiled.program)
         .map_err(|e| anyhow::anyhow!("{}: internal error: invalid IR: {e}", path.display()))?;
     Ok(compiled)
@@ -293,8 +284,8 @@ fn shade(args: ShadeArgs) -> Result<()> {
     let (w, h) = args.res;
     let t1 = Instant::now();
     let grid = match args.precision {
-        Precision::F32 => shade_grid::<f32>(program, &env, w, h, mask),
-        Precision::F64 => shade_grid::<f64>(program, &env, w, h, mask),
+        Precision::F32 => shade_grid::<f32>(program, &env, w, h, mask)?,
+        Precision::F64 => shade_grid::<f64>(program, &env, w, h, mask)?,
     };
     let shade_time = t1.elapsed();
 

@@ -64,9 +64,16 @@ pub struct Grid {
 }
 
 /// Shades every pixel of a `w × h` grid with the interpreter in precision `F`, on the rayon
-/// thread pool, with the components in `mask` active.
-pub fn shade_grid<F: Real>(program: &Program, env: &ShadeEnv, w: u32, h: u32, mask: u32) -> Grid {
-    let interp = Interpreter::<F>::new(program);
+/// thread pool, with the components in `mask` active. Fails only if a texture cannot be
+/// loaded.
+pub fn shade_grid<F: Real>(
+    program: &Program,
+    env: &ShadeEnv,
+    w: u32,
+    h: u32,
+    mask: u32,
+) -> Result<Grid, shadenet_runtime::TextureError> {
+    let interp = Interpreter::<F>::new(program)?;
     let stride: usize = interp.slots().iter().map(|s| s.ty.width().max(1)).sum();
     let mut values = vec![0.0f64; (w * h) as usize * stride];
     let nonfinite: u64 = values
@@ -98,11 +105,11 @@ pub fn shade_grid<F: Real>(program: &Program, env: &ShadeEnv, w: u32, h: u32, ma
             },
         )
         .sum();
-    Grid {
+    Ok(Grid {
         width: w,
         height: h,
         stride,
         values,
         nonfinite,
-    }
+    })
 }

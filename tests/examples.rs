@@ -59,8 +59,8 @@ fn every_example_shades_finite_and_f32_agrees_with_f64() {
             });
         }
         let env = grid_env(&lights);
-        let g32 = shade_grid::<f32>(&c.program, &env, 24, 24, u32::MAX);
-        let g64 = shade_grid::<f64>(&c.program, &env, 24, 24, u32::MAX);
+        let g32 = shade_grid::<f32>(&c.program, &env, 24, 24, u32::MAX).unwrap();
+        let g64 = shade_grid::<f64>(&c.program, &env, 24, 24, u32::MAX).unwrap();
         assert_eq!(g32.nonfinite, 0, "{}", path.display());
         assert_eq!(g64.nonfinite, 0, "{}", path.display());
         let mut worst = 0.0f64;

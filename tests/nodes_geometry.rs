@@ -26,8 +26,8 @@ fn boolean(b: bool) -> Literal {
 /// harness uses identity transforms).
 fn run_env(program: &Program, frag: &Fragment, env: &ShadeEnv) -> Outputs {
     let ctx = ShadeCtx::new(*frag, env);
-    let i32_ = Interpreter::<f32>::new(program);
-    let i64_ = Interpreter::<f64>::new(program);
+    let i32_ = Interpreter::<f32>::new(program).expect("textures load");
+    let i64_ = Interpreter::<f64>::new(program).expect("textures load");
     let (o32, o64) = (i32_.shade(&ctx), i64_.shade(&ctx));
     let entries = i32_
         .slots()

@@ -99,7 +99,7 @@ fn guard_zeroes_and_counts_nonfinite_outputs() {
         ..Fragment::default()
     };
     let ctx = ShadeCtx::new(frag, &env);
-    let o32 = Interpreter::<f32>::new(&prog).shade(&ctx);
+    let o32 = Interpreter::<f32>::new(&prog).unwrap().shade(&ctx);
     assert_eq!(
         o32.nonfinite, 2,
         "x and y components overflow to ±inf in f32"
@@ -110,7 +110,7 @@ fn guard_zeroes_and_counts_nonfinite_outputs() {
         &[1.0, 1.0, 0.0],
         "0/0 = 0 by the total division"
     );
-    let o64 = Interpreter::<f64>::new(&prog).shade(&ctx);
+    let o64 = Interpreter::<f64>::new(&prog).unwrap().shade(&ctx);
     assert_eq!(o64.nonfinite, 0);
     assert_eq!(o64.values[0], 1e30 * 1e30);
 }

@@ -7,6 +7,7 @@
 
 use crate::ctx::{ShadeCtx, ShadeEnv};
 use crate::lights;
+use crate::texture::{TextureError, TextureSet};
 use shadenet_graph::ir::{BinOp, Block, Op, Program, Space, Stream, Value, XformKind};
 use shadenet_graph::ops::{self, Real, Val};
 use shadenet_graph::types::{ConstValue, Type};
@@ -46,6 +47,10 @@ pub struct Interpreter<F: Real> {
     width: usize,
     /// For each region (by arena index): its `Proj` users as (arena index, result index).
     projs: Vec<Vec<(usize, u8)>>,
+    /// The program's textures.
+    textures: TextureSet,
+    /// The prelude's values, evaluated once, by arena index.
+    prelude: Vec<(usize, Val<F>)>,
 }
 
 /// Reusable per-thread storage for [`Interpreter::shade_with`].
@@ -65,8 +70,15 @@ impl<F> Default for Scratch<F> {
 }
 
 impl<F: Real> Interpreter<F> {
-    /// Prepares a program. The program must be valid (see `shadenet_graph::ir::validate`).
-    pub fn new(program: &Program) -> Interpreter<F> {
+    /// Prepares a program: loads its textures and evaluates its prelude. The program must be
+    /// valid (see `shadenet_graph::ir::validate`).
+    pub fn new(program: &Program) -> Result<Interpreter<F>, TextureError> {
+        let textures = TextureSet::load(&program.textures)?;
+        Ok(Interpreter::with_textures(program, textures))
+    }
+
+    /// Prepares a program with already loaded textures (one per `Program::textures` entry).
+    pub fn with_textures(program: &Program, textures: TextureSet) -> Interpreter<F> {
         let mut mats: Vec<[F; 16]> = Vec::new();
         let mut mat_of = |c: &ConstValue| -> Val<F> {
             let ConstValue::Matrix44(m) = c else {
@@ -104,14 +116,30 @@ impl<F: Real> Interpreter<F> {
                 list.push((i, *k));
             }
         }
-        Interpreter {
+        let mut interp = Interpreter {
             projs,
             program: program.clone(),
             consts,
             mats,
             slots,
             width,
-        }
+            textures,
+            prelude: Vec::new(),
+        };
+        // The prelude reads neither the fragment nor the environment (the validator ensures
+        // it): evaluate it once against an empty context.
+        let env = ShadeEnv::default();
+        let ctx = ShadeCtx::new(Default::default(), &env);
+        let mut scratch = Scratch::default();
+        scratch.regs.resize(program.exprs.len(), Val::Int(0));
+        interp.block(&program.prelude, &ctx, &mut scratch);
+        interp.prelude = program
+            .prelude
+            .body
+            .iter()
+            .map(|v| (v.index(), scratch.regs[v.index()]))
+            .collect();
+        interp
     }
 
     /// The program being run.
@@ -140,6 +168,9 @@ impl<F: Real> Interpreter<F> {
         scratch.regs.clear();
         scratch.regs.resize(self.program.exprs.len(), Val::Int(0));
         scratch.light = None;
+        for &(i, v) in &self.prelude {
+            scratch.regs[i] = v;
+        }
         self.block(&self.program.body, ctx, scratch);
         out.values.clear();
         out.values.resize(self.width, F::ZERO);
@@ -239,6 +270,19 @@ impl<F: Real> Interpreter<F> {
             Op::LightCl => Val::Vec3(s.light.map_or([F::ZERO; 3], |l| l.cl)),
             Op::Ambient => Val::Vec3(lights::ambient(&ctx.env.lights)),
             Op::Proj(..) => s.regs[v.index()],
+            Op::Texture { texture, uv, alpha } => {
+                let uv = reg(uv);
+                let uv = uv.floats();
+                let t = self
+                    .textures
+                    .get(*texture)
+                    .map_or([F::ZERO; 4], |t| t.sample([uv[0], uv[1]]));
+                if *alpha {
+                    Val::Float(t[3])
+                } else {
+                    Val::Vec3([t[0], t[1], t[2]])
+                }
+            }
         }
     }
 

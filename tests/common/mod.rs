@@ -71,8 +71,8 @@ pub fn run_program(program: &Program, frag: &Fragment, lights: &[LightDesc], mas
     let env = ShadeEnv::with_lights(lights);
     let mut ctx = ShadeCtx::new(*frag, &env);
     ctx.mask = mask;
-    let i32_ = Interpreter::<f32>::new(program);
-    let i64_ = Interpreter::<f64>::new(program);
+    let i32_ = Interpreter::<f32>::new(program).expect("textures load");
+    let i64_ = Interpreter::<f64>::new(program).expect("textures load");
     let o32 = i32_.shade(&ctx);
     let o64 = i64_.shade(&ctx);
     let mut entries = Vec::new();

@@ -300,6 +300,24 @@ impl Builder {
         self.push(Op::Call(i, args.to_vec()), Some(ty))
     }
 
+    /// Registers a texture file (once per distinct name) and returns its index.
+    pub fn texture_index(&mut self, file: &str) -> u32 {
+        if let Some(i) = self.program.textures.iter().position(|t| t == file) {
+            return i as u32;
+        }
+        self.program.textures.push(file.to_string());
+        (self.program.textures.len() - 1) as u32
+    }
+
+    /// A lookup of texture `texture` at `uv`: color, or alpha (float) if `alpha`.
+    pub fn texture(&mut self, texture: u32, uv: Value, alpha: bool) -> Value {
+        if self.ty(uv) != Type::Vec2 {
+            self.fail("texture coordinates must be a vec2");
+        }
+        let ty = if alpha { Type::Float } else { Type::Color };
+        self.push(Op::Texture { texture, uv, alpha }, Some(ty))
+    }
+
     /// Sum of the ambient lights (color).
     pub fn ambient(&mut self) -> Value {
         self.push(Op::Ambient, Some(Type::Color))

@@ -484,6 +484,17 @@ pub enum Op {
     Ambient,
     /// Result `index` of a region (`If` or `Illuminance`).
     Proj(Value, u8),
+    /// A bilinear lookup of texture `texture` (index into `Program::textures`) at `uv`
+    /// (wrapping): its linear RGB color (type color) or its alpha (type float). Evaluated by
+    /// the runtime's texture system; never folded.
+    Texture {
+        /// Index into `Program::textures`.
+        texture: u32,
+        /// Texture coordinates (vec2).
+        uv: Value,
+        /// Alpha (float) instead of color.
+        alpha: bool,
+    },
 }
 
 impl Op {
@@ -512,6 +523,7 @@ impl Op {
             Op::If { cond, .. } => f(*cond),
             Op::Illuminance { p, .. } => f(*p),
             Op::Proj(r, _) => f(*r),
+            Op::Texture { uv, .. } => f(*uv),
         }
     }
 
@@ -550,13 +562,21 @@ pub struct Output {
     pub value: Value,
 }
 
-/// One material: values, the top-level block, outputs, component names and parameters.
+/// One material: values, the prelude and the top-level block, outputs, component names,
+/// parameters and textures.
+///
+/// The **prelude** holds values that depend only on constants and parameters (the uniform
+/// hoisting pass moves them there): a back end evaluates it once per material instance, and
+/// its values are visible to the top-level block. It contains no region and nothing that
+/// reads the fragment, the lights, the component mask or a texture.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Program {
     /// The material's name.
     pub name: String,
     /// The arena of values; a [`Value`] indexes it.
     pub exprs: Vec<Expr>,
+    /// Values computed once per material instance, before `body` (its `yields` stay empty).
+    pub prelude: Block,
     /// The top-level block (its `yields` stay empty).
     pub body: Block,
     /// Outputs, in declaration order; parts of the same name are contiguous.
@@ -565,6 +585,9 @@ pub struct Program {
     pub components: Vec<String>,
     /// Uniform parameters.
     pub params: Vec<ParamDecl>,
+    /// Texture files, by index (paths as the network gave them, made absolute by the loader
+    /// when the network came from a file).
+    pub textures: Vec<String>,
 }
 
 impl Program {
@@ -626,9 +649,11 @@ impl Program {
         }
     }
 
-    /// Number of values reachable from the top-level block (ops in the program).
+    /// Number of values in the prelude and the top-level block, nested blocks included (ops
+    /// in the program).
     pub fn op_count(&self) -> usize {
         let mut n = 0;
+        self.walk(&self.prelude, &mut |_| n += 1);
         self.walk(&self.body, &mut |_| n += 1);
         n
     }
@@ -663,6 +688,7 @@ impl Rate {
 /// yields.
 pub fn rates(program: &Program) -> Vec<Rate> {
     let mut rates = vec![Rate::Const; program.exprs.len()];
+    rate_block(program, &program.prelude, &mut rates);
     rate_block(program, &program.body, &mut rates);
     rates
 }
@@ -672,7 +698,7 @@ fn rate_block(program: &Program, block: &Block, rates: &mut [Rate]) {
         let op = program.op(v);
         let mut r = match op {
             Op::Const(_) => Rate::Const,
-            Op::Param(_) | Op::ComponentEnabled(_) => Rate::Uniform,
+            Op::Param(_) | Op::ComponentEnabled(_) | Op::Texture { .. } => Rate::Uniform,
             Op::Stream(_) | Op::LightL | Op::LightCl | Op::Ambient => Rate::Varying,
             Op::Illuminance { .. } => Rate::Varying,
             _ => Rate::Const,

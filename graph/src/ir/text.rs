@@ -160,7 +160,9 @@ fn number_values(p: &Program) -> Vec<Option<u32>> {
         }
     }
     let mut names = vec![None; p.exprs.len()];
-    go(p, &p.body, &mut names, &mut 0);
+    let mut next = 0;
+    go(p, &p.prelude, &mut names, &mut next);
+    go(p, &p.body, &mut names, &mut next);
     names
 }
 
@@ -256,6 +258,14 @@ impl<W: fmt::Write> Printer<'_, W> {
             let lit = const_text(default, Some(*ty));
             writeln!(self.out, "  param {name:?} {ty} = {lit}")?;
         }
+        for t in &p.textures {
+            writeln!(self.out, "  texture {t:?}")?;
+        }
+        if !p.prelude.body.is_empty() || !p.prelude.yields.is_empty() {
+            writeln!(self.out, "  prelude {{")?;
+            self.block(&p.prelude, 2)?;
+            writeln!(self.out, "  }}")?;
+        }
         self.block(&p.body, 1)?;
         for Output {
             name,
@@ -344,6 +354,11 @@ impl<W: fmt::Write> Printer<'_, W> {
             Op::LightCl => "light.Cl".to_string(),
             Op::Ambient => "ambient".to_string(),
             Op::Proj(r, i) => format!("proj {}, {i}", self.val(*r)),
+            Op::Texture { texture, uv, alpha } => format!(
+                "{} #{texture} {}",
+                if *alpha { "texture.alpha" } else { "texture" },
+                self.val(*uv)
+            ),
         };
         self.out.write_str(&text)
     }
@@ -699,6 +714,7 @@ pub fn parse(src: &str) -> Result<Program, ParseError> {
         prog: Program::default(),
         defs: HashMap::new(),
         scopes: Vec::new(),
+        keep_scope: false,
         depth: 0,
     };
     p.program()?;
@@ -743,6 +759,8 @@ struct Parser {
     defs: HashMap<String, Def>,
     /// The labels defined in each open block, innermost last.
     scopes: Vec<Vec<String>>,
+    /// The next block's values stay visible after it (the prelude's).
+    keep_scope: bool,
     depth: usize,
 }
 
@@ -879,6 +897,7 @@ impl Parser {
             return Err(Self::err(self.peek(), ParseErrorKind::TooDeep(MAX_DEPTH)));
         }
         self.depth += 1;
+        let keep = std::mem::take(&mut self.keep_scope);
         self.scopes.push(Vec::new());
         let mut block = Block::default();
         let mut yielded = false;
@@ -896,6 +915,23 @@ impl Parser {
                     yielded = true;
                 }
                 Tok::Ident(w) if top && w == "components" => self.components()?,
+                Tok::Ident(w) if top && w == "texture" => {
+                    self.next();
+                    let t = self.next();
+                    let Tok::Str(name) = t.tok.clone() else {
+                        return Err(Self::expected(&t, "a texture file name (a quoted string)"));
+                    };
+                    self.prog.textures.push(name);
+                }
+                Tok::Ident(w) if top && w == "prelude" => {
+                    self.next();
+                    self.expect_punct('{')?;
+                    self.keep_scope = true;
+                    let pre = self.block(false)?;
+                    self.expect_punct('}')?;
+                    self.prog.prelude.body.extend(pre.body);
+                    self.prog.prelude.yields.extend(pre.yields);
+                }
                 Tok::Ident(w) if top && w == "param" => self.param()?,
                 Tok::Ident(w) if top && w == "output" => self.output()?,
                 _ => {
@@ -910,9 +946,17 @@ impl Parser {
                 }
             }
         }
-        for label in self.scopes.pop().unwrap_or_default() {
-            if let Some(d) = self.defs.get_mut(&label) {
-                d.visible = false;
+        let labels = self.scopes.pop().unwrap_or_default();
+        if keep {
+            // The prelude's values stay visible to the rest of the program.
+            if let Some(outer) = self.scopes.last_mut() {
+                outer.extend(labels);
+            }
+        } else {
+            for label in labels {
+                if let Some(d) = self.defs.get_mut(&label) {
+                    d.visible = false;
+                }
             }
         }
         self.depth -= 1;
@@ -1158,6 +1202,16 @@ impl Parser {
                     .ok_or_else(|| Self::err(&t, ParseErrorKind::UnknownIntrinsic(w)))?;
                 Op::Call(i, self.operand_list()?)
             }
+            "texture" | "texture.alpha" => {
+                self.expect_punct('#')?;
+                let texture = self.index("a texture index")?;
+                let uv = self.operand()?;
+                Op::Texture {
+                    texture,
+                    uv,
+                    alpha: word == "texture.alpha",
+                }
+            }
             "light.L" => Op::LightL,
             "light.Cl" => Op::LightCl,
             "ambient" => Op::Ambient,
@@ -1365,6 +1419,11 @@ mod tests {
                 body: remap_block(body, m),
             },
             Op::Proj(r, i) => Op::Proj(m(*r), *i),
+            Op::Texture { texture, uv, alpha } => Op::Texture {
+                texture: *texture,
+                uv: m(*uv),
+                alpha: *alpha,
+            },
         }
     }
 
@@ -1387,7 +1446,9 @@ mod tests {
         Program {
             name: p.name.clone(),
             exprs: exprs.into_iter().map(|e| e.expect("numbered")).collect(),
+            prelude: remap_block(&p.prelude, &m),
             body: remap_block(&p.body, &m),
+            textures: p.textures.clone(),
             outputs: p
                 .outputs
                 .iter()

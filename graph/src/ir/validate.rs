@@ -80,6 +80,25 @@ pub enum ValidationError {
         /// What does not fit.
         reason: String,
     },
+    /// `texture` with an index past `Program::textures`.
+    #[error("{value:?} reads texture {index}, but the program has {count}")]
+    TextureIndex {
+        /// The value.
+        value: Value,
+        /// The index.
+        index: u32,
+        /// `Program::textures.len()`.
+        count: usize,
+    },
+    /// A prelude value that is not uniform (it reads the fragment, lights, the component
+    /// mask or a texture, or is a region) or that reads a value of the top-level block.
+    #[error("{value:?} cannot be in the prelude: {reason}")]
+    Prelude {
+        /// The value.
+        value: Value,
+        /// Why.
+        reason: String,
+    },
     /// `param` with an index past `Program::params`.
     #[error("{value:?} reads parameter {index}, but the program has {count}")]
     ParamIndex {
@@ -237,7 +256,32 @@ pub fn validate(p: &Program) -> Result<(), ValidationError> {
         region_types: HashMap::new(),
         illuminance_depth: 0,
     };
+    v.list(&p.prelude)?;
     v.list(&p.body)?;
+    if !p.prelude.yields.is_empty() {
+        return Err(ValidationError::TopLevelYields {
+            count: p.prelude.yields.len(),
+        });
+    }
+    // The prelude: uniform values only, visible to everything after them.
+    for &value in &p.prelude.body {
+        let reason = match &p.exprs[value.index()].op {
+            Op::Stream(_) | Op::Transform { .. } => Some("it reads the fragment"),
+            Op::ComponentEnabled(_) => Some("it reads the component mask"),
+            Op::LightL | Op::LightCl | Op::Ambient => Some("it reads the lights"),
+            Op::Texture { .. } => Some("it reads a texture"),
+            Op::If { .. } | Op::Illuminance { .. } | Op::Proj(..) => Some("it is a region"),
+            _ => None,
+        };
+        if let Some(reason) = reason {
+            return Err(ValidationError::Prelude {
+                value,
+                reason: reason.into(),
+            });
+        }
+        v.value(value)?;
+        v.visible[value.index()] = true;
+    }
     if !p.body.yields.is_empty() {
         return Err(ValidationError::TopLevelYields {
             count: p.body.yields.len(),
@@ -391,6 +435,20 @@ impl Validator<'_> {
                 }
             },
             Op::Stream(s) => Some(s.ty()),
+            Op::Texture { texture, uv, alpha } => {
+                if *texture as usize >= p.textures.len() {
+                    return Err(ValidationError::TextureIndex {
+                        value,
+                        index: *texture,
+                        count: p.textures.len(),
+                    });
+                }
+                let t = self.operand(value, *uv)?;
+                if t != Type::Vec2 {
+                    return Err(ill(format!("texture coordinates are {t}, not vec2")));
+                }
+                Some(if *alpha { Type::Float } else { Type::Color })
+            }
             Op::Transform { arg, .. } => {
                 let t = self.operand(value, *arg)?;
                 if t != Type::Vec3 {

@@ -18,7 +18,7 @@
 //! its octave sum overflows, which the material output guard catches.
 
 use super::port::{self, out};
-use super::{LowVal, NodeDef, NodeInputs, NodeKind, NodeLibrary};
+use super::{LowVal, NodeDef, NodeInputs, NodeKind, NodeLibrary, PortDef, PortDefault, PortType};
 use crate::ir::{BinOp, Builder, Intrinsic, Op, Stream, UnOp, Value};
 use crate::types::{ConstValue, Type};
 use std::cmp::Ordering;
@@ -35,6 +35,7 @@ pub fn register(lib: &mut NodeLibrary) {
     lib.add(solid_noise_def());
     lib.add(fractal_def());
     lib.add(cell_noise_def());
+    lib.add(file_def());
 }
 
 // ---- shared helpers ----
@@ -605,4 +606,49 @@ fn lower_cell_noise(b: &mut Builder, inp: &NodeInputs) -> Result<Vec<LowVal>, St
     let q = scale_by(b, p, s);
     let alpha = b.call(Intrinsic::CellNoise3, &[q]);
     Ok(grey_outputs(b, alpha))
+}
+
+// ---- file texture ----
+
+fn file_def() -> NodeDef {
+    NodeDef {
+        name: "file",
+        category: "pattern",
+        doc: "An image file (Maya `file`): a bilinear lookup with repeat wrapping.\n\n\
+              `uv = (0, 0)` is the image's bottom-left corner. 8- and 16-bit PNGs are \
+              decoded from sRGB to linear RGB; alpha is linear (1 where the image has none). \
+              A relative path is relative to the network file. The file is loaded when the \
+              material is prepared, and only if the optimized program still reads it: a \
+              texture on a dead branch is never opened, a missing file on a live one is an \
+              error naming the file.",
+        generic: &[],
+        inputs: vec![
+            PortDef {
+                name: "fileTextureName",
+                ty: PortType::Simple(Type::String),
+                default: PortDefault::Value(ConstValue::String(String::new())),
+                options: &[],
+                doc: "Path of the image file (PNG).",
+            },
+            port::stream("uvCoord", Type::Vec2, Stream::Uv, "Texture coordinates."),
+        ],
+        outputs: vec![
+            port::out("outColor", Type::Color, "The texel color, linear RGB."),
+            port::out("outAlpha", Type::Float, "The texel alpha."),
+        ],
+        lower: lower_file,
+        kind: NodeKind::Shading,
+    }
+}
+
+fn lower_file(b: &mut Builder, inp: &NodeInputs) -> Result<Vec<LowVal>, String> {
+    let name = inp.string("fileTextureName");
+    if name.is_empty() {
+        return Err("`fileTextureName` is empty: name an image file".into());
+    }
+    let uv = inp.get("uvCoord");
+    let t = b.texture_index(name);
+    let color = b.texture(t, uv, false);
+    let alpha = b.texture(t, uv, true);
+    Ok(vec![LowVal::plain(color), LowVal::plain(alpha)])
 }
