@@ -25,10 +25,10 @@ pub fn default_input(b: &mut Builder, def: &NodeDef, port: usize, generic: Type)
     }
 }
 
-/// Emits constant `c` as type `ty`: floats broadcast to vectors, ints and bools converted
-/// to floats, vec3 and color interchangeable.
-pub fn constant_as(b: &mut Builder, c: &ConstValue, ty: Type) -> Value {
-    let out = match (c, ty) {
+/// Converts constant `c` to type `ty`: floats broadcast to vectors, ints and bools converted
+/// to floats, vec3 and color interchangeable. `None` if no such conversion exists.
+pub fn convert_const(c: &ConstValue, ty: Type) -> Option<ConstValue> {
+    match (c, ty) {
         (c, t) if c.ty() == t => Some(c.clone()),
         (ConstValue::Float(x), t) if t.is_vector() => {
             ConstValue::from_floats(t, &vec![*x; t.width()])
@@ -42,11 +42,27 @@ pub fn constant_as(b: &mut Builder, c: &ConstValue, ty: Type) -> Value {
         (ConstValue::Bool(x), Type::Int) => Some(ConstValue::Int(*x as i32)),
         (ConstValue::Vec3(v) | ConstValue::Color(v), t) => ConstValue::from_floats(t, v),
         _ => None,
-    };
-    match out {
+    }
+}
+
+/// Emits constant `c` as type `ty` (see [`convert_const`]).
+pub fn constant_as(b: &mut Builder, c: &ConstValue, ty: Type) -> Value {
+    match convert_const(c, ty) {
         Some(c) => b.constant(c),
         None => {
             b.fail(format!("constant {c} cannot be used as {ty}"));
+            b.zero(ty)
+        }
+    }
+}
+
+/// Emits a literal set on a node's port as a uniform parameter `node.port` of type `ty`
+/// (class compilation keeps it adjustable; baking turns it into a constant).
+pub fn param_as(b: &mut Builder, name: &str, c: &ConstValue, ty: Type) -> Value {
+    match convert_const(c, ty) {
+        Some(c) => b.param(name, c),
+        None => {
+            b.fail(format!("parameter {name} = {c} cannot be used as {ty}"));
             b.zero(ty)
         }
     }

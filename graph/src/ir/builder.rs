@@ -204,9 +204,13 @@ impl Builder {
         self.min(m, hi)
     }
 
-    /// `a * (1 - t) + b * t` with `t` a float or of `a`'s type (a float `t` is splatted).
+    /// `mix(a, b, t)`: exactly `a` where `t == 0`, exactly `b` where `t == 1`, else
+    /// `a * (1 - t) + b * t` (a float `t` is splatted for the arithmetic). The exact ends
+    /// make a constant weight of 0 or 1 an exact dead-branch case, whatever `a` and `b` hold
+    /// (even ±inf or NaN).
     pub fn mix(&mut self, a: Value, b: Value, t: Value) -> Value {
         let ty = self.ty(a);
+        let scalar_t = t;
         let t = self.splat_to(ty, t);
         let one = self.constant(
             ConstValue::from_floats(ty, &vec![1.0; ty.width()]).unwrap_or(ConstValue::Float(1.0)),
@@ -214,7 +218,29 @@ impl Builder {
         let omt = self.sub(one, t);
         let x = self.mul(a, omt);
         let y = self.mul(b, t);
-        self.add(x, y)
+        let lerp = self.add(x, y);
+        if self.ty(scalar_t) != Type::Float {
+            return lerp;
+        }
+        let zero = self.float(0.0);
+        let one = self.float(1.0);
+        let at0 = self.binary(BinOp::Eq, scalar_t, zero);
+        let at1 = self.binary(BinOp::Eq, scalar_t, one);
+        let end1 = self.select(at1, b, lerp);
+        self.select(at0, a, end1)
+    }
+
+    /// A uniform parameter `name` (class compilation) with value `value`: declared in the
+    /// program's parameter table and read with `param`.
+    pub fn param(&mut self, name: &str, value: ConstValue) -> Value {
+        let ty = value.ty();
+        self.program.params.push(super::ParamDecl {
+            name: name.to_string(),
+            ty,
+            default: value,
+        });
+        let i = (self.program.params.len() - 1) as u32;
+        self.push(Op::Param(i), Some(ty))
     }
 
     /// `cond ? a : b`, both evaluated.

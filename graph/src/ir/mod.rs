@@ -23,6 +23,7 @@
 //! that a program is well formed; passes and back ends may rely on what it checks.
 
 mod builder;
+mod edit;
 mod text;
 mod validate;
 

@@ -694,6 +694,7 @@ mod tests {
                 Op::Const(c) => Val::from_const(c),
                 Op::Binary(op, a, b) => ops::binary(*op, ev(p, *a), ev(p, *b)),
                 Op::Unary(op, a) => ops::unary(*op, ev(p, *a)),
+                Op::Select { cond, a, b } => ops::select(ev(p, *cond), ev(p, *a), ev(p, *b)),
                 Op::Splat(a) => ops::splat(p.ty(v), ev(p, *a)),
                 Op::Extract(a, i) => ops::extract(ev(p, *a), *i),
                 Op::Construct(args) => {
