@@ -110,7 +110,7 @@ fn main() {
         Cmd::Compile { network, emit } => compile(&network, emit),
         Cmd::Check { network } => check(&network),
         Cmd::Nodes => {
-            print!("{}", NodeLibrary::standard().reference());
+            print_out(&NodeLibrary::standard().reference());
             Ok(())
         }
     };
@@ -118,6 +118,12 @@ fn main() {
         eprintln!("error: {e:#}");
         std::process::exit(1);
     }
+}
+
+/// Writes to stdout; a closed pipe (`| head`) ends the output quietly.
+fn print_out(text: &str) {
+    use std::io::Write;
+    let _ = std::io::stdout().lock().write_all(text.as_bytes());
 }
 
 fn load(path: &Path) -> Result<shadenet::Compiled> {
@@ -130,7 +136,7 @@ fn load(path: &Path) -> Result<shadenet::Compiled> {
 fn compile(path: &Path, emit: Emit) -> Result<()> {
     let c = load(path)?;
     match emit {
-        Emit::Ir => print!("{}", c.program),
+        Emit::Ir => print_out(&c.program.to_string()),
     }
     Ok(())
 }

@@ -240,7 +240,8 @@ pub fn lower(linked: &Linked, lib: &NodeLibrary) -> Result<Program, LinkErrors> 
                     InputVal::Array(arr)
                 }
                 LinkedInput::Const(c) => {
-                    InputVal::Value(LowVal::plain(constant_as(&mut b, c, port_ty)))
+                    let name = format!("{}.{}", node.name, def.inputs[pi].name);
+                    InputVal::Value(LowVal::plain(param_as(&mut b, &name, c, port_ty)))
                 }
                 LinkedInput::Str(s) => InputVal::Str(s.clone()),
                 LinkedInput::Conn(s) => InputVal::Value(coerce(&mut b, &outs[s.node][s.output], s)),
