@@ -13,6 +13,7 @@ pub mod lower;
 pub mod network;
 pub mod nodes;
 pub mod ops;
+pub mod opt;
 pub mod types;
 
 pub use link::{LinkError, LinkErrors, Linked, link};
