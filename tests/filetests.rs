@@ -89,7 +89,7 @@ fn run_file(pass: &str, path: &Path, bless: bool) -> Result<(), String> {
         let mut out = input.trim_end().to_string();
         out.push('\n');
         for l in &got {
-            out.push_str(&format!("; check: {l}").trim_end().to_string());
+            out.push_str(format!("; check: {l}").trim_end());
             out.push('\n');
         }
         std::fs::write(path, out).unwrap();
