@@ -3,6 +3,7 @@
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand, ValueEnum};
 use shadenet::graph::NodeLibrary;
+use shadenet::graph::opt::{self, Specialization};
 use shadenet::graph::nodes::{LightDesc, LightKind};
 use shadenet::output::{write_exr, write_png};
 use shadenet::shade::{grid_env, shade_grid};
@@ -24,14 +25,8 @@ struct Cli {
 enum Cmd {
     /// Shade a network over a grid of fragments on a unit plane and write images.
     Shade(ShadeArgs),
-    /// Link and lower a network; print its IR.
-    Compile {
-        /// The network file (.json).
-        network: PathBuf,
-        /// What to print.
-        #[arg(long, value_enum, default_value_t = Emit::Ir)]
-        emit: Emit,
-    },
+    /// Link, lower and optimize a network; print its IR and/or what the optimizer did.
+    Compile(CompileArgs),
     /// Link a network and report every error, or `ok` with a summary.
     Check {
         /// The network file (.json).
@@ -41,10 +36,92 @@ enum Cmd {
     Nodes,
 }
 
-#[derive(Clone, Copy, ValueEnum)]
-enum Emit {
-    /// The IR text form.
-    Ir,
+#[derive(clap::Args)]
+struct CompileArgs {
+    /// The network file (.json).
+    network: PathBuf,
+    /// What to print: `ir` (the optimized program), `ir:after=PASS` (the program after every
+    /// run of PASS: specialize, fold, dead_branch, cse, dce, hoist), `ir:before` (the
+    /// unoptimized program) or `none`. Default: `ir`, or `none` with --stats.
+    #[arg(long)]
+    emit: Option<String>,
+    /// Print, per pass, ops before/after, changes and time, then the program's needs.
+    #[arg(long)]
+    stats: bool,
+    #[command(flatten)]
+    opt: OptArgs,
+}
+
+/// How a network is specialized and optimized (shared by `compile` and `shade`).
+#[derive(clap::Args, Clone)]
+struct OptArgs {
+    /// Active render components, comma separated (default: all).
+    #[arg(long, value_delimiter = ',')]
+    components: Option<Vec<String>>,
+    /// Ray types the material will see: camera, shadow, reflection, refraction, diffuse
+    /// (default: all).
+    #[arg(long, value_delimiter = ',')]
+    raytypes: Option<Vec<String>>,
+    /// Instance compilation: bake parameters into constants (the default).
+    #[arg(long, conflicts_with = "class")]
+    bake: bool,
+    /// Class compilation: keep parameters uniform (they can change without recompiling).
+    #[arg(long)]
+    class: bool,
+    /// Switch common-subexpression elimination off (to measure per-node cost).
+    #[arg(long)]
+    no_cse: bool,
+    /// Switch passes off, comma separated: specialize, fold, dead_branch, cse, dce, hoist.
+    #[arg(long, value_delimiter = ',')]
+    disable: Vec<String>,
+    /// Do not optimize at all.
+    #[arg(long)]
+    no_opt: bool,
+}
+
+impl OptArgs {
+    fn spec(&self, program: &shadenet::graph::ir::Program) -> Result<Specialization> {
+        use shadenet::graph::ir::{RAY_CAMERA, RAY_DIFFUSE, RAY_REFLECTION, RAY_REFRACTION, RAY_SHADOW};
+        let mut spec = Specialization::default();
+        if let Some(c) = &self.components {
+            spec.components =
+                Specialization::mask_of(program, c).map_err(|e| anyhow::anyhow!("--components: {e}"))?;
+        }
+        if let Some(r) = &self.raytypes {
+            spec.ray_types = 0;
+            for t in r {
+                spec.ray_types |= match t.as_str() {
+                    "camera" => RAY_CAMERA,
+                    "shadow" => RAY_SHADOW,
+                    "reflection" => RAY_REFLECTION,
+                    "refraction" => RAY_REFRACTION,
+                    "diffuse" => RAY_DIFFUSE,
+                    other => bail!(
+                        "--raytypes: `{other}` is not a ray type (camera, shadow, reflection, refraction, diffuse)"
+                    ),
+                } as u32;
+            }
+        }
+        spec.bake = !self.class;
+        if self.no_cse {
+            spec.passes.cse = false;
+        }
+        for pass in &self.disable {
+            let flag = match pass.as_str() {
+                "specialize" => &mut spec.passes.specialize,
+                "fold" => &mut spec.passes.fold,
+                "dead_branch" => &mut spec.passes.dead_branch,
+                "cse" => &mut spec.passes.cse,
+                "dce" => &mut spec.passes.dce,
+                "hoist" => &mut spec.passes.hoist,
+                other => bail!(
+                    "--disable: `{other}` is not a pass (specialize, fold, dead_branch, cse, dce, hoist)"
+                ),
+            };
+            *flag = false;
+        }
+        Ok(spec)
+    }
 }
 
 #[derive(Clone, Copy, ValueEnum, PartialEq)]
@@ -71,9 +148,8 @@ struct ShadeArgs {
     /// Write only this render component of the PNG's output (default: the total).
     #[arg(long)]
     component: Option<String>,
-    /// Active render components, comma separated (default: all).
-    #[arg(long, value_delimiter = ',')]
-    components: Option<Vec<String>>,
+    #[command(flatten)]
+    opt: OptArgs,
     /// Add a light: point:X,Y,Z:INTENSITY[:R,G,B], distant:DX,DY,DZ:INTENSITY[:R,G,B],
     /// spot:X,Y,Z:DX,DY,DZ:INTENSITY:CONE_DEG[:R,G,B], ambient:INTENSITY[:R,G,B].
     #[arg(long)]
@@ -107,7 +183,7 @@ fn main() {
     let cli = Cli::parse();
     let result = match cli.cmd {
         Cmd::Shade(args) => shade(args),
-        Cmd::Compile { network, emit } => compile(&network, emit),
+        Cmd::Compile(args) => compile(&args),
         Cmd::Check { network } => check(&network),
         Cmd::Nodes => {
             print_out(&NodeLibrary::standard().reference());
@@ -133,10 +209,45 @@ fn load(path: &Path) -> Result<shadenet::Compiled> {
     Ok(compiled)
 }
 
-fn compile(path: &Path, emit: Emit) -> Result<()> {
-    let c = load(path)?;
-    match emit {
-        Emit::Ir => print_out(&c.program.to_string()),
+fn compile(args: &CompileArgs) -> Result<()> {
+    let c = load(&args.network)?;
+    let emit = args
+        .emit
+        .clone()
+        .unwrap_or_else(|| if args.stats { "none".into() } else { "ir".into() });
+    let after = match emit.as_str() {
+        "ir" | "none" | "ir:before" => None,
+        e => match e.strip_prefix("ir:after=") {
+            Some(pass) if opt::pass(pass).is_some() => Some(pass.to_string()),
+            _ => bail!(
+                "--emit `{e}`: expected ir, ir:before, ir:after=PASS (specialize, fold, dead_branch, cse, dce, hoist) or none"
+            ),
+        },
+    };
+    if emit == "ir:before" {
+        print_out(&c.program.to_string());
+    }
+    if args.opt.no_opt {
+        if emit == "ir" {
+            print_out(&c.program.to_string());
+        }
+        return Ok(());
+    }
+    let spec = args.opt.spec(&c.program)?;
+    let mut runs = 0;
+    let (program, report) = opt::run_observed(&c.program, &spec, &mut |pass, p| {
+        if after.as_deref() == Some(pass) {
+            runs += 1;
+            print_out(&format!("; after {pass} (run {runs})\n{p}"));
+        }
+    });
+    shadenet::graph::ir::validate(&program)
+        .map_err(|e| anyhow::anyhow!("internal error: the optimizer produced invalid IR: {e}"))?;
+    if emit == "ir" {
+        print_out(&program.to_string());
+    }
+    if args.stats {
+        print_out(&report.to_string());
     }
     Ok(())
 }
@@ -252,23 +363,17 @@ fn shade(args: ShadeArgs) -> Result<()> {
         }
         lights.push(parse_light("point:1,1,2:20", 0)?);
     }
-    let mut mask = u32::MAX;
-    if let Some(list) = &args.components {
-        mask = 0;
-        for c in list {
-            match program.component_index(c) {
-                Some(k) => mask |= 1 << k,
-                None => bail!(
-                    "--components: `{c}` is not a component of this material (it has: {})",
-                    if program.components.is_empty() {
-                        "none".to_string()
-                    } else {
-                        program.components.join(", ")
-                    }
-                ),
-            }
-        }
-    }
+    // Specialize and optimize for this run (unless --no-opt): only what the active
+    // components need is computed, and textures on dead branches are never opened.
+    let spec = args.opt.spec(&compiled.program)?;
+    let mask = spec.components;
+    let optimized;
+    let program = if args.opt.no_opt {
+        program
+    } else {
+        optimized = opt::run(program, &spec).0;
+        &optimized
+    };
     let names = program.output_names();
     let aov = args.aov.clone().unwrap_or_else(|| names[0].to_string());
     if !names.contains(&aov.as_str()) {
