@@ -181,8 +181,32 @@ impl ShadeEnv {
     }
 }
 
-/// One shading call's input: the fragment, its environment and the active components.
-#[derive(Clone, Copy, Debug)]
+/// What a renderer offers shaders: secondary rays (DESIGN §2). The tracer implements it;
+/// back ends call it for the ops that trace and for light visibility. The shading system
+/// never sees the scene itself.
+pub trait SceneServices: Send + Sync {
+    /// Radiance arriving at `origin` from direction `dir` (unit): the renderer traces the ray
+    /// and shades what it hits as a ray of type `ray_type` (`RAY_*`) at depth `depth`; black
+    /// past its depth limits or when the ray escapes to an environment without light.
+    fn trace(&self, origin: [f32; 3], dir: [f32; 3], ray_type: i32, depth: i32) -> [f32; 3];
+    /// Whether anything blocks the segment from `from` to `to` (shadow rays; a distant
+    /// light's `to` is far along its direction).
+    fn occluded(&self, from: [f32; 3], to: [f32; 3]) -> bool;
+    /// Ambient occlusion at `p` around normal `n`: the fraction of `samples` cosine-weighted
+    /// directions that reach `max_distance` unblocked, in [0, 1], deterministic in `seed`.
+    fn occlusion(
+        &self,
+        p: [f32; 3],
+        n: [f32; 3],
+        samples: u32,
+        max_distance: f32,
+        seed: u32,
+    ) -> f32;
+}
+
+/// One shading call's input: the fragment, its environment, the active components and the
+/// renderer's services.
+#[derive(Clone, Copy)]
 pub struct ShadeCtx<'a> {
     /// The fragment's streams.
     pub frag: Fragment,
@@ -190,6 +214,20 @@ pub struct ShadeCtx<'a> {
     pub env: &'a ShadeEnv,
     /// Active render components: bit `i` is `Program::components[i]`.
     pub mask: u32,
+    /// Secondary rays, when a renderer provides them (`None`: traced rays return black and
+    /// nothing is occluded).
+    pub scene: Option<&'a dyn SceneServices>,
+}
+
+impl std::fmt::Debug for ShadeCtx<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ShadeCtx")
+            .field("frag", &self.frag)
+            .field("env", &self.env)
+            .field("mask", &self.mask)
+            .field("scene", &self.scene.is_some())
+            .finish()
+    }
 }
 
 impl<'a> ShadeCtx<'a> {
@@ -203,6 +241,7 @@ impl<'a> ShadeCtx<'a> {
             frag,
             env,
             mask: u32::MAX,
+            scene: None,
         }
     }
 }

@@ -10,7 +10,7 @@ pub mod interp;
 pub mod lights;
 pub mod texture;
 
-pub use ctx::{Fragment, ShadeCtx, ShadeEnv, Transform};
+pub use ctx::{Fragment, SceneServices, ShadeCtx, ShadeEnv, Transform};
 pub use interp::{Interpreter, OutputSlot, Scratch, ShadeOut};
 pub use lights::Light;
 pub use texture::{Texture, TextureError, TextureSet};
