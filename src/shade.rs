@@ -36,6 +36,7 @@ pub fn grid_fragment(x: u32, y: u32, w: u32, h: u32) -> Fragment {
         time: 0.0,
         ray_type: RAY_CAMERA,
         ray_depth: 0,
+        seed: y * w + x,
     }
 }
 

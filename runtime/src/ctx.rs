@@ -37,6 +37,9 @@ pub struct Fragment {
     pub ray_type: i32,
     /// Ray depth (0 for camera rays).
     pub ray_depth: i32,
+    /// Seed of this fragment's random numbers (area-light and environment samples): the
+    /// renderer derives it from pixel and sample index, so images do not depend on threads.
+    pub seed: u32,
 }
 
 /// A rigid or affine transform with its inverse, row-major 4×4.

@@ -251,14 +251,24 @@ impl<F: Real> Interpreter<F> {
                     .map(|y| Val::zero(self.program.ty(*y)))
                     .collect();
                 let outer = s.light;
-                for light in &ctx.env.lights {
-                    let Some(sample) = lights::sample(light, p) else {
-                        continue;
-                    };
-                    s.light = Some(sample);
-                    self.block(body, ctx, s);
-                    for (sum, y) in sums.iter_mut().zip(&body.yields) {
-                        *sum = ops::binary(BinOp::Add, *sum, s.regs[y.index()]);
+                for (li, light) in ctx.env.lights.iter().enumerate() {
+                    for k in 0..lights::sample_count(light) {
+                        let Some(sample) = lights::sample(light, li as u32, k, p, ctx.frag.seed)
+                        else {
+                            continue;
+                        };
+                        if let Some(scene) = ctx.scene {
+                            let from = p.map(|x| x.to_f64() as f32);
+                            let to = sample.to.map(|x| x.to_f64() as f32);
+                            if scene.occluded(from, to) {
+                                continue;
+                            }
+                        }
+                        s.light = Some(sample);
+                        self.block(body, ctx, s);
+                        for (sum, y) in sums.iter_mut().zip(&body.yields) {
+                            *sum = ops::binary(BinOp::Add, *sum, s.regs[y.index()]);
+                        }
                     }
                 }
                 s.light = outer;

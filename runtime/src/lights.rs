@@ -49,30 +49,79 @@ impl Light {
     }
 }
 
-/// One light sample: unit direction towards the light, and the color arriving.
+/// One light sample: unit direction towards the light, the color arriving, and where a
+/// shadow ray must reach.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sample<F> {
     /// Unit direction from the point towards the light.
     pub l: [F; 3],
-    /// Color arriving at the point (intensity / r² for positional lights).
+    /// Color arriving at the point (intensity / r² for positional lights; an area or
+    /// environment sample's share of the Monte Carlo estimate).
     pub cl: [F; 3],
+    /// The point on the light (far along `l` for distant and environment lights): the
+    /// sample counts only if nothing blocks the segment to it.
+    pub to: [F; 3],
+}
+
+/// Distance used as "infinitely far" for shadow rays towards distant and environment lights.
+pub const FAR: f64 = 1e7;
+
+/// How many samples a light contributes to the light loop per shaded point (0 for ambient
+/// light, which has no direction).
+pub fn sample_count(light: &Light) -> u32 {
+    match light.desc.kind {
+        LightKind::Ambient => 0,
+        LightKind::Quad { samples, .. } | LightKind::Environment { samples } => samples.max(1),
+        _ => 1,
+    }
+}
+
+/// Two uniform numbers in [0, 1) for sample `k` of light `light` at a fragment with `seed`
+/// (a counter-based hash: deterministic, no state, the same in f32 and f64 runs).
+pub fn random2(seed: u32, light: u32, k: u32) -> [f64; 2] {
+    let mut h = seed
+        .wrapping_mul(0x9e37_79b9)
+        .wrapping_add(light.wrapping_mul(0x85eb_ca6b))
+        .wrapping_add(k.wrapping_mul(0xc2b2_ae35));
+    let mut next = || {
+        h ^= h >> 16;
+        h = h.wrapping_mul(0x7feb_352d);
+        h ^= h >> 15;
+        h = h.wrapping_mul(0x846c_a68b);
+        h ^= h >> 16;
+        let r = (h >> 8) as f64 / (1u32 << 24) as f64;
+        h = h.wrapping_add(0x6a09_e667);
+        r
+    };
+    [next(), next()]
 }
 
 fn v3<F: Real>(v: [f64; 3]) -> [F; 3] {
     v.map(F::from_f64)
 }
 
-/// Samples `light` as seen from point `p`; `None` for ambient lights. A point at the light's
-/// position receives nothing (the total division makes `I / 0 = 0`).
-pub fn sample<F: Real>(light: &Light, p: [F; 3]) -> Option<Sample<F>> {
+/// Sample `k` (of [`sample_count`]) of light number `index` as seen from point `p`, with the
+/// fragment's `seed`; `None` for ambient lights. A point at a light's position receives
+/// nothing (the total division makes `I / 0 = 0`).
+pub fn sample<F: Real>(
+    light: &Light,
+    index: u32,
+    k: u32,
+    p: [F; 3],
+    seed: u32,
+) -> Option<Sample<F>> {
     let power: [F; 3] = v3(light.desc.power);
+    let far = F::from_f64(FAR);
+    let along = |l: [F; 3]| [p[0] + l[0] * far, p[1] + l[1] * far, p[2] + l[2] * far];
     match &light.desc.kind {
         LightKind::Ambient => None,
         LightKind::Distant { direction } => {
             let d: [F; 3] = v3(*direction);
+            let l = ops::normalize(d.map(|x| -x));
             Some(Sample {
-                l: ops::normalize(d.map(|x| -x)),
+                l,
                 cl: power,
+                to: along(l),
             })
         }
         LightKind::Point { position } => {
@@ -80,6 +129,47 @@ pub fn sample<F: Real>(light: &Light, p: [F; 3]) -> Option<Sample<F>> {
             Some(Sample {
                 l,
                 cl: power.map(|c| c * inv_r2),
+                to: v3(*position),
+            })
+        }
+        LightKind::Quad {
+            corner,
+            edge_u,
+            edge_v,
+            samples,
+        } => {
+            let [s, t] = random2(seed, index, k);
+            let (c, eu, ev): ([F; 3], [F; 3], [F; 3]) = (v3(*corner), v3(*edge_u), v3(*edge_v));
+            let (s, t) = (F::from_f64(s), F::from_f64(t));
+            let q: [F; 3] = std::array::from_fn(|i| c[i] + eu[i] * s + ev[i] * t);
+            let n = ops::cross(eu, ev);
+            let area = ops::length(&n);
+            let n = ops::normalize(n);
+            let (l, inv_r2) = towards(q, p);
+            // Radiance L_e seen through the sample: E = L_e · cosθ_light · A / r² / N.
+            let cos_light = ops::max(-ops::dot(&l, &n), F::ZERO);
+            let w = ops::div(
+                cos_light * area * inv_r2,
+                F::from_f64((*samples).max(1) as f64),
+            );
+            Some(Sample {
+                l,
+                cl: power.map(|c| c * w),
+                to: q,
+            })
+        }
+        LightKind::Environment { samples } => {
+            // Uniform directions on the sphere: pdf 1/(4π).
+            let [u, v] = random2(seed, index, k);
+            let z = 1.0 - 2.0 * u;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let phi = 2.0 * std::f64::consts::PI * v;
+            let l: [F; 3] = v3([r * phi.cos(), r * phi.sin(), z]);
+            let w = F::from_f64(4.0 * std::f64::consts::PI / (*samples).max(1) as f64);
+            Some(Sample {
+                l,
+                cl: power.map(|c| c * w),
+                to: along(l),
             })
         }
         LightKind::Spot {
@@ -110,6 +200,7 @@ pub fn sample<F: Real>(light: &Light, p: [F; 3]) -> Option<Sample<F>> {
             Some(Sample {
                 l,
                 cl: power.map(|c| c * k),
+                to: v3(*position),
             })
         }
     }

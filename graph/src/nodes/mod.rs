@@ -214,6 +214,25 @@ pub enum LightKind {
     },
     /// Ambient light: no direction.
     Ambient,
+    /// A one-sided quad area light `corner + s·edge_u + t·edge_v` (s, t ∈ [0, 1]) emitting
+    /// radiance `power` from the side `edge_u × edge_v` points to; sampled by Monte Carlo with
+    /// `samples` points per shaded point.
+    Quad {
+        /// One corner, world space.
+        corner: [f64; 3],
+        /// First edge.
+        edge_u: [f64; 3],
+        /// Second edge.
+        edge_v: [f64; 3],
+        /// Samples per shaded point (at least 1).
+        samples: u32,
+    },
+    /// A constant environment: radiance `power` arriving from every direction, sampled with
+    /// `samples` uniformly distributed directions per shaded point.
+    Environment {
+        /// Samples per shaded point (at least 1).
+        samples: u32,
+    },
 }
 
 /// Builds a light from a light node's inputs (all constants, in `def.inputs` order).
