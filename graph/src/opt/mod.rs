@@ -11,8 +11,9 @@
 //! 2. to a fixed point, at most `budget` rounds: [`fold`] (constants, exact identities),
 //!    [`dead_branch`] (constant conditions), [`cse`] (value numbering), [`dce`] (unused
 //!    values);
-//! 3. [`hoist`] once: move values that depend only on constants and parameters into the
-//!    prelude (computed once per material instance), then `dce` and compaction;
+//! 3. [`hoist`] once: move values that depend on parameters into the prelude (computed once
+//!    per material instance), then, if it moved anything, `cse` (sibling arms may have
+//!    computed the same uniform value) and `dce`; then compaction;
 //! 4. [`needs`]: what the program still reads.
 //!
 //! Every pass keeps results bit-identical in f32, the shading precision: folding evaluates
@@ -270,8 +271,11 @@ pub fn run_observed(
             break;
         }
     }
-    if ps.hoist {
-        step("hoist", hoist::run, &mut p);
+    if ps.hoist && step("hoist", hoist::run, &mut p) > 0 {
+        // Hoisting can put equal values from sibling arms side by side in the prelude.
+        if ps.cse {
+            step("cse", cse::run, &mut p);
+        }
         if ps.dce {
             step("dce", dce::run, &mut p);
         }
