@@ -18,7 +18,8 @@
 //!
 //! Every pass keeps results bit-identical in f32, the shading precision: folding evaluates
 //! with the interpreter's own f32 op semantics, and only identities that are exact in IEEE
-//! arithmetic are applied (`x * 1`, `x - 0`, `x + (-0)`, `x / 1`; never `x * 0` or `x - x`).
+//! arithmetic are applied (`x * 1`, `x - 0`, `x + (-0)`, `x / 1`; never float `x * 0` or
+//! `x - x`).
 //! f64 reference runs should use the unoptimized program.
 
 pub mod cse;
