@@ -4,9 +4,11 @@
 //!
 //! The facade re-exports the member crates: [`graph`] (networks, node library, linker, IR,
 //! op semantics) and [`runtime`] (shading context, lights, interpreter); [`shade`] shades a
-//! network over a grid without a renderer and [`output`] writes PNG and EXR images. It owns
-//! the `shadenet` CLI and must not add shading semantics of its own.
+//! network over a grid without a renderer, [`output`] writes PNG and EXR images and
+//! [`generate`] builds networks for benchmarks (the multiplication tree). It owns the
+//! `shadenet` CLI and must not add shading semantics of its own.
 
+pub mod generate;
 pub mod output;
 pub mod shade;
 

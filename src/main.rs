@@ -1,11 +1,12 @@
-//! The `shadenet` command line: `shade`, `compile`, `check`, `nodes`.
+//! The `shadenet` command line: `shade`, `compile`, `check`, `nodes`, `gen`.
 
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand, ValueEnum};
 use shadenet::graph::NodeLibrary;
+use shadenet::graph::ir::Space;
 use shadenet::graph::nodes::{LightDesc, LightKind};
 use shadenet::graph::opt::{self, Specialization};
-use shadenet::output::{write_exr, write_png};
+use shadenet::output::{write_atomic, write_exr, write_png};
 use shadenet::shade::{grid_env, shade_grid};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -34,6 +35,36 @@ enum Cmd {
     },
     /// Print the node reference (Markdown; docs/nodes.md is this output).
     Nodes,
+    /// Write a generated network (for benchmarks).
+    Gen {
+        #[command(subcommand)]
+        what: GenCmd,
+    },
+}
+
+#[derive(Subcommand)]
+enum GenCmd {
+    /// The multiplication tree of benchmark B1 (Larsson 2005, §5.1.1): 2^N − 1 multiply nodes
+    /// over 2^N samplerInfo leaves whose P feeds the bottom row; the root is output `color`.
+    MultTree {
+        /// Tree levels N, 1 to 16.
+        #[arg(long)]
+        levels: u32,
+        /// The space the leaves read P in.
+        #[arg(long, value_enum, default_value_t = GenSpace::World)]
+        space: GenSpace,
+        /// The network file to write (.json).
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum GenSpace {
+    /// World space.
+    World,
+    /// Camera space.
+    Camera,
 }
 
 #[derive(clap::Args)]
@@ -191,6 +222,7 @@ fn main() {
             print_out(&NodeLibrary::standard().reference());
             Ok(())
         }
+        Cmd::Gen { what } => generate(what),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
@@ -267,6 +299,28 @@ fn check(path: &Path) -> Result<()> {
         c.lights.len()
     );
     Ok(())
+}
+
+fn generate(what: GenCmd) -> Result<()> {
+    match what {
+        GenCmd::MultTree {
+            levels,
+            space,
+            output,
+        } => {
+            let space = match space {
+                GenSpace::World => Space::World,
+                GenSpace::Camera => Space::Camera,
+            };
+            let net = shadenet::generate::mult_tree(levels, space).context("--levels")?;
+            let mut text = serde_json::to_string_pretty(&net)?;
+            text.push('\n');
+            write_atomic(&output, |tmp| {
+                std::fs::write(tmp, &text)
+                    .with_context(|| format!("cannot write {}", output.display()))
+            })
+        }
+    }
 }
 
 fn parse_light(spec: &str, index: usize) -> Result<LightDesc> {
