@@ -798,6 +798,8 @@ fn fragment(f: &FragChoice, ray_types: u32) -> Fragment {
         dpdx: f3(f.dpdx),
         dpdy: f3(f.dpdy),
         time: f.time as f32,
+        // Any value: the area-light samples it seeds must not change under optimization.
+        seed: (f.p[0].to_bits() ^ f.uv[1].to_bits()) as u32,
         ray_type: nth_bit(ray_types, f.ray),
         ray_depth: f.depth,
     }
