@@ -1,6 +1,9 @@
 //! Generated networks: the benchmark multiplication tree (`shadenet::generate::mult_tree` and
 //! `shadenet gen mult-tree`).
 
+mod common;
+use common::shadenet;
+
 use serde_json::Value as Json;
 use shadenet::generate::{GenError, mult_tree};
 use shadenet_graph::ir::{Space, XformKind};
@@ -8,7 +11,6 @@ use shadenet_graph::{NodeLibrary, compile_json};
 use shadenet_runtime::interp::transform;
 use shadenet_runtime::{Fragment, Interpreter, ShadeCtx, ShadeEnv, Transform};
 use std::path::PathBuf;
-use std::process::Command;
 
 fn count(net: &Json, ty: &str) -> usize {
     net["nodes"]
@@ -110,22 +112,8 @@ fn level_3_is_p_to_the_8th_in_world_and_camera_space() {
     assert_eq!(camera, by_hand(pc, 3).to_vec(), "camera");
 }
 
-fn shadenet(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_shadenet"))
-        .args(args)
-        .output()
-        .expect("run shadenet");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
 fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("shadenet-gen-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+    common::tmp("gen", name)
 }
 
 #[test]

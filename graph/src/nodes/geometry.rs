@@ -5,7 +5,7 @@
 //! in world space; a node that reads them in another space gets the transform inserted by
 //! [`Builder::stream_in`].
 
-use super::{LowVal, LowerFn, NodeDef, NodeInputs, NodeKind, NodeLibrary, OutDef, PortDef, port};
+use super::{LowVal, LowerFn, NodeDef, NodeInputs, NodeLibrary, OutDef, PortDef, port};
 use crate::ir::{BinOp, Builder, Space, Stream, UnOp};
 use crate::types::{ConstValue, Type};
 
@@ -16,16 +16,7 @@ fn node(
     outputs: Vec<OutDef>,
     lower: LowerFn,
 ) -> NodeDef {
-    NodeDef {
-        name,
-        category: "geometry",
-        doc,
-        generic: &[],
-        inputs,
-        outputs,
-        lower,
-        kind: NodeKind::Shading,
-    }
+    NodeDef::shading("geometry", name, doc, &[], inputs, outputs, lower)
 }
 
 /// Registers the geometry nodes.

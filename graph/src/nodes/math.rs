@@ -12,8 +12,7 @@
 //! plain value.
 
 use super::{
-    FLOAT_TYPES, LowVal, LowerFn, NodeDef, NodeInputs, NodeKind, NodeLibrary, OutDef, PortDef,
-    lowering, port,
+    FLOAT_TYPES, LowVal, LowerFn, NodeDef, NodeInputs, NodeLibrary, OutDef, PortDef, lowering, port,
 };
 use crate::ir::{BinOp, Builder, Intrinsic, UnOp, Value};
 use crate::types::{ConstValue, Type};
@@ -32,16 +31,7 @@ fn node(
     outputs: Vec<OutDef>,
     lower: LowerFn,
 ) -> NodeDef {
-    NodeDef {
-        name,
-        category: "math",
-        doc,
-        generic,
-        inputs,
-        outputs,
-        lower,
-        kind: NodeKind::Shading,
-    }
+    NodeDef::shading("math", name, doc, generic, inputs, outputs, lower)
 }
 
 /// Unary component-wise nodes: (name, op, doc). Ports: `input` (T, default 0) → `out` (T).

@@ -270,6 +270,28 @@ pub struct NodeDef {
 }
 
 impl NodeDef {
+    /// A shading node of `category` (the common case of a node definition).
+    pub fn shading(
+        category: &'static str,
+        name: &'static str,
+        doc: &'static str,
+        generic: &'static [Type],
+        inputs: Vec<PortDef>,
+        outputs: Vec<OutDef>,
+        lower: LowerFn,
+    ) -> NodeDef {
+        NodeDef {
+            name,
+            category,
+            doc,
+            generic,
+            inputs,
+            outputs,
+            lower,
+            kind: NodeKind::Shading,
+        }
+    }
+
     /// The input port called `name`.
     pub fn input(&self, name: &str) -> Option<&PortDef> {
         self.inputs.iter().find(|p| p.name == name)

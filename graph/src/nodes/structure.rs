@@ -10,7 +10,7 @@
 //! lowered.
 
 use super::{
-    FLOAT_TYPES, LowVal, LowerFn, NodeDef, NodeInputs, NodeKind, NodeLibrary, OutDef, PortDef, port,
+    FLOAT_TYPES, LowVal, LowerFn, NodeDef, NodeInputs, NodeLibrary, OutDef, PortDef, port,
 };
 use crate::ir::{BinOp, Builder, Value};
 use crate::types::{ConstValue, Type};
@@ -23,16 +23,7 @@ fn node(
     outputs: Vec<OutDef>,
     lower: LowerFn,
 ) -> NodeDef {
-    NodeDef {
-        name,
-        category: "structure",
-        doc,
-        generic,
-        inputs,
-        outputs,
-        lower,
-        kind: NodeKind::Shading,
-    }
+    NodeDef::shading("structure", name, doc, generic, inputs, outputs, lower)
 }
 
 /// The constant nodes: (name, type, default, doc).
