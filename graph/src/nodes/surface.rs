@@ -4,12 +4,13 @@
 //! # Units (DESIGN §3)
 //!
 //! Colors are linear RGB radiance. A surface's `outColor` is the radiance it sends towards
-//! the viewer: the sum over light samples of `BRDF · Cl · max(0, N·L)`, where `Cl` is what
-//! the light sample delivers at the point (an irradiance perpendicular to `L`: intensity /
-//! r² for point and spot lights, `E` for distant lights), plus ambient and emitted terms. The
-//! BRDFs are normalized: Lambert is `albedo / π`, Phong `(n+2)/(2π)·cosⁿ`, Blinn the exact
-//! normal-incidence normalization of the Blinn–Phong lobe, so with `specularColor ≤ 1` no
-//! lobe reflects more than it receives.
+//! the viewer: the sum over light samples of `BRDF · Cl · max(0, N·L) · vis`, where `Cl` is
+//! what the light sample delivers at the point (an irradiance perpendicular to `L`: intensity
+//! / r² for point and spot lights, `E` for distant lights) and `vis` its visibility
+//! (`light.visible`: 0 where the renderer's scene blocks it, else 1, always 1 without a
+//! scene), plus ambient and emitted terms. The BRDFs are normalized: Lambert is
+//! `albedo / π`, Phong `(n+2)/(2π)·cosⁿ`, Blinn the exact normal-incidence normalization of
+//! the Blinn–Phong lobe, so with `specularColor ≤ 1` no lobe reflects more than it receives.
 //!
 //! # Render components (DESIGN §8)
 //!
@@ -300,7 +301,9 @@ fn lower_surface(b: &mut Builder, inp: &NodeInputs, lobe: Lobe) -> Result<Vec<Lo
         let sum = b.illuminance(p, |b, l, cl| {
             let d = b.dot(n, l);
             let ndl = pos(b, d);
-            vec![scale(b, cl, ndl)]
+            let vis = b.light_visible();
+            let w = b.mul(ndl, vis);
+            vec![scale(b, cl, w)]
         });
         let k = b.float(1.0 / PI);
         let brdf = scale(b, albedo, k);
@@ -327,6 +330,8 @@ fn lower_surface(b: &mut Builder, inp: &NodeInputs, lobe: Lobe) -> Result<Vec<Lo
                     let rv = pos(b, rv);
                     let lobe = b.binary(BinOp::Pow, rv, e);
                     let w = b.mul(lobe, ndl);
+                    let vis = b.light_visible();
+                    let w = b.mul(w, vis);
                     vec![scale(b, cl, w)]
                 });
                 // (n + 2) / (2π)
@@ -374,6 +379,8 @@ fn lower_surface(b: &mut Builder, inp: &NodeInputs, lobe: Lobe) -> Result<Vec<Lo
                     let lobe = b.binary(BinOp::Pow, nh, e);
                     let w = b.mul(lobe, ndl);
                     let w = b.mul(fresnel, w);
+                    let vis = b.light_visible();
+                    let w = b.mul(w, vis);
                     vec![scale(b, cl, w)]
                 });
                 let norm = blinn_normalization(b, e);
