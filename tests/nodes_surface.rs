@@ -854,6 +854,7 @@ fn surface_shader_keeps_the_parts_of_a_shaded_input() {
         def: lambert,
         generic: Type::Float,
         values,
+        upstream: None,
     };
     let outs = (lambert.lower)(&mut b, &ni).unwrap();
     assert_eq!(outs[0].parts.len(), 3);
@@ -866,6 +867,7 @@ fn surface_shader_keeps_the_parts_of_a_shaded_input() {
         def: shader,
         generic: Type::Float,
         values,
+        upstream: None,
     };
     let souts: Vec<LowVal> = (shader.lower)(&mut b, &ni).unwrap();
     assert_eq!(souts[0], outs[0], "parts passed through unchanged");
@@ -903,6 +905,7 @@ fn light_nodes_build_their_descriptions() {
             def,
             generic: Type::Float,
             values: Vec::new(),
+            upstream: None,
         };
         assert_eq!((def.lower)(&mut b, &ni), Ok(Vec::new()), "{name}");
     }
