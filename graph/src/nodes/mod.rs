@@ -24,6 +24,7 @@ pub mod math;
 pub mod pattern;
 pub mod structure;
 pub mod surface;
+pub mod utility;
 
 use crate::ir::{Builder, Space, Stream, Value};
 use crate::types::{ConstValue, Type};
@@ -318,7 +319,7 @@ pub struct NodeDef {
     /// The type name used in network files.
     pub name: &'static str,
     /// Section in the reference (`math`, `structure`, `pattern`, `geometry`, `surface`,
-    /// `light`).
+    /// `light`, `utility`).
     pub category: &'static str,
     /// Documentation: what it computes, the formula, hard-input behaviour.
     pub doc: &'static str,
@@ -497,6 +498,7 @@ impl NodeLibrary {
         pattern::register(&mut lib);
         geometry::register(&mut lib);
         surface::register(&mut lib);
+        utility::register(&mut lib);
         lib
     }
 
