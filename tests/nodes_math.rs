@@ -924,6 +924,7 @@ fn parts_survive_multiply_add_mix_blend_through_the_interpreter() {
             def,
             generic: Type::Color,
             values,
+            upstream: None,
         };
         let outs = (def.lower)(&mut b, &ni).expect("lowers");
         let out = def.outputs[0].name;

@@ -757,6 +757,7 @@ fn ramp_connected(ks: &[(f64, [f64; 3])], interp: &str, t: f32) -> Outputs {
             InputVal::Str(interp.into()),
             InputVal::Array(arr),
         ],
+        upstream: None,
     };
     let outs = (def.lower)(&mut b, &inputs).expect("lowering");
     for (o, lv) in def.outputs.iter().zip(&outs) {

@@ -160,6 +160,7 @@ fn constant_matrix_feeds_point_matrix_mult() {
             def: cm,
             generic: Type::Float,
             values: vec![InputVal::Value(LowVal::plain(mv))],
+            upstream: None,
         };
         let mat = (cm.lower)(&mut b, &ni).expect("lowers").remove(0);
         let pmm = lib.get("pointMatrixMult").expect("node");
@@ -174,6 +175,7 @@ fn constant_matrix_feeds_point_matrix_mult() {
                 InputVal::Value(LowVal::plain(p)),
                 InputVal::Value(LowVal::plain(flag)),
             ],
+            upstream: None,
         };
         let r = (pmm.lower)(&mut b, &ni).expect("lowers");
         declare_output(&mut b, "output", &r[0]);

@@ -694,8 +694,13 @@ fn phong_components_equal_their_terms_and_sum_to_the_total() {
     );
     let total = add(add(diffuse, specular), add(indirect, emission));
     assert_rel(&o.get("outColor"), &total, 1e-9, "total");
+    // Reflection and refraction are traced: without a scene (and with the defaults:
+    // reflectivity 0, refractions off) they are 0.
+    for k in ["reflection", "refraction"] {
+        assert_eq!(o.part("outColor", k).unwrap(), vec![0.0; 3], "{k}");
+    }
     let parts = o.entries.iter().filter(|e| e.0 == "outColor").count();
-    assert_eq!(parts, 4, "outColor has exactly four parts");
+    assert_eq!(parts, 6, "outColor has exactly six parts");
 }
 
 #[test]
@@ -711,7 +716,18 @@ fn masking_out_specular_zeroes_it_and_leaves_diffuse_unchanged() {
         let program = lower_single(&lib, node, Type::Float, &inputs).unwrap();
         let mut names = program.components.clone();
         names.sort();
-        assert_eq!(names, ["diffuse", "emission", "indirect", "specular"]);
+        assert_eq!(
+            names,
+            [
+                "diffuse",
+                "emission",
+                "indirect",
+                "reflection",
+                "refraction",
+                "shadow",
+                "specular"
+            ]
+        );
         let spec = program.component_index("specular").unwrap();
         let full = run_program(&program, &fr, &lights, u32::MAX);
         let masked = run_program(&program, &fr, &lights, !(1u32 << spec));
@@ -854,9 +870,10 @@ fn surface_shader_keeps_the_parts_of_a_shaded_input() {
         def: lambert,
         generic: Type::Float,
         values,
+        upstream: None,
     };
     let outs = (lambert.lower)(&mut b, &ni).unwrap();
-    assert_eq!(outs[0].parts.len(), 3);
+    assert_eq!(outs[0].parts.len(), 5);
     let mut values = vec![InputVal::Value(outs[0].clone())];
     for i in 1..shader.inputs.len() {
         values.push(default_input(&mut b, shader, i, Type::Float));
@@ -866,6 +883,7 @@ fn surface_shader_keeps_the_parts_of_a_shaded_input() {
         def: shader,
         generic: Type::Float,
         values,
+        upstream: None,
     };
     let souts: Vec<LowVal> = (shader.lower)(&mut b, &ni).unwrap();
     assert_eq!(souts[0], outs[0], "parts passed through unchanged");
@@ -903,6 +921,7 @@ fn light_nodes_build_their_descriptions() {
             def,
             generic: Type::Float,
             values: Vec::new(),
+            upstream: None,
         };
         assert_eq!((def.lower)(&mut b, &ni), Ok(Vec::new()), "{name}");
     }

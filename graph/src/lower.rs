@@ -4,11 +4,30 @@
 //! inputs are the values of what they are connected to (after the linker's coercions) or
 //! their defaults. Material outputs become program outputs: an output whose value carries
 //! render-component parts becomes one program output per part (DESIGN §8).
+//!
+//! # Stream overrides
+//!
+//! A lowering may ask for an input as it would be with some implicit streams replaced
+//! ([`NodeInputs::reevaluate`]; DESIGN §3, thesis §4.2.7): `bump2d` reads its `bumpValue`
+//! again with `uv` and `P` moved. The driver answers by lowering the nodes upstream of that
+//! input once more, at the point where the lowering asks, with the overrides in force in
+//! the builder ([`Builder::push_overrides`]: reading an overridden stream gives the override,
+//! whether a node reads it through a port default or in its lowering). Every node records
+//! the streams its value depends on (the streams its lowering read, and those of its
+//! sources), so a node that depends on none of the overridden streams is not lowered again:
+//! its first value is reused. Within one re-evaluation each upstream node is lowered at most
+//! once (a memo per override set); re-evaluations nest (an overridden subgraph may itself
+//! contain a bump), the inner overrides on top of the outer ones. Literal inputs keep their
+//! parameters: a re-lowered node reads the same uniform parameters as the first lowering.
 
-use crate::ir::{Builder, Program, Value};
+use crate::ir::{Builder, Program, Stream, Value};
 use crate::link::{LinkError, LinkErrors, Linked, LinkedInput, Source};
-use crate::nodes::{InputVal, LowVal, NodeDef, NodeInputs, NodeLibrary, PortDefault, PortType};
+use crate::nodes::{
+    InputVal, LowVal, NodeDef, NodeInputs, NodeLibrary, PortDefault, PortType, Upstream,
+};
 use crate::types::{ConstValue, Type};
+use std::cell::RefCell;
+use std::collections::HashMap;
 
 /// Emits the value an unconnected port gets: its default, converted to the port's type
 /// (a float default of a generic port is broadcast to `generic`).
@@ -126,11 +145,22 @@ pub fn lower_single(
             return Err(format!("node type `{node_type}` has no input `{n}`"));
         }
     }
+    let upstream = Literals {
+        def,
+        generic,
+        values: values.clone(),
+        set: def
+            .inputs
+            .iter()
+            .map(|p| inputs.iter().any(|(n, _)| *n == p.name))
+            .collect(),
+    };
     let ni = NodeInputs {
         node: node_type,
         def,
         generic,
         values,
+        upstream: Some(&upstream),
     };
     let outs = (def.lower)(&mut b, &ni)?;
     if outs.len() != def.outputs.len() {
@@ -144,6 +174,54 @@ pub fn lower_single(
         declare_output(&mut b, o.name, lv);
     }
     b.finish()
+}
+
+/// Re-evaluation for [`lower_single`]: nothing is upstream of a literal, so a re-evaluated
+/// input is its literal, or, for a port left at a stream default, the stream as overridden.
+struct Literals<'a> {
+    def: &'a NodeDef,
+    generic: Type,
+    values: Vec<InputVal>,
+    /// Per port: whether a literal was given.
+    set: Vec<bool>,
+}
+
+impl Upstream for Literals<'_> {
+    fn reevaluate(
+        &self,
+        b: &mut Builder,
+        port: &str,
+        overrides: &[(Stream, Value)],
+    ) -> Result<LowVal, String> {
+        let pi = port_index(self.def, port)?;
+        let value =
+            if !self.set[pi] && matches!(self.def.inputs[pi].default, PortDefault::Stream(_)) {
+                b.push_overrides(overrides);
+                let v = default_input(b, self.def, pi, self.generic);
+                b.pop_overrides(overrides.len());
+                v
+            } else {
+                self.values[pi].clone()
+            };
+        single_value(value, port)
+    }
+}
+
+fn port_index(def: &NodeDef, port: &str) -> Result<usize, String> {
+    def.inputs
+        .iter()
+        .position(|p| p.name == port)
+        .ok_or_else(|| format!("{} has no input `{port}`", def.name))
+}
+
+/// The value of a re-evaluated input; arrays and strings have no single value.
+fn single_value(v: InputVal, port: &str) -> Result<LowVal, String> {
+    match v {
+        InputVal::Value(v) => Ok(v),
+        _ => Err(format!(
+            "input `{port}` is not a single value and cannot be re-evaluated"
+        )),
+    }
 }
 
 /// Declares a material output: one program output per component part when the value has
@@ -197,19 +275,29 @@ pub fn lower(linked: &Linked, lib: &NodeLibrary) -> Result<Program, LinkErrors> 
     }
 
     let mut b = Builder::new(&linked.name);
-    let mut outs: Vec<Vec<LowVal>> = vec![Vec::new(); linked.nodes.len()];
-    let mut errors = Vec::new();
+    let mut defs: Vec<Option<&NodeDef>> = Vec::with_capacity(linked.nodes.len());
     for (i, node) in linked.nodes.iter().enumerate() {
-        if !live[i] {
-            continue;
-        }
-        let def = lib.get(&node.ty).ok_or_else(|| {
-            LinkErrors(vec![LinkError::UnknownType {
+        let def = lib.get(&node.ty);
+        if def.is_none() && live[i] {
+            return Err(LinkErrors(vec![LinkError::UnknownType {
                 node: node.name.clone(),
                 ty: node.ty.clone(),
                 hint: String::new(),
-            }])
-        })?;
+            }]));
+        }
+        defs.push(def);
+    }
+    let driver = Driver {
+        linked,
+        defs,
+        done: RefCell::new(vec![Lowered::default(); linked.nodes.len()]),
+    };
+    let mut errors = Vec::new();
+    for (i, node) in linked.nodes.iter().enumerate() {
+        let Some(def) = driver.defs[i].filter(|_| live[i]) else {
+            continue;
+        };
+        b.take_streams_read();
         let mut values = Vec::new();
         for (pi, input) in node.inputs.iter().enumerate() {
             let port_ty = match &def.inputs[pi].ty {
@@ -230,7 +318,7 @@ pub fn lower(linked: &Linked, lib: &NodeLibrary) -> Result<Program, LinkErrors> 
                             let fty = fty.unwrap_or(node.generic);
                             let lv = match fv {
                                 LinkedInput::Const(c) => LowVal::plain(constant_as(&mut b, c, fty)),
-                                LinkedInput::Conn(s) => coerce(&mut b, &outs[s.node][s.output], s),
+                                LinkedInput::Conn(s) => driver.source(&mut b, s),
                                 _ => LowVal::plain(b.zero(fty)),
                             };
                             r.push(lv);
@@ -244,50 +332,55 @@ pub fn lower(linked: &Linked, lib: &NodeLibrary) -> Result<Program, LinkErrors> 
                     InputVal::Value(LowVal::plain(param_as(&mut b, &name, c, port_ty)))
                 }
                 LinkedInput::Str(s) => InputVal::Str(s.clone()),
-                LinkedInput::Conn(s) => InputVal::Value(coerce(&mut b, &outs[s.node][s.output], s)),
+                LinkedInput::Conn(s) => InputVal::Value(driver.source(&mut b, s)),
             };
             values.push(v);
         }
+        let upstream = NodeUpstream {
+            driver: &driver,
+            node: i,
+            values: values.clone(),
+        };
         let ni = NodeInputs {
             node: &node.name,
             def,
             generic: node.generic,
-            values,
+            values: values.clone(),
+            upstream: Some(&upstream),
         };
-        match (def.lower)(&mut b, &ni) {
-            Ok(o) if o.len() == def.outputs.len() => outs[i] = o,
-            Ok(o) => {
-                errors.push(LinkError::Lowering {
-                    node: node.name.clone(),
-                    ty: node.ty.clone(),
-                    msg: format!(
+        let outs = match (def.lower)(&mut b, &ni) {
+            Ok(o) if o.len() == def.outputs.len() => o,
+            result => {
+                let msg = match result {
+                    Ok(o) => format!(
                         "internal error: lowering returned {} outputs, the def declares {}",
                         o.len(),
                         def.outputs.len()
                     ),
-                });
-                outs[i] = def
-                    .outputs
-                    .iter()
-                    .map(|o| LowVal::plain(b.zero(o.ty.unwrap_or(node.generic))))
-                    .collect();
-            }
-            Err(msg) => {
+                    Err(msg) => msg,
+                };
                 errors.push(LinkError::Lowering {
                     node: node.name.clone(),
                     ty: node.ty.clone(),
                     msg,
                 });
-                outs[i] = def
-                    .outputs
+                def.outputs
                     .iter()
                     .map(|o| LowVal::plain(b.zero(o.ty.unwrap_or(node.generic))))
-                    .collect();
+                    .collect()
             }
-        }
+        };
+        let mut streams = b.take_streams_read();
+        let done = &mut *driver.done.borrow_mut();
+        for_each_source(&node.inputs, &mut |s| streams |= done[s.node].streams);
+        done[i] = Lowered {
+            outs,
+            inputs: values,
+            streams,
+        };
     }
     for (name, s) in &linked.outputs {
-        let v = coerce(&mut b, &outs[s.node][s.output], s);
+        let v = driver.source(&mut b, s);
         declare_output(&mut b, name, &v);
     }
     if !errors.is_empty() {
@@ -306,6 +399,154 @@ pub fn lower(linked: &Linked, lib: &NodeLibrary) -> Result<Program, LinkErrors> 
     Ok(program)
 }
 
+/// What the first lowering of a node left behind.
+#[derive(Clone, Debug, Default)]
+struct Lowered {
+    /// Its outputs.
+    outs: Vec<LowVal>,
+    /// The inputs it was lowered with.
+    inputs: Vec<InputVal>,
+    /// The streams its value depends on (bits [`Stream::bit`]): those its lowering and its
+    /// port defaults read, and those of its sources.
+    streams: u32,
+}
+
+/// The lowering driver's state, shared with the [`Upstream`] it hands every lowering.
+struct Driver<'l> {
+    linked: &'l Linked,
+    /// Each node's definition (`None` for unknown types of dead nodes).
+    defs: Vec<Option<&'l NodeDef>>,
+    /// The first lowering of every node lowered so far.
+    done: RefCell<Vec<Lowered>>,
+}
+
+/// Per re-evaluation: each node's outputs under the current overrides.
+type Memo = HashMap<usize, Vec<LowVal>>;
+
+impl Driver<'_> {
+    /// The value a connection delivers in the first lowering, coerced to the port's type.
+    fn source(&self, b: &mut Builder, s: &Source) -> LowVal {
+        let v = self.done.borrow()[s.node].outs.get(s.output).cloned();
+        match v {
+            Some(v) => coerce(b, &v, s),
+            None => LowVal::plain(b.zero(s.to)),
+        }
+    }
+
+    /// Node `j`'s outputs under the overrides in force: its first lowering where it depends
+    /// on none of them, else a new lowering (once per memo).
+    fn relower(&self, b: &mut Builder, j: usize, memo: &mut Memo) -> Result<Vec<LowVal>, String> {
+        if let Some(outs) = memo.get(&j) {
+            return Ok(outs.clone());
+        }
+        let first = self.done.borrow()[j].clone();
+        let (node, def) = match self.defs[j] {
+            Some(def) if first.streams & b.overridden_streams() != 0 => {
+                (&self.linked.nodes[j], def)
+            }
+            _ => return Ok(first.outs),
+        };
+        let mut values = Vec::with_capacity(node.inputs.len());
+        for (pi, input) in node.inputs.iter().enumerate() {
+            let v = match (input, first.inputs.get(pi)) {
+                (LinkedInput::Conn(s), _) => InputVal::Value(self.relowered_source(b, s, memo)?),
+                (LinkedInput::Default, _)
+                    if matches!(def.inputs[pi].default, PortDefault::Stream(_)) =>
+                {
+                    default_input(b, def, pi, node.generic)
+                }
+                (LinkedInput::Array(elems), Some(InputVal::Array(old))) => {
+                    let mut arr = Vec::with_capacity(elems.len());
+                    for (rec, old_rec) in elems.iter().zip(old) {
+                        let mut r = Vec::with_capacity(rec.len());
+                        for (fv, old_v) in rec.iter().zip(old_rec) {
+                            r.push(match fv {
+                                LinkedInput::Conn(s) => self.relowered_source(b, s, memo)?,
+                                _ => old_v.clone(),
+                            });
+                        }
+                        arr.push(r);
+                    }
+                    InputVal::Array(arr)
+                }
+                (_, Some(old)) => old.clone(),
+                (_, None) => return Err(format!("`{}` was not lowered", node.name)),
+            };
+            values.push(v);
+        }
+        let upstream = NodeUpstream {
+            driver: self,
+            node: j,
+            values: values.clone(),
+        };
+        let ni = NodeInputs {
+            node: &node.name,
+            def,
+            generic: node.generic,
+            values,
+            upstream: Some(&upstream),
+        };
+        let outs =
+            (def.lower)(b, &ni).map_err(|msg| format!("re-evaluating `{}`: {msg}", node.name))?;
+        if outs.len() != def.outputs.len() {
+            return Err(format!("re-evaluating `{}`: wrong output count", node.name));
+        }
+        memo.insert(j, outs.clone());
+        Ok(outs)
+    }
+
+    fn relowered_source(
+        &self,
+        b: &mut Builder,
+        s: &Source,
+        memo: &mut Memo,
+    ) -> Result<LowVal, String> {
+        let outs = self.relower(b, s.node, memo)?;
+        let v = outs.get(s.output).ok_or_else(|| {
+            format!(
+                "`{}` has no output {}",
+                self.linked.nodes[s.node].name, s.output
+            )
+        })?;
+        Ok(coerce(b, v, s))
+    }
+}
+
+/// The [`Upstream`] of one node: re-evaluates its inputs through the driver.
+struct NodeUpstream<'d, 'l> {
+    driver: &'d Driver<'l>,
+    node: usize,
+    /// The inputs the node is being lowered with (literals are kept as they are).
+    values: Vec<InputVal>,
+}
+
+impl Upstream for NodeUpstream<'_, '_> {
+    fn reevaluate(
+        &self,
+        b: &mut Builder,
+        port: &str,
+        overrides: &[(Stream, Value)],
+    ) -> Result<LowVal, String> {
+        let d = self.driver;
+        let node = &d.linked.nodes[self.node];
+        let def = d.defs[self.node].ok_or_else(|| format!("`{}` has no definition", node.name))?;
+        let pi = port_index(def, port)?;
+        b.push_overrides(overrides);
+        let result = match &node.inputs[pi] {
+            LinkedInput::Conn(s) => d.relowered_source(b, s, &mut Memo::new()),
+            LinkedInput::Default if matches!(def.inputs[pi].default, PortDefault::Stream(_)) => {
+                single_value(default_input(b, def, pi, node.generic), port)
+            }
+            _ => match self.values.get(pi) {
+                Some(v) => single_value(v.clone(), port),
+                None => Err(format!("input `{port}` of `{}` has no value", node.name)),
+            },
+        };
+        b.pop_overrides(overrides.len());
+        result
+    }
+}
+
 fn unreachable_input(
     b: &mut Builder,
     errors: &mut Vec<LinkError>,
@@ -322,6 +563,17 @@ fn unreachable_input(
             def.inputs[pi].name
         ),
     });
+}
+
+/// Calls `f` on every connection among `inputs` (array fields included).
+fn for_each_source(inputs: &[LinkedInput], f: &mut impl FnMut(&Source)) {
+    for input in inputs {
+        match input {
+            LinkedInput::Conn(s) => f(s),
+            LinkedInput::Array(a) => a.iter().for_each(|rec| for_each_source(rec, f)),
+            _ => {}
+        }
+    }
 }
 
 fn mark_sources(input: &LinkedInput, live: &mut [bool]) {
@@ -361,4 +613,158 @@ pub fn compile_json(src: &str, lib: &NodeLibrary) -> Result<Compiled, CompileErr
         program,
         lights: linked.lights,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ir::{BinOp, Op};
+    use crate::nodes::{NodeKind, port};
+
+    /// `clock`: outputs its `t` input (default: the `time` stream) plus the `uv` it reads
+    /// itself; `later`: its `input` re-evaluated at `time + 1`; `fixed`: a constant.
+    fn library() -> NodeLibrary {
+        fn def(
+            name: &'static str,
+            inputs: Vec<crate::nodes::PortDef>,
+            lower: crate::nodes::LowerFn,
+        ) -> NodeDef {
+            NodeDef {
+                name,
+                category: "test",
+                doc: "",
+                generic: &[],
+                inputs,
+                outputs: vec![port::out("out", Type::Float, "")],
+                lower,
+                kind: NodeKind::Shading,
+            }
+        }
+        let mut lib = NodeLibrary::new();
+        lib.add(def(
+            "clock",
+            vec![port::stream("t", Type::Float, Stream::Time, "")],
+            |b, inp| {
+                let uv = b.stream(Stream::Uv);
+                let u = b.extract(uv, 0);
+                Ok(vec![LowVal::plain(b.add(inp.get("t"), u))])
+            },
+        ));
+        lib.add(def("fixed", vec![port::float("k", 2.0, "")], |b, inp| {
+            let k = inp.get("k");
+            Ok(vec![LowVal::plain(b.mul(k, k))])
+        }));
+        lib.add(def(
+            "later",
+            vec![port::float("input", 0.0, "")],
+            |b, inp| {
+                let t = b.stream(Stream::Time);
+                let one = b.float(1.0);
+                let t1 = b.add(t, one);
+                let v = inp.reevaluate(b, "input", &[(Stream::Time, t1)])?;
+                let wrong = inp.reevaluate(b, "input", &[(Stream::Time, one), (Stream::Uv, one)]);
+                assert!(wrong.unwrap_err().contains("stream uv is a vec2"));
+                Ok(vec![v])
+            },
+        ));
+        lib
+    }
+
+    fn compile(src: &str) -> Program {
+        compile_json(src, &library()).unwrap().program
+    }
+
+    /// The op of output `name`.
+    fn out<'p>(p: &'p Program, name: &str) -> &'p Op {
+        let o = p.outputs.iter().find(|o| o.name == name).unwrap();
+        p.op(o.value)
+    }
+
+    #[test]
+    fn reevaluation_replaces_any_stream_upstream() {
+        let p = compile(
+            r#"{"nodes": [
+                {"name": "c", "type": "clock"},
+                {"name": "l", "type": "later", "inputs": {"input": "c.out"}}],
+              "outputs": {"first": "c.out", "later": "l.out"}}"#,
+        );
+        // `later` is clock's `t + u` with t = time + 1: a second add whose left operand is
+        // the override.
+        let Op::Binary(BinOp::Add, t, _) = out(&p, "later") else {
+            panic!("{p}");
+        };
+        assert!(
+            matches!(p.op(*t), Op::Binary(BinOp::Add, s, _) if *p.op(*s) == Op::Stream(Stream::Time)),
+            "{p}"
+        );
+        let Op::Binary(BinOp::Add, t0, _) = out(&p, "first") else {
+            panic!("{p}");
+        };
+        assert_eq!(p.op(*t0), &Op::Stream(Stream::Time));
+        // The time stream is read once; uv is read by each lowering of `clock`.
+        let count = |op: Op| p.listed().iter().filter(|v| *p.op(**v) == op).count();
+        assert_eq!(
+            count(Op::Stream(Stream::Time)),
+            2,
+            "clock's default and later's: {p}"
+        );
+        assert_eq!(count(Op::Stream(Stream::Uv)), 2, "{p}");
+        crate::ir::validate(&p).unwrap();
+    }
+
+    #[test]
+    fn nodes_that_do_not_read_the_stream_are_reused() {
+        let p = compile(
+            r#"{"nodes": [
+                {"name": "f", "type": "fixed", "inputs": {"k": 3}},
+                {"name": "l", "type": "later", "inputs": {"input": "f.out"}}],
+              "outputs": {"first": "f.out", "later": "l.out"}}"#,
+        );
+        let first = p.outputs.iter().find(|o| o.name == "first").unwrap().value;
+        let later = p.outputs.iter().find(|o| o.name == "later").unwrap().value;
+        assert_eq!(first, later, "{p}");
+        assert_eq!(
+            p.params.len(),
+            1,
+            "the literal's parameter is declared once"
+        );
+        // A literal input re-evaluates to its parameter.
+        let p = compile(
+            r#"{"nodes": [{"name": "l", "type": "later", "inputs": {"input": 5}}],
+              "outputs": {"later": "l.out"}}"#,
+        );
+        assert_eq!(out(&p, "later"), &Op::Param(0));
+        assert_eq!(p.params.len(), 1);
+    }
+
+    #[test]
+    fn lower_single_reevaluates_literals_and_stream_defaults() {
+        let lib = library();
+        let p = lower_single(&lib, "clock", Type::Float, &[]).unwrap();
+        assert!(matches!(out(&p, "out"), Op::Binary(BinOp::Add, ..)));
+        // `later` alone: its unconnected input is the literal default.
+        let p = lower_single(&lib, "later", Type::Float, &[]).unwrap();
+        assert!(matches!(out(&p, "out"), Op::Const(_)), "{p}");
+    }
+
+    #[test]
+    fn without_a_driver_reevaluation_is_an_error() {
+        let lib = library();
+        let def = lib.get("later").unwrap();
+        let mut b = Builder::new("t");
+        let ni = NodeInputs {
+            node: "l",
+            def,
+            generic: Type::Float,
+            values: vec![default_input(&mut b, def, 0, Type::Float)],
+            upstream: None,
+        };
+        let one = b.float(1.0);
+        let e = ni
+            .reevaluate(&mut b, "input", &[(Stream::Time, one)])
+            .unwrap_err();
+        assert!(e.contains("no lowering driver"), "{e}");
+        let e = ni.reevaluate(&mut b, "nope", &[]).unwrap_err();
+        assert!(e.contains("no input `nope`"), "{e}");
+    }
 }

@@ -187,6 +187,11 @@ impl ShadeEnv {
 /// What a renderer offers shaders: secondary rays (DESIGN §2). The tracer implements it;
 /// back ends call it for the ops that trace and for light visibility. The shading system
 /// never sees the scene itself.
+///
+/// Each method must be a pure function of its arguments (and the scene): back ends may call
+/// it once where a program asks twice (the interpreter asks `occluded` once per light sample
+/// and shading call, however many light loops read the sample's visibility). Directions and
+/// normals passed in are unit and finite.
 pub trait SceneServices: Send + Sync {
     /// Radiance arriving at `origin` from direction `dir` (unit): the renderer traces the ray
     /// and shades what it hits as a ray of type `ray_type` (`RAY_*`) at depth `depth`; black

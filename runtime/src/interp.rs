@@ -4,8 +4,29 @@
 //! an `If` runs only the arm its condition picks, and `Illuminance` runs its body once per
 //! light sample. Every output then passes the guard: a non-finite component becomes 0 and is
 //! counted in [`ShadeOut::nonfinite`].
+//!
+//! # The scene
+//!
+//! With a scene ([`ShadeCtx::scene`]) the interpreter asks it for what the scene ops need:
+//!
+//! - `Illuminance` runs its body for **every** light sample, blocked ones too; for each
+//!   sample it asks [`SceneServices::occluded`] for the segment from the loop's point to the
+//!   sample (once per sample and shading call: the answer is kept for the other light loops
+//!   of the same call at the same point), and `light.visible` is 0 where it is blocked, 1
+//!   elsewhere. A light loop whose body never reads `light.visible` asks nothing (its result
+//!   cannot depend on the answer). Without a scene every sample is visible.
+//! - `trace` calls [`SceneServices::trace`] from the fragment's `P` with the normalized
+//!   direction at depth `ray_depth + 1` (wrapping); black without a scene or for a zero or
+//!   non-finite direction.
+//! - `occlusion` calls [`SceneServices::occlusion`] with the normalized normal, at least one
+//!   sample and the fragment's seed, and clamps the answer to [0, 1] (a NaN answer counts as
+//!   1); it is 1 without a scene, for a zero or non-finite normal, and for a maximum distance
+//!   that is not positive (or NaN).
+//!
+//! Arguments go to the scene in f32 (the f64 reference rounds them) and its answers are
+//! widened back.
 
-use crate::ctx::{ShadeCtx, ShadeEnv};
+use crate::ctx::{SceneServices, ShadeCtx, ShadeEnv};
 use crate::lights;
 use crate::texture::{TextureError, TextureSet};
 use shadenet_graph::ir::{BinOp, Block, Op, Program, Space, Stream, Value, XformKind};
@@ -51,13 +72,22 @@ pub struct Interpreter<F: Real> {
     textures: TextureSet,
     /// The prelude's values, evaluated once, by arena index.
     prelude: Vec<(usize, Val<F>)>,
+    /// For each `Illuminance` (by arena index): whether its body reads `light.visible` (at
+    /// any depth), so its samples need a shadow test.
+    reads_visible: Vec<bool>,
 }
 
 /// Reusable per-thread storage for [`Interpreter::shade_with`].
 #[derive(Clone, Debug)]
 pub struct Scratch<F> {
     regs: Vec<Val<F>>,
-    light: Option<lights::Sample<F>>,
+    /// The current light sample and its visibility (1 or 0).
+    light: Option<(lights::Sample<F>, F)>,
+    /// Shadow-test answers of this shading call, by sample number (lights in order, their
+    /// samples in order): 0 not asked yet, 1 visible, 2 blocked.
+    visibility: Vec<u8>,
+    /// The point the answers in `visibility` are for (bits of its f64 coordinates).
+    visibility_at: Option<[u64; 3]>,
 }
 
 impl<F> Default for Scratch<F> {
@@ -65,6 +95,8 @@ impl<F> Default for Scratch<F> {
         Scratch {
             regs: Vec::new(),
             light: None,
+            visibility: Vec::new(),
+            visibility_at: None,
         }
     }
 }
@@ -116,7 +148,16 @@ impl<F: Real> Interpreter<F> {
                 list.push((i, *k));
             }
         }
+        let mut reads_visible = vec![false; program.exprs.len()];
+        for (i, e) in program.exprs.iter().enumerate() {
+            if let Op::Illuminance { body, .. } = &e.op {
+                let mut reads = false;
+                program.walk(body, &mut |v| reads |= *program.op(v) == Op::LightVisible);
+                reads_visible[i] = reads;
+            }
+        }
         let mut interp = Interpreter {
+            reads_visible,
             projs,
             program: program.clone(),
             consts,
@@ -168,6 +209,7 @@ impl<F: Real> Interpreter<F> {
         scratch.regs.clear();
         scratch.regs.resize(self.program.exprs.len(), Val::Int(0));
         scratch.light = None;
+        scratch.visibility_at = None;
         for &(i, v) in &self.prelude {
             scratch.regs[i] = v;
         }
@@ -251,20 +293,28 @@ impl<F: Real> Interpreter<F> {
                     .map(|y| Val::zero(self.program.ty(*y)))
                     .collect();
                 let outer = s.light;
+                let shadows = ctx.scene.filter(|_| self.reads_visible[v.index()]);
+                if shadows.is_some() {
+                    let at = p.map(|x| x.to_f64().to_bits());
+                    if s.visibility_at != Some(at) {
+                        s.visibility_at = Some(at);
+                        s.visibility.clear();
+                    }
+                }
+                let mut number = 0;
                 for (li, light) in ctx.env.lights.iter().enumerate() {
                     for k in 0..lights::sample_count(light) {
                         let Some(sample) = lights::sample(light, li as u32, k, p, ctx.frag.seed)
                         else {
                             continue;
                         };
-                        if let Some(scene) = ctx.scene {
-                            let from = p.map(|x| x.to_f64() as f32);
-                            let to = sample.to.map(|x| x.to_f64() as f32);
-                            if scene.occluded(from, to) {
-                                continue;
-                            }
-                        }
-                        s.light = Some(sample);
+                        let visible = match shadows {
+                            Some(scene) => visible(scene, p, &sample, number, s),
+                            None => true,
+                        };
+                        number += 1;
+                        let visible = if visible { F::ONE } else { F::ZERO };
+                        s.light = Some((sample, visible));
                         self.block(body, ctx, s);
                         for (sum, y) in sums.iter_mut().zip(&body.yields) {
                             *sum = ops::binary(BinOp::Add, *sum, s.regs[y.index()]);
@@ -276,8 +326,9 @@ impl<F: Real> Interpreter<F> {
                 self.store_sums(v, sums, s);
                 Val::Int(0)
             }
-            Op::LightL => Val::Vec3(s.light.map_or([F::ZERO; 3], |l| l.l)),
-            Op::LightCl => Val::Vec3(s.light.map_or([F::ZERO; 3], |l| l.cl)),
+            Op::LightL => Val::Vec3(s.light.map_or([F::ZERO; 3], |l| l.0.l)),
+            Op::LightCl => Val::Vec3(s.light.map_or([F::ZERO; 3], |l| l.0.cl)),
+            Op::LightVisible => Val::Float(s.light.map_or(F::ONE, |l| l.1)),
             Op::Ambient => Val::Vec3(lights::ambient(&ctx.env.lights)),
             Op::Proj(..) => s.regs[v.index()],
             Op::Texture { texture, uv, alpha } => {
@@ -293,6 +344,17 @@ impl<F: Real> Interpreter<F> {
                     Val::Vec3([t[0], t[1], t[2]])
                 }
             }
+            Op::Trace { dir, ray_type } => Val::Vec3(trace(ctx, reg(dir).as_vec3(), *ray_type)),
+            Op::Occlusion {
+                n,
+                samples,
+                max_distance,
+            } => Val::Float(occlusion(
+                ctx,
+                reg(n).as_vec3(),
+                reg(samples).as_int(),
+                reg(max_distance).as_float(),
+            )),
         }
     }
 
@@ -317,6 +379,67 @@ impl<F: Real> Interpreter<F> {
             Val::Mat(i) => &self.mats[i as usize],
             _ => &self.mats[0],
         }
+    }
+}
+
+/// Whether light sample number `number` (seen from `p`) reaches `p`: the scene's answer, asked
+/// once per sample and shading call at the same point.
+fn visible<F: Real>(
+    scene: &dyn SceneServices,
+    p: [F; 3],
+    sample: &lights::Sample<F>,
+    number: usize,
+    s: &mut Scratch<F>,
+) -> bool {
+    if s.visibility.len() <= number {
+        s.visibility.resize(number + 1, 0);
+    }
+    match s.visibility[number] {
+        1 => true,
+        2 => false,
+        _ => {
+            let from = p.map(|x| x.to_f64() as f32);
+            let to = sample.to.map(|x| x.to_f64() as f32);
+            let open = !scene.occluded(from, to);
+            s.visibility[number] = if open { 1 } else { 2 };
+            open
+        }
+    }
+}
+
+/// The `trace` op: radiance along `normalize(dir)` from the fragment's `P` (black without a
+/// scene, or for a zero or non-finite direction).
+pub fn trace<F: Real>(ctx: &ShadeCtx, dir: [F; 3], ray_type: i32) -> [F; 3] {
+    let Some(scene) = ctx.scene else {
+        return [F::ZERO; 3];
+    };
+    let d = ops::normalize(dir).map(|x| x.to_f64() as f32);
+    if d.iter().any(|x| !x.is_finite()) || d.iter().all(|x| *x == 0.0) {
+        return [F::ZERO; 3];
+    }
+    let depth = ctx.frag.ray_depth.wrapping_add(1);
+    let c = scene.trace(ctx.frag.p, d, ray_type, depth);
+    c.map(|x| F::from_f64(x as f64))
+}
+
+/// The `occlusion` op: the scene's ambient occlusion at the fragment's `P` around `n`, in
+/// [0, 1] (1 where nothing can be asked: see the module documentation).
+pub fn occlusion<F: Real>(ctx: &ShadeCtx, n: [F; 3], samples: i32, max_distance: F) -> F {
+    let Some(scene) = ctx.scene else {
+        return F::ONE;
+    };
+    let n = ops::normalize(n).map(|x| x.to_f64() as f32);
+    let max_distance = max_distance.to_f64() as f32;
+    let reaches = max_distance > 0.0; // false for NaN
+    if n.iter().any(|x| !x.is_finite()) || n.iter().all(|x| *x == 0.0) || !reaches {
+        return F::ONE;
+    }
+    let samples = samples.max(1) as u32;
+    let o = scene.occlusion(ctx.frag.p, n, samples, max_distance, ctx.frag.seed);
+    if o.is_nan() {
+        F::ONE
+    } else {
+        F::from_f64(o.clamp(0.0, 1.0) as f64)
     }
 }
 

@@ -4,8 +4,19 @@
 //! the rules of [`crate::ops`]. A lowering that asks for an ill-typed op is a bug in the
 //! lowering, not in the user's network; the builder records the first such error (and keeps
 //! going with a placeholder of a plausible type), and [`Builder::finish`] reports it.
+//!
+//! **Stream overrides** (DESIGN §3): while overrides are in force
+//! ([`Builder::push_overrides`]), [`Builder::stream`] returns the overriding value instead of
+//! reading the fragment. The lowering driver uses them to re-evaluate a node's upstream
+//! subgraph with, say, `uv` moved (bump mapping): the overrides exist only while that
+//! subgraph is being lowered, so the program itself has no mutable state. The builder also
+//! records which streams were read ([`Builder::take_streams_read`]), so the driver knows
+//! which nodes an override changes.
 
-use super::{BinOp, Block, Expr, Intrinsic, Op, Output, Program, Space, Stream, UnOp, Value};
+use super::{
+    BinOp, Block, Expr, Intrinsic, Op, Output, Program, Space, Stream, UnOp, Value,
+    is_traceable_ray_type,
+};
 use crate::ops;
 use crate::types::{ConstValue, Type};
 
@@ -16,6 +27,11 @@ pub struct Builder {
     /// Open blocks; the last is the innermost.
     blocks: Vec<Block>,
     error: Option<String>,
+    /// Stream overrides in force, innermost last.
+    overrides: Vec<(Stream, Value)>,
+    /// Streams read through [`Builder::stream`] since the last [`Builder::take_streams_read`]
+    /// (bit [`Stream::bit`]).
+    streams_read: u32,
 }
 
 impl Builder {
@@ -28,6 +44,8 @@ impl Builder {
             },
             blocks: vec![Block::default()],
             error: None,
+            overrides: Vec::new(),
+            streams_read: 0,
         }
     }
 
@@ -96,9 +114,45 @@ impl Builder {
         self.constant(ConstValue::zero(ty))
     }
 
-    /// An implicit stream in world space.
+    /// An implicit stream in world space: the fragment's, or the innermost override of `s`
+    /// in force.
     pub fn stream(&mut self, s: Stream) -> Value {
+        self.streams_read |= s.bit();
+        if let Some(&(_, v)) = self.overrides.iter().rev().find(|(t, _)| *t == s) {
+            return v;
+        }
         self.push(Op::Stream(s), Some(s.ty()))
+    }
+
+    /// Puts stream overrides in force (on top of those already in force): until the matching
+    /// [`Builder::pop_overrides`], [`Builder::stream`] of an overridden stream returns its
+    /// value (world space, of the stream's type; a value of another type is recorded as an
+    /// internal error).
+    pub fn push_overrides(&mut self, overrides: &[(Stream, Value)]) {
+        for &(s, v) in overrides {
+            if self.ty(v) != s.ty() {
+                let t = self.ty(v);
+                self.fail(format!("override of stream {} with a {t}", s.name()));
+            }
+            self.overrides.push((s, v));
+        }
+    }
+
+    /// Ends the last `n` overrides put in force.
+    pub fn pop_overrides(&mut self, n: usize) {
+        let keep = self.overrides.len().saturating_sub(n);
+        self.overrides.truncate(keep);
+    }
+
+    /// The streams overridden now (bits [`Stream::bit`]).
+    pub fn overridden_streams(&self) -> u32 {
+        self.overrides.iter().fold(0, |m, (s, _)| m | s.bit())
+    }
+
+    /// The streams read through [`Builder::stream`] since the last call (bits
+    /// [`Stream::bit`]; overridden reads count), and starts a new record.
+    pub fn take_streams_read(&mut self) -> u32 {
+        std::mem::take(&mut self.streams_read)
     }
 
     /// An implicit stream read in `space` (a transform is inserted unless `space` is world or
@@ -347,6 +401,43 @@ impl Builder {
     /// Sum of the ambient lights (color).
     pub fn ambient(&mut self) -> Value {
         self.push(Op::Ambient, Some(Type::Color))
+    }
+
+    /// Inside an illuminance body: 1.0 where the current light sample is unblocked, else 0.0
+    /// ([`Op::LightVisible`]).
+    pub fn light_visible(&mut self) -> Value {
+        self.push(Op::LightVisible, Some(Type::Float))
+    }
+
+    /// The radiance arriving at the shaded point along the vec3 `dir`, traced by the
+    /// scene as a ray of type `ray_type` ([`Op::Trace`]); color.
+    pub fn trace(&mut self, dir: Value, ray_type: i32) -> Value {
+        if self.ty(dir) != Type::Vec3 {
+            let t = self.ty(dir);
+            self.fail(format!("trace direction must be a vec3, not a {t}"));
+        }
+        if !is_traceable_ray_type(ray_type) {
+            self.fail(format!("trace cannot trace rays of type {ray_type}"));
+        }
+        self.push(Op::Trace { dir, ray_type }, Some(Type::Color))
+    }
+
+    /// Ambient occlusion at the shaded point around `n` (vec3) with `samples` (int) rays
+    /// reaching `max_distance` (float) ([`Op::Occlusion`]); float in [0, 1].
+    pub fn occlusion(&mut self, n: Value, samples: Value, max_distance: Value) -> Value {
+        let tys = (self.ty(n), self.ty(samples), self.ty(max_distance));
+        if tys != (Type::Vec3, Type::Int, Type::Float) {
+            self.fail(format!(
+                "occlusion takes (vec3, int, float), not ({}, {}, {})",
+                tys.0, tys.1, tys.2
+            ));
+        }
+        let op = Op::Occlusion {
+            n,
+            samples,
+            max_distance,
+        };
+        self.push(op, Some(Type::Float))
     }
 
     fn build_block(&mut self, f: impl FnOnce(&mut Builder) -> Vec<Value>) -> Block {

@@ -17,6 +17,7 @@ impl Op {
             | Op::ComponentEnabled(_)
             | Op::LightL
             | Op::LightCl
+            | Op::LightVisible
             | Op::Ambient => Vec::new(),
             Op::Transform { arg, .. } => vec![arg],
             Op::Unary(_, a) | Op::Extract(a, _) | Op::Splat(a) | Op::Convert(a) => vec![a],
@@ -27,6 +28,12 @@ impl Op {
             Op::Illuminance { p, .. } => vec![p],
             Op::Proj(r, _) => vec![r],
             Op::Texture { uv, .. } => vec![uv],
+            Op::Trace { dir, .. } => vec![dir],
+            Op::Occlusion {
+                n,
+                samples,
+                max_distance,
+            } => vec![n, samples, max_distance],
         }
     }
 

@@ -9,8 +9,14 @@
 //! - [`Op::If`] evaluates one of two blocks; its results are the chosen block's yields, read
 //!   with [`Op::Proj`].
 //! - [`Op::Illuminance`] runs its body once per non-ambient light sample (inside it,
-//!   [`Op::LightL`] and [`Op::LightCl`] read the current sample); its results are the sums of
-//!   the body's yields over all samples (zero without lights).
+//!   [`Op::LightL`], [`Op::LightCl`] and [`Op::LightVisible`] read the current sample); its
+//!   results are the sums of the body's yields over all samples (zero without lights). Blocked
+//!   samples run the body too, with `light.visible = 0`: a shader multiplies what it lights by
+//!   it, and can sum what the shadows take away.
+//!
+//! Two ops ask the renderer's scene for secondary rays: [`Op::Trace`] (radiance along a
+//! direction) and [`Op::Occlusion`] (ambient occlusion). Like the light ops they read the
+//! scene, so they are varying, never folded and never hoisted.
 //!
 //! A value defined inside a block is visible in that block and the blocks nested in it, never
 //! outside: results leave a region only through its yields. Region exprs have no type of
@@ -157,6 +163,34 @@ pub const RAY_REFRACTION: i32 = 8;
 /// Diffuse (indirect) ray.
 pub const RAY_DIFFUSE: i32 = 16;
 
+/// The ray types and their names in the IR text, in bit order.
+pub const RAY_TYPES: [(i32, &str); 5] = [
+    (RAY_CAMERA, "camera"),
+    (RAY_SHADOW, "shadow"),
+    (RAY_REFLECTION, "reflection"),
+    (RAY_REFRACTION, "refraction"),
+    (RAY_DIFFUSE, "diffuse"),
+];
+
+/// The name of a ray type code (`None` for anything but one of the `RAY_*` bits).
+pub fn ray_type_name(ray_type: i32) -> Option<&'static str> {
+    RAY_TYPES
+        .iter()
+        .find(|(t, _)| *t == ray_type)
+        .map(|(_, n)| *n)
+}
+
+/// The ray type code of a name written by [`ray_type_name`].
+pub fn ray_type_from_name(name: &str) -> Option<i32> {
+    RAY_TYPES.iter().find(|(_, n)| *n == name).map(|(t, _)| *t)
+}
+
+/// Whether [`Op::Trace`] may trace rays of this type: reflection, refraction or diffuse
+/// (camera rays start at the eye, shadow rays are the light loop's).
+pub fn is_traceable_ray_type(ray_type: i32) -> bool {
+    matches!(ray_type, RAY_REFLECTION | RAY_REFRACTION | RAY_DIFFUSE)
+}
+
 impl Stream {
     /// Every stream, in a fixed order.
     pub const ALL: [Stream; 12] = [
@@ -195,6 +229,12 @@ impl Stream {
     /// Parses a stream name.
     pub fn from_name(s: &str) -> Option<Stream> {
         Stream::ALL.into_iter().find(|x| x.name() == s)
+    }
+
+    /// The stream's bit in a set of streams held in a `u32` (`1 << position in`
+    /// [`Stream::ALL`]).
+    pub fn bit(self) -> u32 {
+        1 << (self as u32)
     }
 
     /// The stream's type.
@@ -468,7 +508,8 @@ pub enum Op {
         else_: Block,
     },
     /// Light loop: runs `body` once per non-ambient light sample seen from point `p` (world
-    /// space); results are the sums of its yields (float or vector) over the samples.
+    /// space), blocked samples included ([`Op::LightVisible`] tells them apart); results are
+    /// the sums of its yields (float or vector) over the samples.
     Illuminance {
         /// The shaded point, world space.
         p: Value,
@@ -481,6 +522,12 @@ pub enum Op {
     /// Inside an illuminance body: radiance-weighted color arriving from the sample, already
     /// divided by distance² where the light has a position (color).
     LightCl,
+    /// Inside an illuminance body: whether the current light sample reaches the shaded point
+    /// (float: 1.0 where it does, 0.0 where the renderer's scene blocks the segment from the
+    /// point to the sample). Without a scene every sample is visible. [`Op::LightCl`] is the
+    /// same for blocked and visible samples: a shader multiplies its lit terms by this value
+    /// (and may sum `1 − visible` terms to see what the shadows remove).
+    LightVisible,
     /// Sum of the ambient lights' colors (color): light without direction.
     Ambient,
     /// Result `index` of a region (`If` or `Illuminance`).
@@ -496,6 +543,32 @@ pub enum Op {
         /// Alpha (float) instead of color.
         alpha: bool,
     },
+    /// Radiance (color) arriving at the shaded point along `dir` (a vec3, world space,
+    /// normalized by the runtime): the renderer's scene traces a ray from the fragment's `P`
+    /// (it offsets the origin itself) as a ray of type `ray_type` at depth `raydepth + 1` and
+    /// shades what it hits. Black without a scene, and for a zero or non-finite `dir`. A pure function of the
+    /// fragment and `dir` (two identical traces may be merged), but it reads the scene: it is
+    /// varying, never folded and never hoisted.
+    Trace {
+        /// The direction of the ray (vec3, world space).
+        dir: Value,
+        /// The ray type code: [`RAY_REFLECTION`], [`RAY_REFRACTION`] or [`RAY_DIFFUSE`] (see
+        /// [`is_traceable_ray_type`]).
+        ray_type: i32,
+    },
+    /// Ambient occlusion at the fragment's `P` around normal `n` (float in [0, 1]; 1 = fully
+    /// open): the fraction of `samples` cosine-weighted directions the scene finds unblocked
+    /// within `max_distance`, deterministic in the fragment's seed. 1 without a scene, for
+    /// `max_distance ≤ 0` (or NaN) and for a zero or non-finite `n`; `samples < 1` counts as
+    /// 1. Like [`Op::Trace`]: varying, never folded, never hoisted.
+    Occlusion {
+        /// The normal around which to sample (vec3, world space; normalized by the runtime).
+        n: Value,
+        /// Number of sample directions (int).
+        samples: Value,
+        /// How far a blocker counts (float, world units).
+        max_distance: Value,
+    },
 }
 
 impl Op {
@@ -508,6 +581,7 @@ impl Op {
             | Op::ComponentEnabled(_)
             | Op::LightL
             | Op::LightCl
+            | Op::LightVisible
             | Op::Ambient => {}
             Op::Transform { arg, .. } => f(*arg),
             Op::Unary(_, a) | Op::Extract(a, _) | Op::Splat(a) | Op::Convert(a) => f(*a),
@@ -525,6 +599,16 @@ impl Op {
             Op::Illuminance { p, .. } => f(*p),
             Op::Proj(r, _) => f(*r),
             Op::Texture { uv, .. } => f(*uv),
+            Op::Trace { dir, .. } => f(*dir),
+            Op::Occlusion {
+                n,
+                samples,
+                max_distance,
+            } => {
+                f(*n);
+                f(*samples);
+                f(*max_distance)
+            }
         }
     }
 
@@ -684,7 +768,8 @@ impl Rate {
 
 /// Derives the rate of every value (indexed like `Program::exprs`; values not reachable from
 /// the top-level block get `Const`). A value's rate is the highest of its operands'; streams,
-/// light samples and ambient light are varying; parameters and component queries uniform;
+/// light samples (and their visibility), ambient light and the scene queries (`trace`,
+/// `occlusion`) are varying; parameters and component queries uniform;
 /// a region's results are at least as varying as its condition or point and everything it
 /// yields.
 pub fn rates(program: &Program) -> Vec<Rate> {
@@ -700,7 +785,13 @@ fn rate_block(program: &Program, block: &Block, rates: &mut [Rate]) {
         let mut r = match op {
             Op::Const(_) => Rate::Const,
             Op::Param(_) | Op::ComponentEnabled(_) | Op::Texture { .. } => Rate::Uniform,
-            Op::Stream(_) | Op::LightL | Op::LightCl | Op::Ambient => Rate::Varying,
+            Op::Stream(_)
+            | Op::LightL
+            | Op::LightCl
+            | Op::LightVisible
+            | Op::Ambient
+            | Op::Trace { .. }
+            | Op::Occlusion { .. } => Rate::Varying,
             Op::Illuminance { .. } => Rate::Varying,
             _ => Rate::Const,
         };

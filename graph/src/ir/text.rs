@@ -93,8 +93,11 @@
 //! | `call noise3 %a, …` | [`Op::Call`] ([`Intrinsic::name`]) |
 //! | `if %c { … } else { … }` | [`Op::If`] |
 //! | `illuminance %p { … }` | [`Op::Illuminance`] |
-//! | `light.L`, `light.Cl`, `ambient` | [`Op::LightL`], [`Op::LightCl`], [`Op::Ambient`] |
+//! | `light.L`, `light.Cl`, `light.visible`, `ambient` | [`Op::LightL`], [`Op::LightCl`], [`Op::LightVisible`], [`Op::Ambient`] |
 //! | `proj %r, 0` | [`Op::Proj`] |
+//! | `texture #0 %uv`, `texture.alpha #0 %uv` | [`Op::Texture`] (index into the texture table) |
+//! | `trace reflection %d` | [`Op::Trace`] (the ray type by name, [`super::ray_type_name`], or `#K` for any other code `K`) |
+//! | `occlusion %n, %samples, %maxdist` | [`Op::Occlusion`] |
 //!
 //! A region's blocks hold value lines and end with `yield %a, %b, …` (left out when the
 //! block yields nothing). A label is visible after its line, in its block and the blocks
@@ -127,7 +130,7 @@
 
 use super::{
     BinOp, Block, Expr, Intrinsic, Op, Output, ParamDecl, Program, Space, Stream, UnOp, Value,
-    XformKind,
+    XformKind, ray_type_from_name, ray_type_name,
 };
 use crate::types::{ConstValue, Type, fmt_float};
 use std::collections::HashMap;
@@ -352,6 +355,7 @@ impl<W: fmt::Write> Printer<'_, W> {
             }
             Op::LightL => "light.L".to_string(),
             Op::LightCl => "light.Cl".to_string(),
+            Op::LightVisible => "light.visible".to_string(),
             Op::Ambient => "ambient".to_string(),
             Op::Proj(r, i) => format!("proj {}, {i}", self.val(*r)),
             Op::Texture { texture, uv, alpha } => format!(
@@ -359,6 +363,18 @@ impl<W: fmt::Write> Printer<'_, W> {
                 if *alpha { "texture.alpha" } else { "texture" },
                 self.val(*uv)
             ),
+            Op::Trace { dir, ray_type } => {
+                let ty = match ray_type_name(*ray_type) {
+                    Some(name) => name.to_string(),
+                    None => format!("#{ray_type}"),
+                };
+                format!("trace {ty} {}", self.val(*dir))
+            }
+            Op::Occlusion {
+                n,
+                samples,
+                max_distance,
+            } => format!("occlusion {}", self.vals(&[*n, *samples, *max_distance])),
         };
         self.out.write_str(&text)
     }
@@ -432,6 +448,9 @@ pub enum ParseErrorKind {
     /// An intrinsic name that is not an [`Intrinsic`].
     #[error("unknown intrinsic `{0}`")]
     UnknownIntrinsic(String),
+    /// A ray type name that is not one of [`super::RAY_TYPES`].
+    #[error("unknown ray type `{0}` (camera, shadow, reflection, refraction, diffuse or #CODE)")]
+    UnknownRayType(String),
     /// A component name not declared on the `components` line.
     #[error("unknown component `{0}` (declare it on the `components` line)")]
     UnknownComponent(String),
@@ -1214,7 +1233,23 @@ impl Parser {
             }
             "light.L" => Op::LightL,
             "light.Cl" => Op::LightCl,
+            "light.visible" => Op::LightVisible,
             "ambient" => Op::Ambient,
+            "trace" => {
+                let ray_type = self.ray_type()?;
+                Op::Trace {
+                    dir: self.operand()?,
+                    ray_type,
+                }
+            }
+            "occlusion" => {
+                let [n, samples, max_distance] = self.operands()?;
+                Op::Occlusion {
+                    n,
+                    samples,
+                    max_distance,
+                }
+            }
             "proj" => {
                 let r = self.operand()?;
                 self.expect_punct(',')?;
@@ -1232,6 +1267,21 @@ impl Parser {
             }
         };
         Ok(Parsed::Op(op))
+    }
+
+    /// A ray type: its name, or `#CODE` (any i32).
+    fn ray_type(&mut self) -> PResult<i32> {
+        if self.eat_punct('#') {
+            let t = self.next();
+            let Tok::Num(text) = &t.tok else {
+                return Err(Self::expected(&t, "a ray type code"));
+            };
+            return text
+                .parse::<i32>()
+                .map_err(|_| Self::err(&t, ParseErrorKind::BadNumber(text.clone())));
+        }
+        let (w, t) = self.ident("a ray type")?;
+        ray_type_from_name(&w).ok_or_else(|| Self::err(&t, ParseErrorKind::UnknownRayType(w)))
     }
 
     fn space(&mut self) -> PResult<Space> {
@@ -1365,7 +1415,7 @@ impl Parser {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::ir::{Builder, validate};
+    use crate::ir::{Builder, RAY_DIFFUSE, RAY_REFLECTION, RAY_REFRACTION, validate};
 
     // ---- helpers ----
 
@@ -1385,6 +1435,7 @@ mod tests {
             | Op::ComponentEnabled(_)
             | Op::LightL
             | Op::LightCl
+            | Op::LightVisible
             | Op::Ambient => op.clone(),
             Op::Transform {
                 kind,
@@ -1423,6 +1474,19 @@ mod tests {
                 texture: *texture,
                 uv: m(*uv),
                 alpha: *alpha,
+            },
+            Op::Trace { dir, ray_type } => Op::Trace {
+                dir: m(*dir),
+                ray_type: *ray_type,
+            },
+            Op::Occlusion {
+                n,
+                samples,
+                max_distance,
+            } => Op::Occlusion {
+                n: m(*n),
+                samples: m(*samples),
+                max_distance: m(*max_distance),
             },
         }
     }
@@ -1655,8 +1719,15 @@ mod tests {
             },
         );
         let n = streams[1];
+        let samples = b.int(16);
+        b.occlusion(n, samples, f);
+        for ray_type in [RAY_REFLECTION, RAY_REFRACTION, RAY_DIFFUSE] {
+            b.trace(n, ray_type);
+        }
         let lit = b.illuminance(pos, |b, l, cl| {
+            let vis = b.light_visible();
             let d = b.dot(n, l);
+            let d = b.mul(d, vis);
             let zero = b.float(0.0);
             let front = b.binary(BinOp::Gt, d, zero);
             let shaded = b.if_(
@@ -1717,6 +1788,11 @@ mod tests {
             "transform normal object -> camera %",
             "light.L : vec3",
             "light.Cl : color",
+            "light.visible : float",
+            "= trace reflection %",
+            "= trace refraction %",
+            "= trace diffuse %",
+            "= occlusion %",
             "mulpoint %6, %",
             "call fbm3 %",
             "output color[diffuse] %",
@@ -1752,6 +1828,8 @@ mod tests {
             "illuminance",
             "ambient",
             "proj",
+            "trace",
+            "occlusion",
         ] {
             assert!(text.contains(&format!(" = {word} ")), "no {word}");
         }
@@ -1881,6 +1959,85 @@ program \"m\" { components diffuse ; the components
 }
 "
         );
+    }
+
+    #[test]
+    fn scene_queries_round_trip() {
+        let src = "program \"glass\" {
+  %0 = stream P : vec3
+  %1 = stream N : vec3
+  %2 = trace reflection %1 : color
+  %3 = trace refraction %1 : color
+  %4 = trace diffuse %1 : color
+  %5 = const 16 : int
+  %6 = const 1e30 : float
+  %7 = occlusion %1, %5, %6 : float
+  %8 = illuminance %0 {
+    %9 = light.Cl : color
+    %10 = light.visible : float
+    %11 = splat %10 : color
+    %12 = mul %9, %11 : color
+    yield %12
+  }
+  %13 = proj %8, 0 : color
+  output c %2
+  output o %7
+  output s %13
+}
+";
+        let p = parse(src).unwrap();
+        validate(&p).unwrap();
+        assert_eq!(p.to_string(), src);
+        assert_eq!(
+            p.exprs[3].op,
+            Op::Trace {
+                dir: Value::new(1),
+                ray_type: RAY_REFRACTION
+            }
+        );
+        assert_eq!(
+            p.exprs[7].op,
+            Op::Occlusion {
+                n: Value::new(1),
+                samples: Value::new(5),
+                max_distance: Value::new(6)
+            }
+        );
+        assert_eq!(p.exprs[10].op, Op::LightVisible);
+        round_trip(&p);
+        // Ray types by code: a named one prints by name, any other code as `#K`.
+        let q = parse("program \"m\" {\n  %0 = stream N : vec3\n  %1 = trace #8 %0 : color\n  %2 = trace #-3 %0 : color\n  %3 = trace #6 %0 : color\n}\n").unwrap();
+        let text = q.to_string();
+        assert!(text.contains("= trace refraction %0"), "{text}");
+        assert!(text.contains("= trace #-3 %0"), "{text}");
+        assert!(text.contains("= trace #6 %0"), "{text}");
+        round_trip(&q);
+        assert!(validate(&q).is_err(), "ray type -3 cannot be traced");
+        // Mistakes.
+        let m = |body: &str| format!("program \"m\" {{\n  %0 = stream N : vec3\n  {body}\n}}\n");
+        assert_eq!(
+            at(&m("%1 = trace mirror %0 : color")),
+            (3, 14, ParseErrorKind::UnknownRayType("mirror".into()))
+        );
+        assert_eq!(
+            at(&m("%1 = trace #x %0 : color")),
+            (
+                3,
+                15,
+                ParseErrorKind::Expected {
+                    expected: "a ray type code".into(),
+                    found: "`x`".into()
+                }
+            )
+        );
+        assert_eq!(
+            at(&m("%1 = trace #99999999999 %0 : color")),
+            (3, 15, ParseErrorKind::BadNumber("99999999999".into()))
+        );
+        assert!(matches!(
+            at(&m("%1 = occlusion %0, %0 : float")),
+            (3, 25, ParseErrorKind::Expected { .. })
+        ));
     }
 
     // ---- invalid programs print, and what prints parses back ----

@@ -3,7 +3,7 @@
 //!
 //! The rules are listed on [`validate`](fn@validate).
 
-use super::{Block, Op, Program, Value};
+use super::{Block, Op, Program, Value, is_traceable_ray_type};
 use crate::ops;
 use crate::types::Type;
 use std::collections::HashMap;
@@ -157,7 +157,17 @@ pub enum ValidationError {
         /// The offending type.
         ty: Type,
     },
-    /// `light.L` or `light.Cl` outside an illuminance body.
+    /// `trace` with a ray type it cannot trace (see [`super::is_traceable_ray_type`]).
+    #[error(
+        "{value:?} traces rays of type {ray_type}: only reflection (4), refraction (8) and diffuse (16) rays can be traced"
+    )]
+    RayType {
+        /// The `trace`.
+        value: Value,
+        /// Its ray type code.
+        ray_type: i32,
+    },
+    /// `light.L`, `light.Cl` or `light.visible` outside an illuminance body.
     #[error("{value:?} reads the light sample outside an illuminance body")]
     LightOutsideIlluminance {
         /// The value.
@@ -239,8 +249,11 @@ fn ty_name(t: &Option<Type>) -> &'static str {
 ///   [`ops::convert_ok`], and the rules of [`Op`] for the others); region exprs have no
 ///   type and are only read through `proj`;
 /// - **regions**: an `If` condition is a bool and both arms yield the same types; an
-///   `Illuminance` point is a vec3 and its yields are float-based; `light.L`/`light.Cl` occur
-///   only inside an illuminance body (at any depth);
+///   `Illuminance` point is a vec3 and its yields are float-based; `light.L`, `light.Cl` and
+///   `light.visible` occur only inside an illuminance body (at any depth);
+/// - **scene queries**: `trace` takes a vec3 and a reflection, refraction or diffuse ray
+///   type and gives a color; `occlusion` takes (vec3, int, float) and gives a float; neither
+///   may be in the prelude (they are varying);
 /// - **indices**: parameter, component and result indices are in range; component names are
 ///   distinct and at most 32 (one bit each in a component mask); a parameter's default has
 ///   the parameter's type;
@@ -268,7 +281,10 @@ pub fn validate(p: &Program) -> Result<(), ValidationError> {
         let reason = match &p.exprs[value.index()].op {
             Op::Stream(_) | Op::Transform { .. } => Some("it reads the fragment"),
             Op::ComponentEnabled(_) => Some("it reads the component mask"),
-            Op::LightL | Op::LightCl | Op::Ambient => Some("it reads the lights"),
+            Op::LightL | Op::LightCl | Op::LightVisible | Op::Ambient => {
+                Some("it reads the lights")
+            }
+            Op::Trace { .. } | Op::Occlusion { .. } => Some("it asks the scene for rays"),
             Op::Texture { .. } => Some("it reads a texture"),
             Op::If { .. } | Op::Illuminance { .. } | Op::Proj(..) => Some("it is a region"),
             _ => None,
@@ -560,15 +576,42 @@ impl Validator<'_> {
                 self.region_types.insert(value, bt);
                 None
             }
-            Op::LightL | Op::LightCl => {
+            Op::LightL | Op::LightCl | Op::LightVisible => {
                 if self.illuminance_depth == 0 {
                     return Err(ValidationError::LightOutsideIlluminance { value });
                 }
-                Some(if e.op == Op::LightL {
-                    Type::Vec3
-                } else {
-                    Type::Color
+                Some(match e.op {
+                    Op::LightL => Type::Vec3,
+                    Op::LightCl => Type::Color,
+                    _ => Type::Float,
                 })
+            }
+            Op::Trace { dir, ray_type } => {
+                let t = self.operand(value, *dir)?;
+                if t != Type::Vec3 {
+                    return Err(ill(format!("trace direction is a {t}, not a vec3")));
+                }
+                if !is_traceable_ray_type(*ray_type) {
+                    return Err(ValidationError::RayType {
+                        value,
+                        ray_type: *ray_type,
+                    });
+                }
+                Some(Type::Color)
+            }
+            Op::Occlusion {
+                n,
+                samples,
+                max_distance,
+            } => {
+                let ts = self.operands(value, &[*n, *samples, *max_distance])?;
+                if ts != [Type::Vec3, Type::Int, Type::Float] {
+                    return Err(ill(format!(
+                        "occlusion takes (vec3, int, float), not ({})",
+                        tys(&ts)
+                    )));
+                }
+                Some(Type::Float)
             }
             Op::Ambient => Some(Type::Color),
             Op::Proj(region, index) => {
@@ -608,7 +651,10 @@ impl Validator<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::ir::{BinOp, Builder, Expr, Intrinsic, Output, ParamDecl, Stream, UnOp};
+    use crate::ir::{
+        BinOp, Builder, Expr, Intrinsic, Output, ParamDecl, RAY_CAMERA, RAY_DIFFUSE,
+        RAY_REFLECTION, RAY_REFRACTION, RAY_SHADOW, Stream, UnOp,
+    };
     use crate::types::ConstValue;
 
     /// A valid program and the handles the tests break it through.
@@ -1235,6 +1281,124 @@ mod tests {
             err(&b.p),
             ValidationError::LightOutsideIlluminance { value: v }
         );
+    }
+
+    // ---- scene queries and light visibility ----
+
+    #[test]
+    fn scene_queries_and_light_visibility_validate() {
+        let mut b = base();
+        let (pos, f, illum) = (b.pos, b.f, b.illum);
+        let p = &mut b.p;
+        let samples = push(p, Op::Const(ConstValue::Int(16)), Some(Type::Int));
+        for ray_type in [RAY_REFLECTION, RAY_REFRACTION, RAY_DIFFUSE] {
+            push(p, Op::Trace { dir: pos, ray_type }, Some(Type::Color));
+        }
+        let occlusion = Op::Occlusion {
+            n: pos,
+            samples,
+            max_distance: f,
+        };
+        push(p, occlusion, Some(Type::Float));
+        // light.visible at any depth inside an illuminance body.
+        p.exprs.push(Expr {
+            op: Op::LightVisible,
+            ty: Some(Type::Float),
+        });
+        let vis = Value::new(p.exprs.len() - 1);
+        blocks_mut(p, illum)[0].body.push(vis);
+        blocks_mut(p, illum)[0].yields.push(vis);
+        assert_eq!(validate(p), Ok(()));
+        // Its type is float.
+        p.exprs[vis.index()].ty = Some(Type::Bool);
+        assert!(matches!(err(p), ValidationError::WrongType { value, .. } if value == vis));
+        // A trace gives a color.
+        let mut b = base();
+        let t = push(
+            &mut b.p,
+            Op::Trace {
+                dir: b.pos,
+                ray_type: RAY_REFLECTION,
+            },
+            Some(Type::Float),
+        );
+        let want = ValidationError::WrongType {
+            value: t,
+            recorded: Some(Type::Float),
+            inferred: Some(Type::Color),
+        };
+        assert_eq!(err(&b.p), want);
+    }
+
+    #[test]
+    fn light_visible_outside_illuminance() {
+        let mut b = base();
+        let v = push(&mut b.p, Op::LightVisible, Some(Type::Float));
+        assert_eq!(
+            err(&b.p),
+            ValidationError::LightOutsideIlluminance { value: v }
+        );
+        // In an if arm outside any illuminance body.
+        let mut b = base();
+        b.p.exprs.push(Expr {
+            op: Op::LightVisible,
+            ty: Some(Type::Float),
+        });
+        let v = Value::new(b.p.exprs.len() - 1);
+        let region = b.region;
+        blocks_mut(&mut b.p, region)[0].body.push(v);
+        assert_eq!(
+            err(&b.p),
+            ValidationError::LightOutsideIlluminance { value: v }
+        );
+    }
+
+    #[test]
+    fn trace_rules() {
+        ill_typed(
+            |b| Op::Trace {
+                dir: b.c,
+                ray_type: RAY_REFLECTION,
+            },
+            Type::Color,
+            "trace direction is a color, not a vec3",
+        );
+        for ray_type in [RAY_CAMERA, RAY_SHADOW, 0, 12, -4] {
+            let mut b = base();
+            let dir = b.pos;
+            let v = push(&mut b.p, Op::Trace { dir, ray_type }, Some(Type::Color));
+            assert_eq!(err(&b.p), ValidationError::RayType { value: v, ray_type });
+        }
+        ill_typed(
+            |b| Op::Occlusion {
+                n: b.pos,
+                samples: b.f,
+                max_distance: b.f,
+            },
+            Type::Float,
+            "occlusion takes (vec3, int, float), not (vec3, float, float)",
+        );
+    }
+
+    #[test]
+    fn scene_queries_are_not_uniform() {
+        // Neither a trace nor light visibility may be computed once per instance.
+        let mut b = Builder::new("p");
+        let d = b.vec3([0.0, 0.0, 1.0]);
+        b.trace(d, RAY_REFLECTION);
+        let mut p = b.finish().unwrap();
+        p.prelude = std::mem::take(&mut p.body);
+        assert!(matches!(
+            err(&p),
+            ValidationError::Prelude { reason, .. } if reason.contains("scene")
+        ));
+        let mut b = Builder::new("p");
+        let d = b.vec3([0.0, 0.0, 1.0]);
+        let (s, m) = (b.int(4), b.float(1.0));
+        b.occlusion(d, s, m);
+        let mut p = b.finish().unwrap();
+        p.prelude = std::mem::take(&mut p.body);
+        assert!(matches!(err(&p), ValidationError::Prelude { .. }));
     }
 
     // ---- indices ----

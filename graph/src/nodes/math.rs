@@ -719,6 +719,7 @@ mod tests {
             def,
             generic: Type::Color,
             values,
+            upstream: None,
         };
         let mut outs = (def.lower)(b, &n).expect("lowers");
         assert_eq!(outs.len(), 1);

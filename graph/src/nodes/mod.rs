@@ -13,12 +13,18 @@
 //! the per-component contributions (each computed under `component_enabled(k)`); linear
 //! nodes (`add`, `multiply` by an untagged factor, `mix`, `blend`) carry parts through, so a
 //! material output knows each component separately (DESIGN §8).
+//!
+//! Stream overrides (DESIGN §3): a lowering may ask for one of its inputs as it would be with
+//! some implicit streams replaced — [`NodeInputs::reevaluate`] — which re-lowers the nodes
+//! upstream of that input with the overridden values (bump mapping samples its input at an
+//! offset `uv` this way). The lowering driver provides it through [`Upstream`].
 
 pub mod geometry;
 pub mod math;
 pub mod pattern;
 pub mod structure;
 pub mod surface;
+pub mod utility;
 
 use crate::ir::{Builder, Space, Stream, Value};
 use crate::types::{ConstValue, Type};
@@ -106,6 +112,28 @@ pub enum InputVal {
     Array(Vec<Vec<LowVal>>),
 }
 
+/// Re-evaluates a node's inputs with implicit streams overridden: what the lowering driver
+/// offers a lowering through [`NodeInputs::reevaluate`].
+pub trait Upstream {
+    /// The value input `port` (of the node these inputs belong to) would have if every node
+    /// upstream of it read the streams in `overrides` (each a value of the stream's type,
+    /// world space, defined where the caller is) instead of the fragment's. The ops are
+    /// emitted at the builder's current point. Overrides already in force (an enclosing
+    /// re-evaluation) stay in force beneath these.
+    fn reevaluate(
+        &self,
+        b: &mut Builder,
+        port: &str,
+        overrides: &[(Stream, Value)],
+    ) -> Result<LowVal, String>;
+}
+
+impl std::fmt::Debug for dyn Upstream + '_ {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Upstream")
+    }
+}
+
 /// The inputs of one node instance, in the order of its def's ports.
 #[derive(Clone, Debug)]
 pub struct NodeInputs<'a> {
@@ -117,6 +145,10 @@ pub struct NodeInputs<'a> {
     pub generic: Type,
     /// One value per input port, in `def.inputs` order.
     pub values: Vec<InputVal>,
+    /// Re-evaluation of the inputs with streams overridden, where the caller can offer it
+    /// (the lowering driver and [`crate::lower::lower_single`] do; `None` makes
+    /// [`NodeInputs::reevaluate`] fail).
+    pub upstream: Option<&'a dyn Upstream>,
 }
 
 impl NodeInputs<'_> {
@@ -154,6 +186,40 @@ impl NodeInputs<'_> {
                 "input {port} of {} is not a string: {other:?}",
                 self.def.name
             ),
+        }
+    }
+
+    /// The value input `port` would have with the implicit streams in `overrides` replaced by
+    /// the given values in everything upstream of it (DESIGN §3 stream overrides; see
+    /// [`Upstream::reevaluate`]). Nodes upstream that depend on none of the overridden streams
+    /// are not lowered again: their values are reused. An unconnected port bound to an
+    /// overridden stream gets the override; any other unconnected port keeps its value.
+    /// `Err` for a value of the wrong type, or where no driver offers re-evaluation.
+    pub fn reevaluate(
+        &self,
+        b: &mut Builder,
+        port: &str,
+        overrides: &[(Stream, Value)],
+    ) -> Result<LowVal, String> {
+        if self.def.input(port).is_none() {
+            return Err(format!("{} has no input `{port}`", self.def.name));
+        }
+        for &(s, v) in overrides {
+            if b.ty(v) != s.ty() {
+                return Err(format!(
+                    "stream {} is a {}, but its override is a {}",
+                    s.name(),
+                    s.ty(),
+                    b.ty(v)
+                ));
+            }
+        }
+        match self.upstream {
+            Some(up) => up.reevaluate(b, port, overrides),
+            None => Err(format!(
+                "input `{port}` of {} cannot be re-evaluated here (no lowering driver)",
+                self.node
+            )),
         }
     }
 
@@ -253,7 +319,7 @@ pub struct NodeDef {
     /// The type name used in network files.
     pub name: &'static str,
     /// Section in the reference (`math`, `structure`, `pattern`, `geometry`, `surface`,
-    /// `light`).
+    /// `light`, `utility`).
     pub category: &'static str,
     /// Documentation: what it computes, the formula, hard-input behaviour.
     pub doc: &'static str,
@@ -454,6 +520,7 @@ impl NodeLibrary {
         pattern::register(&mut lib);
         geometry::register(&mut lib);
         surface::register(&mut lib);
+        utility::register(&mut lib);
         lib
     }
 

@@ -4,19 +4,32 @@
 //! # Units (DESIGN §3)
 //!
 //! Colors are linear RGB radiance. A surface's `outColor` is the radiance it sends towards
-//! the viewer: the sum over light samples of `BRDF · Cl · max(0, N·L)`, where `Cl` is what
-//! the light sample delivers at the point (an irradiance perpendicular to `L`: intensity /
-//! r² for point and spot lights, `E` for distant lights), plus ambient and emitted terms. The
-//! BRDFs are normalized: Lambert is `albedo / π`, Phong `(n+2)/(2π)·cosⁿ`, Blinn the exact
-//! normal-incidence normalization of the Blinn–Phong lobe, so with `specularColor ≤ 1` no
-//! lobe reflects more than it receives.
+//! the viewer: the sum over light samples of `BRDF · Cl · max(0, N·L) · vis`, where `Cl` is
+//! what the light sample delivers at the point (an irradiance perpendicular to `L`: intensity
+//! / r² for point and spot lights, `E` for distant lights) and `vis` its visibility
+//! (`light.visible`: 0 where the renderer's scene blocks it, else 1, always 1 without a
+//! scene), plus ambient and emitted terms. The BRDFs are normalized: Lambert is
+//! `albedo / π`, Phong `(n+2)/(2π)·cosⁿ`, Blinn the exact normal-incidence normalization of
+//! the Blinn–Phong lobe, so with `specularColor ≤ 1` no lobe reflects more than it receives.
 //!
 //! # Render components (DESIGN §8)
 //!
 //! `outColor` carries one part per component: [`DIFFUSE`], [`SPECULAR`] (not for
-//! `lambert`), [`INDIRECT`] (ambient light) and [`EMISSION`]. Each part is computed inside
-//! `component_enabled(k)`, and each light loop sits inside its component's part, so a
-//! material specialized without a component does none of its work.
+//! `lambert`), [`REFLECTION`] and [`REFRACTION`] (rays traced by the renderer's scene),
+//! [`INDIRECT`] (ambient light) and [`EMISSION`]. Each part is computed inside
+//! `component_enabled(k)`, and each light loop and each traced ray sits inside its
+//! component's part, so a material specialized without a component does none of its work.
+//! `outShadow` carries the [`SHADOW`] part: the diffuse light that shadows take away. It is
+//! not part of `outColor` (the total of `outColor`, the beauty, is shadowed already;
+//! `diffuse + shadow` is the unshadowed diffuse light).
+//!
+//! # Secondary rays
+//!
+//! Reflections and refractions are traced by the renderer ([`crate::ir::Op::Trace`]);
+//! without a scene they are black. Shadows come from the light loop: every light sample is
+//! shaded, and `light.visible` (0 for a sample the scene finds blocked, else 1) multiplies
+//! the diffuse and specular terms. Without a scene every sample is visible and the results
+//! are those of a renderer without shadows, bit for bit.
 //!
 //! # Hard inputs
 //!
@@ -28,7 +41,7 @@
 use super::{
     LightDesc, LightKind, LowVal, NodeDef, NodeInputs, NodeKind, NodeLibrary, lowering, port,
 };
-use crate::ir::{BinOp, Builder, Stream, UnOp, Value};
+use crate::ir::{BinOp, Builder, RAY_REFLECTION, RAY_REFRACTION, Stream, UnOp, Value};
 use crate::types::{ConstValue, Type};
 use std::f64::consts::PI;
 
@@ -41,6 +54,12 @@ pub const SPECULAR: &str = "specular";
 pub const INDIRECT: &str = "indirect";
 /// Render component of light the surface emits itself (`incandescence`, `surfaceShader`).
 pub const EMISSION: &str = "emission";
+/// Render component of light arriving along the mirror direction (traced reflection rays).
+pub const REFLECTION: &str = "reflection";
+/// Render component of light arriving through the surface (traced refraction rays).
+pub const REFRACTION: &str = "refraction";
+/// Render component of the diffuse light blocked by shadows (the `outShadow` output).
+pub const SHADOW: &str = "shadow";
 
 /// Smallest eccentricity `blinn` uses (`n = 2/0.01² − 2 = 19998`): keeps the exponent finite.
 pub const MIN_ECCENTRICITY: f64 = 0.01;
@@ -68,17 +87,52 @@ macro_rules! surface_common_doc {
 `L` (`intensity/r²` for point and spot lights, the irradiance `E` for directional ones).
 
 `outColor` is the sum of these parts, each computed only when its render component is \
-active (`phong` and `blinn` add the `specular` part described in their entries):
+active (`phong` and `blinn` add the `specular` part described in their entries, and a \
+mirror term to `reflection`):
 
-- `diffuse`: `Σ_lights (albedo/π) · Cl · max(0, N·L)` (Lambert BRDF `albedo/π`).
+- `diffuse`: `Σ_samples (albedo/π) · Cl · max(0, N·L) · vis` (Lambert BRDF `albedo/π`), \
+  where `vis` is 0 for a light sample the renderer's scene finds blocked, else 1 (always 1 \
+  without a scene).
+- `reflection`: `w_r · trace(R)`, a reflection ray (`RAY_REFLECTION`) along the mirror \
+  direction `R = I + 2 cosθ_i N_v` (`N_v` the normal turned to face `I`, `cosθ_i = \
+  −I·N_v`), with `w_r = mirror + (refractions ? transparency · F : 0)`: `mirror = \
+  reflectivity · reflectedColor` for `phong` and `blinn` (0 for `lambert`), a mirror \
+  reflectance used as given (Fresnel factor 1, Maya's `reflectivity`), and `transparency · \
+  F` the light the transparent part's dielectric interface reflects (`F` below). No ray is \
+  traced where `w_r = 0`.
+- `refraction` (when `refractions` is on and `transparency ≠ 0`): `transparency · (1 − F) \
+  · trace(T)`, a refraction ray (`RAY_REFRACTION`) along `T = η_r I + (η_r cosθ_i − \
+  cosθ_t) N_v`; 0 under total internal reflection, where `F = 1` sends all the light to \
+  `reflection`.
 - `indirect`: `albedo · La + color · ambientColor`, where `La` is the sum of the ambient \
   lights (a uniform radiance `La` reflected by a Lambertian surface gives `albedo · La`); \
   `ambientColor` is the material's own ambient radiance, scaled by `color` but not by \
   `diffuse`, as in Maya.
 - `emission`: `incandescence`.
 
-`outTransparency = transparency`: reported for the renderer to composite with; it does not \
-change `outColor` (Maya, too, applies `1 − transparency` only when compositing). \
+The dielectric (when `refractions` is on): `I` is the unit incident direction. The ray \
+leaves the material where `I·Ng > 0` (`Ng`, the geometric normal, points out of the \
+material whichever side the viewer is on; a zero `Ng` counts as entering), so the relative \
+index is `η_r = refractiveIndex` leaving and `1/refractiveIndex` entering (outside is \
+vacuum, index 1). `cos²θ_t = 1 − η_r² (1 − cos²θ_i)`; where it is negative the light is \
+totally internally reflected: `F = 1` and no refraction ray is traced. Elsewhere `F` is \
+the exact Fresnel reflectance of unpolarized light, `F = (r_s² + r_p²)/2` with `r_s = \
+(η_r cosθ_i − cosθ_t)/(η_r cosθ_i + cosθ_t)` and `r_p = (cosθ_i − η_r cosθ_t)/(cosθ_i + \
+η_r cosθ_t)` (divisions total: `0/0 = 0`), clamped to [0, 1]. At normal incidence with \
+`refractiveIndex = 1`, `F = 0` and `T = I`: the surface passes `transparency · trace(I)`; \
+at grazing incidence `F → 1`. A glass that conserves energy has `reflectivity = 0`, \
+`transparency = 1` (and no diffuse): it sends `F · trace(R) + (1 − F) · trace(T)`. \
+Traced directions are normalized; a zero or NaN direction traces nothing (black).
+
+`outShadow`, component `shadow`: `Σ_samples (albedo/π) · Cl · max(0, N·L) · (1 − vis)`, \
+the diffuse light the shadows take away, so `diffuse + shadow` is the unshadowed diffuse \
+light; 0 without a scene. It is a separate output, not part of `outColor`. Specular light \
+is shadowed the same way but has no shadow part.
+
+`outTransparency = transparency` when `refractions` is off: reported for the renderer to \
+composite with; it does not change `outColor` (Maya, too, applies `1 − transparency` only \
+when compositing). With `refractions` on the light through the surface is traced (part \
+`refraction`), so `outTransparency = 0`: nothing is left to composite. \
 `outGlow = incandescence · glowIntensity`, without component parts.
 
 Hard inputs: every cosine is `max(x, 0)`, so lights behind or grazing the surface \
@@ -104,7 +158,8 @@ fn common_inputs() -> Vec<super::PortDef> {
         port::color(
             "transparency",
             [0.0, 0.0, 0.0],
-            "Transparency, passed to `outTransparency`; does not change `outColor`.",
+            "Transparency: passed to `outTransparency` (it does not change `outColor`), or, \
+             with `refractions` on, the weight of the traced refraction and reflection.",
         ),
         port::color(
             "ambientColor",
@@ -127,6 +182,35 @@ fn common_inputs() -> Vec<super::PortDef> {
             0.0,
             "Glow: `outGlow = incandescence · glowIntensity`.",
         ),
+        port::boolean(
+            "refractions",
+            false,
+            "Trace the light through the transparent part (component `refraction`) as a \
+             dielectric of index `refractiveIndex`; `outTransparency` is then 0.",
+        ),
+        port::float(
+            "refractiveIndex",
+            1.5,
+            "Index of refraction inside the surface (outside: 1); used where `refractions` is on.",
+        ),
+    ]
+}
+
+/// The mirror-reflection inputs of `phong` and `blinn`.
+fn mirror_inputs() -> Vec<super::PortDef> {
+    vec![
+        port::float(
+            "reflectivity",
+            0.0,
+            "Mirror reflectance, the weight of the traced reflection (component \
+             `reflection`). Maya's default is 0.5; ours is 0 so that a material without it \
+             traces nothing.",
+        ),
+        port::color(
+            "reflectedColor",
+            [1.0, 1.0, 1.0],
+            "Tint of the mirror reflection: `reflectivity · reflectedColor`.",
+        ),
     ]
 }
 
@@ -136,20 +220,27 @@ fn surface_outputs(with_specular: bool) -> Vec<super::OutDef> {
             "outColor",
             Type::Color,
             if with_specular {
-                "Radiance towards the viewer; parts `diffuse`, `specular`, `indirect`, `emission`."
+                "Radiance towards the viewer; parts `diffuse`, `specular`, `reflection`, \
+                 `refraction`, `indirect`, `emission`."
             } else {
-                "Radiance towards the viewer; parts `diffuse`, `indirect`, `emission`."
+                "Radiance towards the viewer; parts `diffuse`, `reflection`, `refraction`, \
+                 `indirect`, `emission`."
             },
         ),
         port::out(
             "outTransparency",
             Type::Color,
-            "The `transparency` input, for compositing.",
+            "The `transparency` input, for compositing (0 when `refractions` is on).",
         ),
         port::out(
             "outGlow",
             Type::Color,
             "`incandescence · glowIntensity` (no component parts).",
+        ),
+        port::out(
+            "outShadow",
+            Type::Color,
+            "Diffuse light blocked by shadows; part `shadow` (not in `outColor`).",
         ),
     ]
 }
@@ -160,7 +251,8 @@ fn lambert_def() -> NodeDef {
         category: "surface",
         doc: concat!(
             "A perfectly diffuse (Lambertian) surface: BRDF `albedo/π`. `outColor` has the \
-             parts `diffuse`, `indirect` and `emission` (no `specular`).\n\n",
+             parts `diffuse`, `reflection`, `refraction`, `indirect` and `emission` (no \
+             `specular`; `reflection` only from a refractive surface's interface).\n\n",
             surface_common_doc!()
         ),
         generic: &[],
@@ -187,6 +279,7 @@ fn phong_def() -> NodeDef {
         [0.5, 0.5, 0.5],
         "Specular reflectance `ks` (directional albedo of the lobe at normal incidence).",
     ));
+    inputs.extend(mirror_inputs());
     NodeDef {
         name: "phong",
         category: "surface",
@@ -197,7 +290,8 @@ fn phong_def() -> NodeDef {
              with `ks = specularColor`, `n = max(cosinePower, 0)` and `R = reflect(−L, N) = \
              2(N·L)N − L`. The factor `(n+2)/(2π)` makes the lobe's directional albedo \
              exactly `ks` at normal incidence and less elsewhere, so `ks ≤ 1` conserves \
-             energy; `n = 0` is a Lambertian lobe of albedo `ks`. A NaN `R·V` counts as 0; \
+             energy; `n = 0` is a Lambertian lobe of albedo `ks`. The highlight of a blocked \
+             light sample is 0 (it is multiplied by `vis`, below). A NaN `R·V` counts as 0; \
              a zero `I` gives `R·V = 0`, so no highlight (unless `n = 0`).\n\n",
             surface_common_doc!()
         ),
@@ -230,6 +324,7 @@ fn blinn_def() -> NodeDef {
         [0.5, 0.5, 0.5],
         "Specular reflectance `ks`; the lobe's albedo at normal incidence is about `ks · r`.",
     ));
+    inputs.extend(mirror_inputs());
     NodeDef {
         name: "blinn",
         category: "surface",
@@ -250,7 +345,8 @@ fn blinn_def() -> NodeDef {
              counts as 0): Schlick's Fresnel curve with `r` the reflectance at normal \
              incidence relative to grazing, where it rises to 1. This approximates Maya's \
              roll-off (weaker highlight face-on, full at grazing); `r = 1` turns it off. \
-             Since `F ≤ 1`, `ks ≤ 1` still conserves energy.\n\n\
+             Since `F ≤ 1`, `ks ≤ 1` still conserves energy. The highlight of a blocked \
+             light sample is 0 (it is multiplied by `vis`, below).\n\n\
              A zero `I` gives `V = 0`, so `H = L` and `F = 1`.\n\n",
             surface_common_doc!()
         ),
@@ -297,14 +393,7 @@ fn lower_surface(b: &mut Builder, inp: &NodeInputs, lobe: Lobe) -> Result<Vec<Lo
 
     let mut parts = Vec::new();
     parts.push(lowering::contribution(b, DIFFUSE, Type::Color, |b| {
-        let sum = b.illuminance(p, |b, l, cl| {
-            let d = b.dot(n, l);
-            let ndl = pos(b, d);
-            vec![scale(b, cl, ndl)]
-        });
-        let k = b.float(1.0 / PI);
-        let brdf = scale(b, albedo, k);
-        b.mul(brdf, sum[0])
+        diffuse_light(b, p, n, albedo, false)
     }));
 
     match lobe {
@@ -327,6 +416,8 @@ fn lower_surface(b: &mut Builder, inp: &NodeInputs, lobe: Lobe) -> Result<Vec<Lo
                     let rv = pos(b, rv);
                     let lobe = b.binary(BinOp::Pow, rv, e);
                     let w = b.mul(lobe, ndl);
+                    let vis = b.light_visible();
+                    let w = b.mul(w, vis);
                     vec![scale(b, cl, w)]
                 });
                 // (n + 2) / (2π)
@@ -374,6 +465,8 @@ fn lower_surface(b: &mut Builder, inp: &NodeInputs, lobe: Lobe) -> Result<Vec<Lo
                     let lobe = b.binary(BinOp::Pow, nh, e);
                     let w = b.mul(lobe, ndl);
                     let w = b.mul(fresnel, w);
+                    let vis = b.light_visible();
+                    let w = b.mul(w, vis);
                     vec![scale(b, cl, w)]
                 });
                 let norm = blinn_normalization(b, e);
@@ -382,6 +475,23 @@ fn lower_surface(b: &mut Builder, inp: &NodeInputs, lobe: Lobe) -> Result<Vec<Lo
             }));
         }
     }
+
+    let traced = Traced {
+        n,
+        transparency: inp.get("transparency"),
+        refractions: inp.get("refractions"),
+        ior: inp.get("refractiveIndex"),
+        mirror: match lobe {
+            Lobe::None => None,
+            Lobe::Phong | Lobe::Blinn => Some((inp.get("reflectivity"), inp.get("reflectedColor"))),
+        },
+    };
+    parts.push(lowering::contribution(b, REFLECTION, Type::Color, |b| {
+        reflection(b, &traced)
+    }));
+    parts.push(lowering::contribution(b, REFRACTION, Type::Color, |b| {
+        refraction(b, &traced)
+    }));
 
     let ambient_color = inp.get("ambientColor");
     parts.push(lowering::contribution(b, INDIRECT, Type::Color, |b| {
@@ -398,9 +508,217 @@ fn lower_surface(b: &mut Builder, inp: &NodeInputs, lobe: Lobe) -> Result<Vec<Lo
 
     let out = lowering::sum_parts(b, Type::Color, parts);
     let transparency = inp.get("transparency");
+    let zero = b.zero(Type::Color);
+    let transparency = b.select(traced.refractions, zero, transparency);
     let glow_intensity = inp.get("glowIntensity");
     let glow = scale(b, incandescence, glow_intensity);
-    Ok(vec![out, LowVal::plain(transparency), LowVal::plain(glow)])
+    let shadow = lowering::contribution(b, SHADOW, Type::Color, |b| {
+        diffuse_light(b, p, n, albedo, true)
+    });
+    let shadow = lowering::sum_parts(b, Type::Color, vec![shadow]);
+    Ok(vec![
+        out,
+        LowVal::plain(transparency),
+        LowVal::plain(glow),
+        shadow,
+    ])
+}
+
+/// `(albedo/π) · Σ_samples Cl · max(0, N·L) · vis`, or with `1 − vis` (the light shadows
+/// take away) when `blocked`.
+fn diffuse_light(b: &mut Builder, p: Value, n: Value, albedo: Value, blocked: bool) -> Value {
+    let sum = b.illuminance(p, |b, l, cl| {
+        let d = b.dot(n, l);
+        let ndl = pos(b, d);
+        let vis = b.light_visible();
+        let vis = if blocked {
+            let one = b.float(1.0);
+            b.sub(one, vis)
+        } else {
+            vis
+        };
+        let w = b.mul(ndl, vis);
+        vec![scale(b, cl, w)]
+    });
+    let k = b.float(1.0 / PI);
+    let brdf = scale(b, albedo, k);
+    b.mul(brdf, sum[0])
+}
+
+/// What the traced parts of a surface read.
+struct Traced {
+    /// The unit shading normal.
+    n: Value,
+    /// `transparency` (color).
+    transparency: Value,
+    /// `refractions` (bool).
+    refractions: Value,
+    /// `refractiveIndex` (float).
+    ior: Value,
+    /// `reflectivity` and `reflectedColor` (`phong`, `blinn`).
+    mirror: Option<(Value, Value)>,
+}
+
+/// The incident direction and the normal facing it.
+struct Facing {
+    /// `I`, normalized (eye → P).
+    i: Value,
+    /// The normal turned to face `I`: `−N` where `I·N > 0`, else `N`.
+    nv: Value,
+    /// `clamp(−I·N_v, 0, 1)` (NaN → 0).
+    cos_i: Value,
+}
+
+fn facing(b: &mut Builder, n: Value) -> Facing {
+    let i = b.stream(Stream::I);
+    let i = b.normalize(i);
+    let idn = b.dot(i, n);
+    let zero = b.float(0.0);
+    let back = b.binary(BinOp::Gt, idn, zero);
+    let neg_n = b.unary(UnOp::Neg, n);
+    let nv = b.select(back, neg_n, n);
+    let d = b.dot(i, nv);
+    let c = b.unary(UnOp::Neg, d);
+    let (zero, one) = (b.float(0.0), b.float(1.0));
+    let cos_i = b.clamp(c, zero, one);
+    Facing { i, nv, cos_i }
+}
+
+/// The dielectric interface at the point (see the surfaces' docs): the relative index, the
+/// cosine of the refracted angle, whether the light is totally internally reflected, and
+/// the Fresnel reflectance `F` (1 under total internal reflection).
+struct Interface {
+    eta: Value,
+    cos_t: Value,
+    tir: Value,
+    f: Value,
+}
+
+fn interface(b: &mut Builder, fc: &Facing, ior: Value) -> Interface {
+    let ng = b.stream(Stream::Ng);
+    let ing = b.dot(fc.i, ng);
+    let zero = b.float(0.0);
+    let leaving = b.binary(BinOp::Gt, ing, zero);
+    let one = b.float(1.0);
+    let inv = b.div(one, ior);
+    let eta = b.select(leaving, ior, inv);
+    // cos²θ_t = 1 − η²(1 − cos²θ_i)
+    let c2 = b.mul(fc.cos_i, fc.cos_i);
+    let sin2_i = b.sub(one, c2);
+    let eta2 = b.mul(eta, eta);
+    let sin2_t = b.mul(eta2, sin2_i);
+    let k = b.sub(one, sin2_t);
+    let tir = b.binary(BinOp::Lt, k, zero);
+    let k = pos(b, k);
+    let cos_t = b.unary(UnOp::Sqrt, k);
+    // Exact Fresnel for unpolarized light.
+    let ec = b.mul(eta, fc.cos_i);
+    let et = b.mul(eta, cos_t);
+    let rs_n = b.sub(ec, cos_t);
+    let rs_d = b.add(ec, cos_t);
+    let rs = b.div(rs_n, rs_d);
+    let rp_n = b.sub(fc.cos_i, et);
+    let rp_d = b.add(fc.cos_i, et);
+    let rp = b.div(rp_n, rp_d);
+    let rs2 = b.mul(rs, rs);
+    let rp2 = b.mul(rp, rp);
+    let sum = b.add(rs2, rp2);
+    let half = b.float(0.5);
+    let f = b.mul(sum, half);
+    let f = b.clamp(f, zero, one);
+    let f = b.select(tir, one, f);
+    Interface { eta, cos_t, tir, f }
+}
+
+/// Whether any component of a float or color is nonzero (a NaN is nonzero).
+fn nonzero(b: &mut Builder, v: Value) -> Value {
+    let zero = b.float(0.0);
+    let ty = b.ty(v);
+    if ty == Type::Float {
+        return b.binary(BinOp::Ne, v, zero);
+    }
+    let mut any = None;
+    for k in 0..ty.width() {
+        let x = b.extract(v, k);
+        let ne = b.binary(BinOp::Ne, x, zero);
+        any = Some(match any {
+            None => ne,
+            Some(a) => b.binary(BinOp::Or, a, ne),
+        });
+    }
+    any.unwrap_or(zero)
+}
+
+/// Whether the transparent part is a refracting dielectric: `refractions && transparency ≠ 0`.
+fn refracting(b: &mut Builder, t: &Traced) -> Value {
+    let some = nonzero(b, t.transparency);
+    b.binary(BinOp::And, t.refractions, some)
+}
+
+/// The `reflection` part: `w_r · trace(R, RAY_REFLECTION)`, traced only where `w_r ≠ 0`.
+fn reflection(b: &mut Builder, t: &Traced) -> Value {
+    let mirror = match t.mirror {
+        Some((reflectivity, tint)) => scale(b, tint, reflectivity),
+        None => b.zero(Type::Color),
+    };
+    let fc = facing(b, t.n);
+    let on = refracting(b, t);
+    let w = b.if_(
+        on,
+        |b| {
+            let it = interface(b, &fc, t.ior);
+            let tf = scale(b, t.transparency, it.f);
+            vec![b.add(mirror, tf)]
+        },
+        |_| vec![mirror],
+    )[0];
+    // R = I + 2 cosθ_i N_v
+    let two = b.float(2.0);
+    let c2 = b.mul(two, fc.cos_i);
+    let off = scale(b, fc.nv, c2);
+    let r = b.add(fc.i, off);
+    let r = b.normalize(r);
+    let any = nonzero(b, w);
+    b.if_(
+        any,
+        |b| {
+            let l = b.trace(r, RAY_REFLECTION);
+            vec![b.mul(w, l)]
+        },
+        |b| vec![b.zero(Type::Color)],
+    )[0]
+}
+
+/// The `refraction` part: `transparency · (1 − F) · trace(T, RAY_REFRACTION)`, 0 under total
+/// internal reflection and where the surface does not refract.
+fn refraction(b: &mut Builder, t: &Traced) -> Value {
+    let on = refracting(b, t);
+    b.if_(
+        on,
+        |b| {
+            let fc = facing(b, t.n);
+            let it = interface(b, &fc, t.ior);
+            b.if_(
+                it.tir,
+                |b| vec![b.zero(Type::Color)],
+                |b| {
+                    // T = η I + (η cosθ_i − cosθ_t) N_v
+                    let ei = scale(b, fc.i, it.eta);
+                    let ec = b.mul(it.eta, fc.cos_i);
+                    let k = b.sub(ec, it.cos_t);
+                    let kn = scale(b, fc.nv, k);
+                    let dir = b.add(ei, kn);
+                    let dir = b.normalize(dir);
+                    let l = b.trace(dir, RAY_REFRACTION);
+                    let one = b.float(1.0);
+                    let tr = b.sub(one, it.f);
+                    let w = scale(b, t.transparency, tr);
+                    vec![b.mul(w, l)]
+                },
+            )
+        },
+        |b| vec![b.zero(Type::Color)],
+    )[0]
 }
 
 /// `V = −normalize(I)`: unit direction from the point towards the viewer (zero for a zero

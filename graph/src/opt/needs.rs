@@ -2,7 +2,9 @@
 //!
 //! The renderer computes only the streams listed here (no tangents if nothing reads `dPdu`
 //! or `dPdv`, no ray differentials if nothing reads `dPdx`/`dPdy`), sets up only the listed
-//! space transforms, and the runtime loads only the listed textures.
+//! space transforms, and the runtime loads only the listed textures. `trace` and `occlusion`
+//! say whether the material asks the scene for secondary rays at all (a renderer without
+//! them, or a pass that wants none, can tell).
 
 use crate::ir::{Intrinsic, Op, Program, Space, Stream};
 use std::collections::BTreeSet;
@@ -23,6 +25,10 @@ pub struct Needs {
     pub lights: bool,
     /// Whether ambient light is read.
     pub ambient: bool,
+    /// Whether the program traces secondary rays ([`Op::Trace`]).
+    pub trace: bool,
+    /// Whether the program asks for ambient occlusion ([`Op::Occlusion`]).
+    pub occlusion: bool,
     /// Uniform parameters still read.
     pub params: usize,
 }
@@ -64,6 +70,8 @@ pub fn analyze(p: &Program) -> Needs {
             }
             Op::Illuminance { .. } => n.lights = true,
             Op::Ambient => n.ambient = true,
+            Op::Trace { .. } => n.trace = true,
+            Op::Occlusion { .. } => n.occlusion = true,
             Op::Param(i) => {
                 params.insert(*i);
             }
@@ -106,6 +114,12 @@ impl fmt::Display for Needs {
             if self.lights { "yes" } else { "no" },
             if self.ambient { "yes" } else { "no" },
             self.params
+        )?;
+        writeln!(
+            f,
+            "       trace: {}; occlusion: {}",
+            if self.trace { "yes" } else { "no" },
+            if self.occlusion { "yes" } else { "no" }
         )?;
         writeln!(
             f,
