@@ -65,7 +65,7 @@ const EXCLUDED: &[(&str, &str)] = &[(
 const MAX_NODES: usize = 20;
 
 /// Input choices drawn per node; every def must have at most this many inputs.
-const MAX_PORTS: usize = 12;
+const MAX_PORTS: usize = 16;
 
 static LIB: LazyLock<NodeLibrary> = LazyLock::new(NodeLibrary::standard);
 

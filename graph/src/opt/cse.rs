@@ -86,6 +86,9 @@ enum Key {
     LightL(Option<Value>),
     /// `light.Cl` of the innermost enclosing illuminance region.
     LightCl(Option<Value>),
+    LightVisible(Option<Value>),
+    Trace(Value, i32),
+    Occlusion(Value, Value, Value),
     Ambient,
     Proj(Value, u8),
     Texture(u32, Value, bool),
@@ -218,6 +221,15 @@ impl Numbering<'_> {
             Op::Call(i, args) => Key::Call(*i, args.iter().map(r).collect()),
             Op::LightL => Key::LightL(self.light),
             Op::LightCl => Key::LightCl(self.light),
+            Op::LightVisible => Key::LightVisible(self.light),
+            // Scene services are pure functions of their arguments (SceneServices' contract),
+            // and the shaded point and seed are the fragment's: equal calls give equal results.
+            Op::Trace { dir, ray_type } => Key::Trace(r(dir), *ray_type),
+            Op::Occlusion {
+                n,
+                samples,
+                max_distance,
+            } => Key::Occlusion(r(n), r(samples), r(max_distance)),
             Op::Ambient => Key::Ambient,
             Op::Proj(region, i) => Key::Proj(r(region), *i),
             Op::Texture { texture, uv, alpha } => Key::Texture(*texture, r(uv), *alpha),

@@ -110,8 +110,11 @@ fn allowed(op: &Op) -> bool {
         | Op::ComponentEnabled(_)
         | Op::LightL
         | Op::LightCl
+        | Op::LightVisible
         | Op::Ambient
         | Op::Texture { .. }
+        | Op::Trace { .. }
+        | Op::Occlusion { .. }
         | Op::If { .. }
         | Op::Illuminance { .. }
         | Op::Proj(..) => false,
