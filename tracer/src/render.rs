@@ -87,6 +87,8 @@ pub struct RenderStats {
 #[derive(Clone)]
 struct Specialized {
     shader: Arc<dyn Shader>,
+    /// The component mask it was specialized for (also given to the shading context).
+    mask: u32,
     /// Compute uv and tangents.
     uv_tangents: bool,
     /// Compute ray differentials.
@@ -99,6 +101,7 @@ struct Specialized {
 impl Specialized {
     fn new(
         program: &Program,
+        mask: u32,
         needs: &Needs,
         backend: &dyn ShaderBackend,
         components: &Components,
@@ -126,6 +129,7 @@ impl Specialized {
         }
         Ok(Specialized {
             shader,
+            mask,
             uv_tangents: needs.streams.contains(&Stream::Uv) || needs.tangents(),
             differentials: needs.differentials(),
             parts,
@@ -299,7 +303,7 @@ impl Renderer {
                     ..Specialization::default()
                 };
                 let (p, report) = opt::run(program, &spec);
-                let sp = Specialized::new(&p, &report.needs, backend, &components, &m.name)?;
+                let sp = Specialized::new(&p, mask, &report.needs, backend, &components, &m.name)?;
                 differentials |= sp.differentials;
                 stats.shaders += 1;
                 compiled.push((mask, sp));
@@ -339,6 +343,7 @@ impl Renderer {
                     let needs = opt::needs::analyze(&p);
                     let sp = Specialized::new(
                         &p,
+                        u32::MAX,
                         &needs,
                         backend,
                         &components,
@@ -793,7 +798,7 @@ impl Renderer {
         let ctx = ShadeCtx {
             frag,
             env,
-            mask: u32::MAX,
+            mask: sp.mask,
             scene: Some(&services),
         };
         sp.shader.shade(&ctx, out);
@@ -1116,4 +1121,289 @@ pub fn pixel_sample(x: u32, y: u32, k: u32, spp: u32) -> (f32, f32) {
     let fx = (0.5 + A1 * k as f64 + r0).fract();
     let fy = (0.5 + A2 * k as f64 + r1).fract();
     (fx as f32, fy as f32)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shader::InterpBackend;
+    use shadenet_graph::ir::{Builder, RAY_REFLECTION, RAY_SHADOW};
+    use shadenet_graph::{NodeLibrary, compile_json};
+    use std::path::Path;
+
+    fn scene(text: &str) -> Scene {
+        crate::scene::parse(text, Path::new("test.toml")).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    fn lambert(rgb: [f64; 3]) -> Program {
+        let src = format!(
+            r#"{{ "nodes": [ {{ "name": "s", "type": "lambert",
+                 "inputs": {{ "color": [{}, {}, {}], "diffuse": 1.0 }} }} ],
+                 "outputs": {{ "color": "s.outColor" }} }}"#,
+            rgb[0], rgb[1], rgb[2]
+        );
+        compile_json(&src, &NodeLibrary::standard())
+            .unwrap()
+            .program
+    }
+
+    /// A program whose one output is a stream (to look at what the tracer fills in).
+    fn stream_program(s: Stream) -> Program {
+        let mut b = Builder::new("probe");
+        let v = b.stream(s);
+        b.output("value", None, v);
+        b.finish().unwrap()
+    }
+
+    const PLANE: &str = r#"
+[camera]
+position = [0, 0, 2]
+look_at = [0, 0, 0]
+fov = 30
+resolution = [5, 5]
+
+[materials.m]
+json = '{"nodes": [], "outputs": {}}'
+
+[meshes.q]
+type = "quad"
+
+[[instances]]
+mesh = "q"
+material = "m"
+"#;
+
+    fn render_one(text: &str, program: Program) -> (Renderer, Film) {
+        let r = Renderer::new(scene(text), vec![program], &InterpBackend).unwrap();
+        let film = r.render(&|_, _| {}).0;
+        (r, film)
+    }
+
+    #[test]
+    fn ray_differentials_reach_the_shader_when_it_reads_them() {
+        let (r, film) = render_one(PLANE, stream_program(Stream::DPdx));
+        assert!(r.differentials);
+        let b = film.layer("beauty").unwrap();
+        // One pixel at distance 2 with a 30° vertical field over 5 pixels.
+        let footprint = 2.0 * 2.0 * (15.0f32.to_radians()).tan() / 5.0;
+        assert!(
+            (b.at(12, 0) - footprint).abs() < 1e-5 * footprint.max(1.0),
+            "{}",
+            b.at(12, 0)
+        );
+        assert!(b.at(12, 1).abs() < 1e-6 && b.at(12, 2).abs() < 1e-6);
+        let (_, film) = render_one(PLANE, stream_program(Stream::DPdy));
+        let b = film.layer("beauty").unwrap();
+        assert!((b.at(12, 1) + footprint).abs() < 1e-5, "{}", b.at(12, 1));
+    }
+
+    #[test]
+    fn uv_and_tangents_are_computed_only_when_needed() {
+        let (r, film) = render_one(PLANE, stream_program(Stream::Uv));
+        assert!(r.shaders[0][0].uv_tangents && !r.differentials);
+        let b = film.layer("beauty").unwrap();
+        assert!((b.at(12, 0) - 0.5).abs() < 1e-6 && (b.at(12, 1) - 0.5).abs() < 1e-6);
+        let (_, film) = render_one(PLANE, stream_program(Stream::DPdu));
+        let b = film.layer("beauty").unwrap();
+        assert!(
+            (b.at(12, 0) - 2.0).abs() < 1e-5,
+            "dPdu of the [-1,1] quad over u in [0,1]"
+        );
+        let (r, _) = render_one(PLANE, lambert([0.5; 3]));
+        assert!(!r.shaders[0][0].uv_tangents && !r.differentials);
+    }
+
+    #[test]
+    fn camera_hits_see_camera_ray_type_and_depth_zero() {
+        let (_, film) = render_one(PLANE, stream_program(Stream::RayType));
+        let b = film.layer("beauty").unwrap();
+        assert_eq!(b.at(12, 0), RayMatch::Camera.code() as f32);
+        let (_, film) = render_one(PLANE, stream_program(Stream::RayDepth));
+        assert_eq!(film.layer("beauty").unwrap().at(12, 0), 0.0);
+    }
+
+    fn services<'a>(r: &'a Renderer, stats: &'a TileStats, p: Vec3, n: Vec3) -> HitServices<'a> {
+        HitServices {
+            r,
+            stats,
+            p,
+            ng_facing: n,
+            n_facing: n,
+            d_in: -n,
+            diffs: None,
+            seed: 7,
+        }
+    }
+
+    /// `trace` shades what a secondary ray hits (recursively, as that ray type and depth),
+    /// returns black past the depth limit and for shadow rays, and the background on a miss.
+    #[test]
+    fn trace_shades_the_hit_and_respects_depth_limits() {
+        let text = format!(
+            "{PLANE}\n[[lights]]\ntype = \"point\"\nposition = [0, 0, 2]\nintensity = 4\n\
+             [[lights]]\ntype = \"environment\"\nintensity = 0.25\nsamples = 1\n"
+        );
+        let rho = [0.8, 0.4, 0.2];
+        let r = Renderer::new(scene(&text), vec![lambert(rho)], &InterpBackend).unwrap();
+        let stats = TileStats::default();
+        let s = services(&r, &stats, Vec3::new(0.0, 0.0, 1.0), Vec3::Z);
+        let got = s.trace([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], RAY_REFLECTION, 1);
+        // Point light at distance 2 straight above, plus the environment's uniform sample
+        // from some direction: check the point-light part by removing the environment.
+        let text2 =
+            format!("{PLANE}\n[[lights]]\ntype = \"point\"\nposition = [0, 0, 2]\nintensity = 4\n");
+        let r2 = Renderer::new(scene(&text2), vec![lambert(rho)], &InterpBackend).unwrap();
+        let s2 = services(&r2, &stats, Vec3::new(0.0, 0.0, 1.0), Vec3::Z);
+        let direct = s2.trace([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], RAY_REFLECTION, 1);
+        for c in 0..3 {
+            let want = rho[c] / std::f64::consts::PI * 4.0 / 4.0;
+            assert!(
+                ((direct[c] as f64) - want).abs() < 1e-5 * want,
+                "{direct:?}"
+            );
+            assert!(got[c] >= direct[c]);
+        }
+        // Past the limit (4 by default): black.
+        assert_eq!(
+            s2.trace([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], RAY_REFLECTION, 5),
+            [0.0; 3]
+        );
+        assert_eq!(
+            s2.trace([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], RAY_SHADOW, 1),
+            [0.0; 3]
+        );
+        // A miss sees the environment.
+        assert_eq!(
+            s.trace([0.0, 0.0, 1.0], [0.0, 0.0, 1.0], RAY_REFLECTION, 1),
+            [0.25; 3]
+        );
+        assert!(stats.shading_calls.load(Ordering::Relaxed) >= 2);
+    }
+
+    const ROOM: &str = r#"
+[camera]
+position = [0, 3, 3]
+look_at = [0, 0, 0]
+resolution = [4, 4]
+
+[materials.m]
+json = '{"nodes": [], "outputs": {}}'
+
+[meshes.q]
+type = "quad"
+
+[[instances]]
+mesh = "q"
+material = "m"
+rotate = [-90, 0, 0]
+scale = 10
+
+[[instances]]
+mesh = "q"
+material = "m"
+translate = [0, 0.5, 0]
+rotate = [90, 0, 0]
+scale = 10
+"#;
+
+    #[test]
+    fn occlusion_and_shadow_rays_see_the_geometry() {
+        let r = Renderer::new(scene(ROOM), vec![lambert([0.5; 3])], &InterpBackend).unwrap();
+        let stats = TileStats::default();
+        let p = Vec3::ZERO; // on the floor, under a ceiling 0.5 above
+        let s = services(&r, &stats, p, Vec3::Y);
+        let n = [0.0, 1.0, 0.0];
+        assert_eq!(
+            s.occlusion(p.to_array(), n, 64, 0.3, 1),
+            1.0,
+            "ceiling out of reach"
+        );
+        let closed = s.occlusion(p.to_array(), n, 64, 2.0, 1);
+        assert!(closed < 0.05, "{closed}");
+        assert_eq!(
+            closed,
+            s.occlusion(p.to_array(), n, 64, 2.0, 1),
+            "deterministic"
+        );
+        // Half open: only within reach for directions steeper than 60° from the horizon.
+        let part = s.occlusion(p.to_array(), n, 256, 0.5 / 30f32.to_radians().cos(), 3);
+        assert!(part > 0.0 && part < 1.0, "{part}");
+        // Shadow rays: to a point above the ceiling (blocked) and below it (free).
+        assert!(s.occluded(p.to_array(), [0.3, 2.0, 0.1]));
+        assert!(!s.occluded(p.to_array(), [0.3, 0.4, 0.1]));
+        // From the hit point itself, the offset keeps the floor from shadowing itself at
+        // grazing angles.
+        assert!(!s.occluded(p.to_array(), [5.0, 0.01, 0.0]));
+    }
+
+    #[test]
+    fn rules_pick_components_and_overrides_per_ray_type() {
+        let base = format!(
+            "{PLANE}\n[render]\npasses = [\"diffuse\", \"indirect\"]\n\
+             [[lights]]\ntype = \"point\"\nposition = [0, 0, 2]\nintensity = 4\n\
+             [[lights]]\ntype = \"ambient\"\nintensity = 0.5\n"
+        );
+        let (r, film) = render_one(&base, lambert([0.5; 3]));
+        assert_eq!(r.stats.shaders, 1);
+        let ind = film.layer("indirect").unwrap().at(12, 0);
+        assert!(ind > 0.2, "{ind}");
+        // Camera rays keep only `diffuse`: beauty is the diffuse pass; the material is
+        // specialized twice (camera: diffuse; deeper rays: everything).
+        let text = base.replace(
+            "passes = [\"diffuse\", \"indirect\"]\n",
+            "passes = [\"diffuse\", \"indirect\"]\n\n[[render.rules]]\nray = \"camera\"\ncomponents = [\"diffuse\"]\n",
+        );
+        let (r, film) = render_one(&text, lambert([0.5; 3]));
+        assert_eq!(r.stats.shaders, 2);
+        let (b, d) = (
+            film.layer("beauty").unwrap(),
+            film.layer("diffuse").unwrap(),
+        );
+        assert_eq!(b.at(12, 0), d.at(12, 0));
+        assert_eq!(film.layer("indirect").unwrap().at(12, 0), 0.0);
+        // An override rule: camera hits shade with the normal shader.
+        let text = base.replace(
+            "passes = [\"diffuse\", \"indirect\"]\n",
+            "passes = [\"diffuse\", \"indirect\"]\n\n[[render.rules]]\nray = \"camera\"\noverride = \"normal\"\n",
+        );
+        let (_, film) = render_one(&text, lambert([0.5; 3]));
+        let b = film.layer("beauty").unwrap();
+        assert_eq!([b.at(12, 0), b.at(12, 1), b.at(12, 2)], [0.0, 0.0, 1.0]);
+    }
+
+    #[test]
+    fn unknown_pass_components_are_errors_and_known_ones_warnings() {
+        let text = format!("{PLANE}\n[render]\npasses = [\"reflection\", \"diffuse\"]\n");
+        let r = Renderer::new(scene(&text), vec![lambert([0.5; 3])], &InterpBackend).unwrap();
+        assert_eq!(r.warnings().len(), 1, "{:?}", r.warnings());
+        assert!(r.warnings()[0].contains("reflection"));
+        let text = format!("{PLANE}\n[render]\npasses = [\"difuse\"]\n");
+        let e = Renderer::new(scene(&text), vec![lambert([0.5; 3])], &InterpBackend)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("difuse") && e.contains("diffuse"), "{e}");
+    }
+
+    /// Reflection mirrors the direction differentials about the normal; a refraction that
+    /// does not bend (η = 1) keeps them; diffuse rays drop them.
+    #[test]
+    fn differentials_follow_reflection_and_refraction() {
+        let r = Renderer::new(scene(PLANE), vec![lambert([0.5; 3])], &InterpBackend).unwrap();
+        let stats = TileStats::default();
+        let mut s = services(&r, &stats, Vec3::ZERO, Vec3::Z);
+        s.diffs = Some(HitDiffs {
+            dpdx: Vec3::new(0.01, 0.0, 0.0),
+            dpdy: Vec3::new(0.0, 0.01, 0.0),
+            dddx: Vec3::new(0.02, 0.0, 0.003),
+            dddy: Vec3::new(0.0, 0.02, 0.0),
+        });
+        let refl = s.child_diffs(RayMatch::Reflection, Vec3::Z).unwrap();
+        assert_eq!(refl.dodx, Vec3::new(0.01, 0.0, 0.0));
+        assert!((refl.dddx - Vec3::new(0.02, 0.0, -0.003)).length() < 1e-7);
+        assert_eq!(refl.dddy, Vec3::new(0.0, 0.02, 0.0));
+        let straight = s.child_diffs(RayMatch::Refraction, -Vec3::Z).unwrap();
+        assert!((straight.dddx - Vec3::new(0.02, 0.0, 0.003)).length() < 1e-7);
+        assert!(s.child_diffs(RayMatch::Diffuse, Vec3::Z).is_none());
+    }
 }

@@ -1030,3 +1030,65 @@ fn resolve_settings(cx: &Ctx, r: &RenderSpec) -> Result<Settings, SceneError> {
         tile_size: r.tile_size,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const HEAD: &str = "[camera]\nposition = [0, 0, 3]\nlook_at = [0, 0, 0]\n\
+        [materials.m]\njson = '{\"nodes\": [], \"outputs\": {}}'\n[meshes.q]\ntype = \"quad\"\n";
+
+    fn err(extra: &str) -> String {
+        parse(&format!("{HEAD}{extra}"), Path::new("s.toml"))
+            .err()
+            .unwrap_or_else(|| panic!("accepted: {extra}"))
+            .to_string()
+    }
+
+    #[test]
+    fn errors_name_the_key() {
+        let inst = "[[instances]]\nmesh = \"q\"\nmaterial = \"m\"\n";
+        for (extra, want) in [
+            (format!("{inst}matrix = [1, 0, 0]\n"), "instances[0].matrix"),
+            (format!("{inst}scale = [1, 0, 1]\n"), "singular"),
+            (format!("{inst}rotate = [0, inf, 0]\n"), "instances[0].rotate"),
+            (format!("{inst}translate = [0, 0, 0]\nmatrix = [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]\n"), "not both"),
+            ("[render]\nspp = 0\n".to_string(), "render.spp"),
+            ("[render]\npasses = [\"beauty\"]\n".to_string(), "always written"),
+            ("[render]\npasses = [\"diffuse\", \"diffuse\"]\n".to_string(), "twice"),
+            ("[[render.rules]]\nray = \"glossy\"\ncomponents = [\"diffuse\"]\n".to_string(), "render.rules[0].ray"),
+            ("[[render.pass]]\nname = \"x\"\noverride = \"curvature\"\n".to_string(), "render.pass[0].override"),
+            ("[[lights]]\ntype = \"quad\"\ncorner = [0, 0, 0]\nedge_u = [1, 0, 0]\nedge_v = [2, 0, 0]\n".to_string(), "no area"),
+            ("[[lights]]\ntype = \"laser\"\n".to_string(), "laser"),
+            ("[[lights]]\ntype = \"point\"\nposition = [0, 0, 1]\nintensty = 3\n".to_string(), "intensty"),
+            ("[meshes.s]\ntype = \"sphere\"\nsegments = 2\n".to_string(), "meshes.s.segments"),
+            ("[materials.n]\nnetwork = \"a.json\"\njson = '{}'\n".to_string(), "exactly one"),
+            ("[materials.n]\nnetwork = \"a.json\"\nset = { \"color\" = 1 }\n".to_string(), "node.input"),
+        ] {
+            let e = err(&extra);
+            assert!(e.contains(want), "{extra}: `{want}` not in {e}");
+            assert!(e.starts_with("s.toml"), "{e}");
+        }
+    }
+
+    #[test]
+    fn transforms_compose_translate_rotate_scale() {
+        let s = parse(
+            &format!(
+                "{HEAD}[[instances]]\nmesh = \"q\"\nmaterial = \"m\"\n\
+                 translate = [1, 2, 3]\nrotate = [0, 90, 0]\nscale = 2\n\
+                 [[instances]]\nmesh = \"q\"\nmaterial = \"m\"\n\
+                 matrix = [1, 0, 0, 5,  0, 1, 0, 6,  0, 0, 1, 7,  0, 0, 0, 1]\n"
+            ),
+            Path::new("s.toml"),
+        )
+        .unwrap();
+        let p = s.instances[0]
+            .transform
+            .transform_point3(DVec3::new(1.0, 0.0, 0.0));
+        // scale 2 → (2,0,0); rotate 90° about y → (0,0,-2); translate → (1,2,1).
+        assert!((p - DVec3::new(1.0, 2.0, 1.0)).length() < 1e-12, "{p}");
+        let q = s.instances[1].transform.transform_point3(DVec3::ZERO);
+        assert_eq!(q, DVec3::new(5.0, 6.0, 7.0), "row-major, points as columns");
+    }
+}
