@@ -224,6 +224,11 @@ impl Accel {
         Accel { bvh, tris, attrs }
     }
 
+    /// The instance a triangle belongs to.
+    pub fn instance(&self, prim: u32) -> u32 {
+        self.attrs.get(prim as usize).map_or(0, |a| a.instance)
+    }
+
     /// Number of triangles.
     pub fn triangle_count(&self) -> usize {
         self.tris.len()

@@ -465,9 +465,11 @@ impl Renderer {
                 offset += o.channels().len();
             }
         }
+        let overrides_need_uv = overrides.iter().any(|(o, _)| self.override_needs_uv(*o));
         Layout {
             ncomp,
             overrides,
+            overrides_need_uv,
             stride: offset,
         }
     }
@@ -612,7 +614,9 @@ impl Renderer {
         };
         sample[layout.ncomp * 3 + 3] = 1.0;
         let action = self.action(ray.ray, ray.depth);
-        let prep = self.prepare(ray, &hit);
+        let material = self.material_of(&hit);
+        let uv = layout.overrides_need_uv || self.needs_uv(action, material);
+        let prep = self.prepare(ray, &hit, uv);
         match action {
             Action::Material(a) => {
                 let sp = &self.shaders[prep.material][*a];
@@ -703,9 +707,28 @@ impl Renderer {
         }
     }
 
-    /// The surface at a hit, with facing normals and transferred differentials.
-    fn prepare(&self, ray: &RayState, hit: &Hit) -> Prepared {
-        let surface = self.accel.surface(hit, true);
+    fn material_of(&self, hit: &Hit) -> usize {
+        self.scene.instances[self.accel.instance(hit.prim) as usize].material
+    }
+
+    /// Whether the shader an action picks for `material` reads uv or tangents.
+    fn needs_uv(&self, action: &Action, material: usize) -> bool {
+        match action {
+            Action::Material(a) => self.shaders[material][*a].uv_tangents,
+            Action::Override(o) => self.override_needs_uv(*o),
+        }
+    }
+
+    fn override_needs_uv(&self, kind: OverrideKind) -> bool {
+        self.overrides
+            .iter()
+            .any(|(k, s)| *k == kind && s.as_ref().is_some_and(|s| s.uv_tangents))
+    }
+
+    /// The surface at a hit (uv and tangents only with `uv_tangents`), with facing normals
+    /// and transferred differentials.
+    fn prepare(&self, ray: &RayState, hit: &Hit, uv_tangents: bool) -> Prepared {
+        let surface = self.accel.surface(hit, uv_tangents);
         let ng_facing = if surface.ng.dot(ray.d) <= 0.0 {
             surface.ng
         } else {
@@ -817,12 +840,14 @@ impl Renderer {
             Found::Emitter(r) => return r,
             Found::Surface(h) => h,
         };
-        let prep = self.prepare(ray, &hit);
+        let action = self.action(ray.ray, ray.depth);
+        let uv = self.needs_uv(action, self.material_of(&hit));
+        let prep = self.prepare(ray, &hit, uv);
         let mut out = ShadeOut {
             values: Vec::new(),
             nonfinite: 0,
         };
-        match self.action(ray.ray, ray.depth) {
+        match action {
             Action::Material(a) => {
                 let sp = &self.shaders[prep.material][*a];
                 self.shade(sp, ray, &prep, &mut out, stats);
@@ -853,6 +878,8 @@ impl Renderer {
 struct Layout {
     ncomp: usize,
     overrides: Vec<(OverrideKind, usize)>,
+    /// Whether an override pass reads uv or tangents.
+    overrides_need_uv: bool,
     stride: usize,
 }
 
