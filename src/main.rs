@@ -651,7 +651,7 @@ fn render(args: RenderArgs) -> Result<()> {
             backend.name()
         );
         println!(
-            "time: load {:.3} s, compile {:.3} s ({} shaders), BVH {:.3} s ({} triangles), render {:.3} s",
+            "time: load {:.3} s, compile {:.3} s (shaders: {}), BVH {:.3} s (triangles: {}), render {:.3} s",
             load.as_secs_f64(),
             s.compile_time.as_secs_f64(),
             s.shaders,

@@ -444,3 +444,28 @@ fn scene_format_doc_example_loads() {
         ]
     );
 }
+
+/// The bundled multiplication tree is balanced: level 3 is 2³ − 1 = 7 multiply nodes over
+/// 2³ = 8 world-space position leaves, each multiply fed by two distinct nodes.
+#[test]
+fn mult_tree_network_is_a_balanced_level_3_tree() {
+    let text = std::fs::read_to_string(example("materials/mult_tree_3.json")).unwrap();
+    let net = shadenet::graph::Network::from_json(&text).unwrap();
+    let count = |t: &str| net.nodes.iter().filter(|n| n.ty == t).count();
+    assert_eq!(count("multiply"), 7);
+    assert_eq!(count("samplerInfo"), 8);
+    let mut fed = std::collections::BTreeSet::new();
+    for n in net.nodes.iter().filter(|n| n.ty == "multiply") {
+        for k in ["input1", "input2"] {
+            let src = n.inputs[k]
+                .as_str()
+                .unwrap()
+                .split('.')
+                .next()
+                .unwrap()
+                .to_string();
+            assert!(fed.insert(src), "a node feeds two multiplies");
+        }
+    }
+    assert_eq!(fed.len(), 14);
+}

@@ -14,7 +14,10 @@
 //!
 //! ```no_run
 //! use shadenet_tracer::{render::Renderer, scene, shader::InterpBackend};
-//! # fn compile(m: &scene::MaterialRef) -> shadenet_graph::ir::Program { unimplemented!() }
+//! // The facade links each material's network; a stand-in here.
+//! let compile = |m: &scene::MaterialRef| {
+//!     shadenet_graph::ir::Builder::new(&m.name).finish().unwrap_or_default()
+//! };
 //! let scene = scene::load(std::path::Path::new("examples/scenes/showcase.toml"))?;
 //! let programs = scene.materials.iter().map(compile).collect();
 //! let renderer = Renderer::new(scene, programs, &InterpBackend)?;
