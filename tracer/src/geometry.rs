@@ -278,3 +278,75 @@ pub fn load_gltf(path: &Path) -> Result<Mesh, String> {
     out.uvs = uvs_ok.then_some(uvs_all);
     out.check()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write_gltf(dir: &Path, node: &str) -> std::path::PathBuf {
+        let pos: [f32; 9] = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+        let bytes: Vec<u8> = pos.iter().flat_map(|x| x.to_le_bytes()).collect();
+        std::fs::write(dir.join("tri.bin"), &bytes).unwrap();
+        let json = format!(
+            r#"{{ "asset": {{ "version": "2.0" }},
+  "buffers": [ {{ "byteLength": 36, "uri": "tri.bin" }} ],
+  "bufferViews": [ {{ "buffer": 0, "byteOffset": 0, "byteLength": 36 }} ],
+  "accessors": [ {{ "bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                   "min": [0, 0, 0], "max": [1, 1, 0] }} ],
+  "meshes": [ {{ "primitives": [ {{ "attributes": {{ "POSITION": 0 }} }} ] }} ],
+  "nodes": [ {node} ],
+  "scenes": [ {{ "nodes": [0] }} ],
+  "scene": 0 }}"#
+        );
+        let p = dir.join("tri.gltf");
+        std::fs::write(&p, json).unwrap();
+        p
+    }
+
+    #[test]
+    fn gltf_node_transforms_apply_and_mirrors_keep_the_winding() {
+        let dir = std::env::temp_dir().join(format!("shadenet-gltf-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = write_gltf(&dir, r#"{ "mesh": 0, "translation": [0, 0, -1] }"#);
+        let m = load_gltf(&p).unwrap();
+        assert_eq!(
+            m.positions,
+            [[0.0, 0.0, -1.0], [1.0, 0.0, -1.0], [0.0, 1.0, -1.0]]
+        );
+        assert_eq!(m.triangles, [[0, 1, 2]]);
+        assert!(m.normals.is_none() && m.uvs.is_none());
+        let p = write_gltf(&dir, r#"{ "mesh": 0, "scale": [-1, 1, 1] }"#);
+        let m = load_gltf(&p).unwrap();
+        assert_eq!(m.positions[1], [-1.0, 0.0, 0.0]);
+        // The mirrored triangle is re-wound so its front still faces +z.
+        assert_eq!(m.triangles, [[0, 2, 1]]);
+        let e = load_gltf(&dir.join("missing.gltf")).unwrap_err();
+        assert!(e.contains("no such file"), "{e}");
+    }
+
+    #[test]
+    fn obj_without_normals_or_uv_and_bad_files() {
+        let dir = std::env::temp_dir().join(format!("shadenet-obj-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("quad.obj");
+        std::fs::write(&p, "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n").unwrap();
+        let m = load_obj(&p).unwrap();
+        assert_eq!(m.triangles.len(), 2, "the quad is triangulated");
+        assert!(m.normals.is_none() && m.uvs.is_none());
+        let bad = dir.join("bad.obj");
+        std::fs::write(&bad, "v 0 0 0\nf 1 2 3\n").unwrap();
+        assert!(load_obj(&bad).is_err());
+    }
+
+    #[test]
+    fn built_in_shapes_face_outward() {
+        for m in [unit_box(), unit_quad(), unit_sphere(12)] {
+            for t in &m.triangles {
+                let p = t.map(|i| Vec3::from(m.positions[i as usize]));
+                let n = (p[1] - p[0]).cross(p[2] - p[0]);
+                let vn = Vec3::from(m.normals.as_ref().unwrap()[t[0] as usize]);
+                assert!(n.dot(vn) > 0.0, "{t:?}: winding against the vertex normal");
+            }
+        }
+    }
+}
