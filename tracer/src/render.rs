@@ -1433,4 +1433,31 @@ scale = 10
         assert!((straight.dddx - Vec3::new(0.02, 0.0, 0.003)).length() < 1e-7);
         assert!(s.child_diffs(RayMatch::Diffuse, Vec3::Z).is_none());
     }
+
+    #[test]
+    fn override_passes_report_normal_depth_uv_and_occlusion() {
+        let text =
+            format!("{PLANE}\n[render]\npasses = [\"normal\", \"depth\", \"uv\", \"occlusion\"]\n");
+        let (_, film) = render_one(&text, lambert([0.5; 3]));
+        let names: Vec<&str> = film.layers.iter().map(|l| l.name.as_str()).collect();
+        assert_eq!(names, ["beauty", "normal", "depth", "uv", "occlusion"]);
+        let l = |n: &str| film.layer(n).unwrap();
+        assert_eq!(l("normal").channels, ["X", "Y", "Z"]);
+        assert_eq!(
+            [
+                l("normal").at(12, 0),
+                l("normal").at(12, 1),
+                l("normal").at(12, 2)
+            ],
+            [0.0, 0.0, 1.0]
+        );
+        assert_eq!(l("depth").channels, ["Z"]);
+        assert!(
+            (l("depth").at(12, 0) - 2.0).abs() < 1e-5,
+            "{}",
+            l("depth").at(12, 0)
+        );
+        assert!((l("uv").at(12, 0) - 0.5).abs() < 1e-6 && (l("uv").at(12, 1) - 0.5).abs() < 1e-6);
+        assert_eq!(l("occlusion").at(12, 0), 1.0, "nothing above the plane");
+    }
 }
