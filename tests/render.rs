@@ -146,7 +146,8 @@ fn cornell_box_passes_sum_to_beauty() {
         (0..24 * 24).any(|i| em.at(i, 0) > 10.0),
         "no pixel sees the light"
     );
-    // Passes of components no material has yet are present and black.
+    // Passes of components the box's materials do not produce (no reflectivity, no
+    // refraction, no shadow output) are present and black.
     for n in ["reflection", "refraction", "shadow"] {
         let l = film.layer(n).unwrap();
         assert!(l.data.iter().all(|x| *x == 0.0), "{n}");
@@ -345,24 +346,48 @@ type = "quad"
     }
 }
 
-/// The scenes that need the shading-services nodes fail now with a link error naming the
-/// material and the missing input, not silently. When the services branch merges, these
-/// scenes render: turn this test into a render test (mirror shows the reflected object,
-/// glass at grazing angles and total internal reflection stay finite).
+/// The scenes that need the shading-services nodes (mirror, glass, bump). Without them in
+/// the node library they fail with a link error naming the material and the missing input,
+/// not silently; once the services branch is merged they render: finite everywhere, with
+/// light in the reflection and refraction passes.
 #[test]
-fn scenes_needing_the_services_nodes_fail_clearly_until_they_land() {
+fn scenes_needing_the_services_nodes() {
+    let lib = shadenet::graph::NodeLibrary::standard();
+    let services = lib.get("bump2d").is_some()
+        && lib
+            .get("phong")
+            .is_some_and(|d| d.input("refractiveIndex").is_some());
     for (scene, material, missing) in [
         ("cornell_glass.toml", "glass", "refractions"),
         ("showcase.toml", "bumpy", "bump2d"),
     ] {
-        let err = setup(Some(&example(scene)), &RenderOptions::default())
-            .err()
-            .unwrap_or_else(|| panic!("{scene} linked: update this test"))
-            .to_string();
-        assert!(
-            err.contains(&format!("material `{material}`")) && err.contains(missing),
-            "{scene}: {err}"
-        );
+        let opts = RenderOptions {
+            spp: Some(1),
+            res: Some((32, 24)),
+            passes: None,
+        };
+        match setup(Some(&example(scene)), &opts) {
+            Err(e) => {
+                let err = e.to_string();
+                assert!(!services, "{scene}: {err}");
+                assert!(
+                    err.contains(&format!("material `{material}`")) && err.contains(missing),
+                    "{scene}: {err}"
+                );
+            }
+            Ok(r) => {
+                assert!(services, "{scene} linked without the services nodes");
+                let (film, stats) = r.render(&|_, _| {});
+                assert_eq!(stats.nonfinite, 0, "{scene}");
+                for l in &film.layers {
+                    assert!(l.data.iter().all(|x| x.is_finite()), "{scene}: {}", l.name);
+                }
+                for pass in ["reflection", "refraction"] {
+                    let l = film.layer(pass).unwrap();
+                    assert!(l.data.iter().any(|x| *x > 0.0), "{scene}: {pass} is black");
+                }
+            }
+        }
     }
 }
 

@@ -3,7 +3,9 @@
 //!
 //! - A **component pass** is the sum of some render components of the camera hit's single
 //!   shading call (every active component comes back separately; the film adds them up).
-//!   `beauty` is always written: the sum of every component.
+//!   `beauty` is always written: the total of each material's first output (the sum of its
+//!   components). A component the first output lacks may come from another output (a
+//!   surface's `outShadow`): it fills its pass and stays out of the beauty.
 //! - An **override pass** replaces the surface shader at camera hits with a built-in
 //!   program: `normal` (world-space shading normal), `depth` (camera-space distance along
 //!   the view axis), `uv` (surface parameters) — each built with `graph::ir::Builder` and

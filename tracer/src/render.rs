@@ -93,9 +93,8 @@ struct Specialized {
     uv_tangents: bool,
     /// Compute ray differentials.
     differentials: bool,
-    /// The first output's parts: (scene component index or `None` when untagged, offset,
-    /// width).
-    parts: Vec<(Option<usize>, usize, usize)>,
+    /// The output parts the film reads.
+    parts: Vec<Part>,
 }
 
 impl Specialized {
@@ -113,19 +112,43 @@ impl Specialized {
                 material: name.to_string(),
                 message,
             })?;
+        // The first output is the beauty: every part of it (tagged or not). A component
+        // the first output lacks may come from another output (a surface's `outShadow`):
+        // its first such part feeds that component's pass but not the beauty.
         let first = program.outputs.first().map(|o| o.name.clone());
-        let mut parts = Vec::new();
+        let mut parts: Vec<Part> = Vec::new();
         let mut offset = 0;
+        let mut slots = Vec::new();
         for o in &program.outputs {
             let w = program.ty(o.value).width().max(1);
-            if Some(&o.name) == first.as_ref() {
-                let comp = o
-                    .component
-                    .and_then(|k| program.components.get(k as usize))
-                    .and_then(|n| components.index(n));
-                parts.push((comp, offset, w));
-            }
+            let comp = o
+                .component
+                .and_then(|k| program.components.get(k as usize))
+                .and_then(|n| components.index(n));
+            slots.push((Some(&o.name) == first.as_ref(), comp, offset, w));
             offset += w;
+        }
+        for &(is_first, comp, offset, width) in &slots {
+            if is_first {
+                parts.push(Part {
+                    comp,
+                    offset,
+                    width,
+                    beauty: true,
+                });
+            }
+        }
+        for &(is_first, comp, offset, width) in &slots {
+            if let (false, Some(k)) = (is_first, comp)
+                && !parts.iter().any(|p| p.comp == Some(k))
+            {
+                parts.push(Part {
+                    comp,
+                    offset,
+                    width,
+                    beauty: false,
+                });
+            }
         }
         Ok(Specialized {
             shader,
@@ -135,6 +158,19 @@ impl Specialized {
             parts,
         })
     }
+}
+
+/// One output part the film reads.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Part {
+    /// Scene component index, or `None` for an untagged (beauty-only) value.
+    comp: Option<usize>,
+    /// First float in the shading call's output.
+    offset: usize,
+    /// Floats.
+    width: usize,
+    /// Whether it is part of the beauty (the first output).
+    beauty: bool,
 }
 
 /// What hits compute, per ray type and depth.
@@ -456,8 +492,9 @@ impl Renderer {
 
     fn layout(&self) -> Layout {
         let ncomp = self.components.names.len();
-        // comps (3 each), untagged (3), alpha (1), then each override pass's channels.
-        let mut offset = ncomp * 3 + 4;
+        // Beauty components (3 each), untagged (3), alpha (1), components from outside the
+        // beauty (3 each), then each override pass's channels.
+        let mut offset = ncomp * 6 + 4;
         let mut overrides = Vec::new();
         for p in &self.scene.settings.passes {
             if let PassKind::Override(o) = p.kind {
@@ -501,13 +538,14 @@ impl Renderer {
                         .iter()
                         .filter_map(|nm| self.components.index(nm))
                         .collect();
+                    let extra = layout.ncomp * 3 + 4;
                     let mut data = vec![0.0f32; n * 3];
                     for i in 0..n {
                         let v = px(i);
                         for c in 0..3 {
                             let mut s = 0.0f32;
                             for &k in &ks {
-                                s += v[k * 3 + c];
+                                s += v[k * 3 + c] + v[extra + k * 3 + c];
                             }
                             data[i * 3 + c] = s;
                         }
@@ -621,13 +659,15 @@ impl Renderer {
             Action::Material(a) => {
                 let sp = &self.shaders[prep.material][*a];
                 self.shade(sp, ray, &prep, out, stats);
-                for &(comp, off, wd) in &sp.parts {
-                    let base = match comp {
-                        Some(k) => k * 3,
-                        None => layout.ncomp * 3,
+                for part in &sp.parts {
+                    let base = match (part.beauty, part.comp) {
+                        (true, Some(k)) => k * 3,
+                        (true, None) => layout.ncomp * 3,
+                        (false, Some(k)) => layout.ncomp * 3 + 4 + k * 3,
+                        (false, None) => continue,
                     };
-                    for c in 0..wd.min(3) {
-                        sample[base + c] += out.values[off + c];
+                    for c in 0..part.width.min(3) {
+                        sample[base + c] += out.values[part.offset + c];
                     }
                 }
             }
@@ -852,9 +892,9 @@ impl Renderer {
                 let sp = &self.shaders[prep.material][*a];
                 self.shade(sp, ray, &prep, &mut out, stats);
                 let mut sum = [0.0f32; 3];
-                for &(_, off, wd) in &sp.parts {
-                    for (c, s) in sum.iter_mut().enumerate().take(wd.min(3)) {
-                        *s += out.values[off + c];
+                for part in sp.parts.iter().filter(|p| p.beauty) {
+                    for (c, s) in sum.iter_mut().enumerate().take(part.width.min(3)) {
+                        *s += out.values[part.offset + c];
                     }
                 }
                 sum
@@ -876,6 +916,8 @@ impl Renderer {
 
 /// Where the per-pixel floats live.
 struct Layout {
+    /// Scene components: the first `3·ncomp` floats of a pixel are the beauty's parts,
+    /// then 3 untagged, 1 alpha, then `3·ncomp` parts from outside the beauty.
     ncomp: usize,
     overrides: Vec<(OverrideKind, usize)>,
     /// Whether an override pass reads uv or tangents.
@@ -1459,5 +1501,34 @@ scale = 10
         );
         assert!((l("uv").at(12, 0) - 0.5).abs() < 1e-6 && (l("uv").at(12, 1) - 0.5).abs() < 1e-6);
         assert_eq!(l("occlusion").at(12, 0), 1.0, "nothing above the plane");
+    }
+
+    /// A component the first output lacks comes from another output (as a surface's
+    /// `outShadow` will): it fills its pass but stays out of the beauty.
+    #[test]
+    fn components_outside_the_first_output_fill_passes_not_beauty() {
+        let src = r#"{ "nodes": [
+            { "name": "m", "type": "lambert", "inputs": { "color": [0.5, 0.5, 0.5], "diffuse": 1.0 } },
+            { "name": "p", "type": "phong", "inputs": { "specularColor": 0.5, "cosinePower": 1 } } ],
+            "outputs": { "color": "m.outColor", "extra": "p.outColor" } }"#;
+        let program = compile_json(src, &NodeLibrary::standard()).unwrap().program;
+        let text = format!(
+            "{PLANE}\n[render]\npasses = [\"diffuse\", \"specular\"]\n\
+             [[lights]]\ntype = \"point\"\nposition = [0.5, 0, 2]\nintensity = 4\n"
+        );
+        let (_, film) = render_one(&text, program);
+        let l = |n: &str| film.layer(n).unwrap().at(12, 0);
+        assert!(l("specular") > 0.01, "{}", l("specular"));
+        assert_eq!(
+            l("beauty"),
+            l("diffuse"),
+            "specular is not in the first output"
+        );
+        // The diffuse pass is the first output's, not the sum with the other output's.
+        let lambert_only = render_one(&text, lambert([0.5; 3])).1;
+        assert_eq!(
+            l("diffuse"),
+            lambert_only.layer("diffuse").unwrap().at(12, 0)
+        );
     }
 }
