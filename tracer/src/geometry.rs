@@ -195,12 +195,17 @@ pub fn load_obj(path: &Path) -> Result<Mesh, String> {
 }
 
 /// Loads every triangle mesh of a glTF file's default scene (or its first), with node
-/// transforms applied.
+/// transforms applied (images are not loaded: the tracer takes only geometry from glTF).
 pub fn load_gltf(path: &Path) -> Result<Mesh, String> {
     if !path.exists() {
         return Err("no such file".into());
     }
-    let (doc, buffers, _images) = gltf::import(path).map_err(|e| e.to_string())?;
+    // Only the buffers: a missing or undecodable texture image must not stop the geometry.
+    let gltf::Gltf {
+        document: doc,
+        blob,
+    } = gltf::Gltf::open(path).map_err(|e| e.to_string())?;
+    let buffers = gltf::import_buffers(&doc, path.parent(), blob).map_err(|e| e.to_string())?;
     let scene = doc
         .default_scene()
         .or_else(|| doc.scenes().next())
