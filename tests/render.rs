@@ -103,6 +103,9 @@ intensity = {intensity}
         for c in 0..3 {
             let got = beauty.at(4, c) as f64; // the centre pixel of 3×3
             let rel = (got - expected).abs() / expected;
+            if c == 0 {
+                eprintln!("θ = {theta_deg}°, r = {r}: {got} vs {expected}, relative error {rel:e}");
+            }
             assert!(
                 rel < 1e-5,
                 "case {i}: θ = {theta_deg}°, r = {r}: got {got}, expected {expected} (rel {rel:e})"
@@ -126,10 +129,12 @@ fn cornell_box_passes_sum_to_beauty() {
     let names = ["diffuse", "specular", "indirect", "emission"];
     let passes: Vec<_> = names.iter().map(|n| film.layer(n).unwrap()).collect();
     let mut lit = 0;
+    let mut worst = 0.0f32;
     for i in 0..(24 * 24) {
         for c in 0..3 {
             let sum: f32 = passes.iter().map(|p| p.at(i, c)).sum();
             let b = beauty.at(i, c);
+            worst = worst.max((sum - b).abs());
             assert!(
                 (sum - b).abs() <= 1e-5 * b.abs().max(1.0),
                 "pixel {i} channel {c}: passes sum to {sum}, beauty is {b}"
@@ -139,6 +144,7 @@ fn cornell_box_passes_sum_to_beauty() {
             }
         }
     }
+    eprintln!("largest |Σ passes − beauty| over the Cornell box: {worst:e}");
     assert!(lit > 24 * 24, "the box should be lit: {lit} lit channels");
     // The light's face is seen directly and counted as emission.
     let em = film.layer("emission").unwrap();
