@@ -1,4 +1,4 @@
-//! The `shadenet` command line: `shade`, `compile`, `check`, `nodes`, `gen`.
+//! The `shadenet` command line: `render`, `shade`, `compile`, `check`, `nodes`, `gen`.
 
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand, ValueEnum};
@@ -6,7 +6,7 @@ use shadenet::graph::NodeLibrary;
 use shadenet::graph::ir::Space;
 use shadenet::graph::nodes::{LightDesc, LightKind};
 use shadenet::graph::opt::{self, Specialization};
-use shadenet::output::{write_atomic, write_exr, write_png};
+use shadenet::output::{OutputError, write_atomic, write_exr, write_png};
 use shadenet::shade::{grid_env, shade_grid};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -24,6 +24,9 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Cmd {
+    /// Render a scene (or, with no scene file, the embedded default scene) to a multi-layer
+    /// EXR and a PNG preview.
+    Render(RenderArgs),
     /// Shade a network over a grid of fragments on a unit plane and write images.
     Shade(ShadeArgs),
     /// Link, lower and optimize a network; print its IR and/or what the optimizer did.
@@ -198,6 +201,47 @@ struct ShadeArgs {
     quiet: bool,
 }
 
+#[derive(Clone, Copy, ValueEnum, PartialEq)]
+enum BackendArg {
+    /// The interpreter.
+    Interp,
+    /// The Cranelift JIT (not available yet).
+    Jit,
+}
+
+#[derive(clap::Args)]
+struct RenderArgs {
+    /// The scene file (.toml); without one, the embedded default scene.
+    scene: Option<PathBuf>,
+    /// Output EXR (every pass as f32 layers). Default: render.exr, plus render.png when
+    /// --png is not given either.
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    /// Also write a tone-mapped sRGB PNG preview of the beauty pass.
+    #[arg(long)]
+    png: Option<PathBuf>,
+    /// Back end that runs the materials.
+    #[arg(long, value_enum, default_value_t = BackendArg::Interp)]
+    backend: BackendArg,
+    /// Samples per pixel (overrides the scene).
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Passes, comma separated (replace the scene's): a component (diffuse, specular,
+    /// indirect, emission, reflection, refraction, shadow) or an override (normal, depth,
+    /// uv, occlusion).
+    #[arg(long, value_delimiter = ',')]
+    passes: Option<Vec<String>>,
+    /// Resolution, WxH (overrides the scene).
+    #[arg(long, value_parser = parse_res)]
+    res: Option<(u32, u32)>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Print nothing but errors (no progress bar, no summary).
+    #[arg(short, long)]
+    quiet: bool,
+}
+
 fn parse_res(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = s
         .split_once(['x', 'X'])
@@ -215,6 +259,7 @@ fn parse_res(s: &str) -> Result<(u32, u32), String> {
 fn main() {
     let cli = Cli::parse();
     let result = match cli.cmd {
+        Cmd::Render(args) => render(args),
         Cmd::Shade(args) => shade(args),
         Cmd::Compile(args) => compile(&args),
         Cmd::Check { network } => check(&network),
@@ -316,9 +361,12 @@ fn generate(what: GenCmd) -> Result<()> {
             let mut text = serde_json::to_string_pretty(&net)?;
             text.push('\n');
             write_atomic(&output, |tmp| {
-                std::fs::write(tmp, &text)
-                    .with_context(|| format!("cannot write {}", output.display()))
-            })
+                std::fs::write(tmp, &text).map_err(|e| OutputError::Write {
+                    path: output.clone(),
+                    message: e.to_string(),
+                })
+            })?;
+            Ok(())
         }
     }
 }
@@ -544,6 +592,143 @@ fn shade(args: ShadeArgs) -> Result<()> {
             grid.nonfinite
         );
         for p in &args.output {
+            println!("wrote {}", p.display());
+        }
+    }
+    Ok(())
+}
+
+fn render(args: RenderArgs) -> Result<()> {
+    use shadenet::render::{self as r, BackendKind, Files, RenderOptions};
+    use std::io::IsTerminal;
+    let t0 = Instant::now();
+    let kind = match args.backend {
+        BackendArg::Interp => BackendKind::Interp,
+        BackendArg::Jit => BackendKind::Jit,
+    };
+    let backend = r::backend(kind)?;
+    let (exr_path, png_path) = match (&args.output, &args.png) {
+        (None, None) => (
+            PathBuf::from("render.exr"),
+            Some(PathBuf::from("render.png")),
+        ),
+        (o, p) => (
+            o.clone().unwrap_or_else(|| PathBuf::from("render.exr")),
+            p.clone(),
+        ),
+    };
+    if exr_path.extension().and_then(|e| e.to_str()) != Some("exr") {
+        bail!("{}: -o must name an .exr file", exr_path.display());
+    }
+    if let Some(p) = &png_path
+        && p.extension().and_then(|e| e.to_str()) != Some("png")
+    {
+        bail!("{}: --png must name a .png file", p.display());
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.unwrap_or(0))
+        .build()
+        .context("cannot start the worker threads")?;
+
+    let (mut scene, files, dir, name) = match &args.scene {
+        Some(p) => (
+            shadenet::tracer::scene::load(p)?,
+            Files::Disk,
+            p.parent().map(Path::to_path_buf).unwrap_or_default(),
+            p.display().to_string(),
+        ),
+        None => (
+            r::default_scene()?,
+            Files::Embedded,
+            PathBuf::from("examples/scenes"),
+            format!("{} (embedded default scene)", r::DEFAULT_SCENE_PATH),
+        ),
+    };
+    r::apply_options(
+        &mut scene,
+        &RenderOptions {
+            spp: args.spp,
+            passes: args.passes.clone(),
+            res: args.res,
+        },
+    )?;
+    let (renderer, compiled) = r::prepare(scene, files, &dir, backend.as_ref())?;
+    let setup_time = t0.elapsed();
+    if !args.quiet {
+        for (m, c) in renderer.scene().materials.iter().zip(&compiled) {
+            if c.ignored_lights > 0 {
+                eprintln!(
+                    "note: material `{}` declares {} light node(s); renders use the scene's [[lights]]",
+                    m.name, c.ignored_lights
+                );
+            }
+        }
+        for w in renderer.warnings() {
+            eprintln!("warning: {w}");
+        }
+    }
+
+    let show = !args.quiet && std::io::stderr().is_terminal();
+    let bar = show.then(|| {
+        let b = indicatif::ProgressBar::new(0);
+        b.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{spinner} rendering [{bar:40}] {pos}/{len} tiles, {elapsed} (eta {eta})",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
+        );
+        b
+    });
+    let progress = |done: u64, total: u64| {
+        if let Some(b) = &bar {
+            b.set_length(total);
+            b.set_position(done);
+        }
+    };
+    let (film, stats) = pool.install(|| renderer.render(&progress));
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    film.write_exr(&exr_path)?;
+    if let Some(p) = &png_path {
+        film.write_png(p)?;
+    }
+    if !args.quiet {
+        let s = &stats;
+        let render_s = s.render_time.as_secs_f64();
+        let load = setup_time.saturating_sub(s.bvh_time + s.compile_time);
+        let layers: Vec<&str> = film.layers.iter().map(|l| l.name.as_str()).collect();
+        println!(
+            "rendered {name}: {}x{}, {} spp, {} threads, backend {}",
+            film.width,
+            film.height,
+            renderer.scene().settings.spp,
+            pool.current_num_threads(),
+            backend.name()
+        );
+        println!(
+            "time: load {:.3} s, compile {:.3} s (shaders: {}), BVH {:.3} s (triangles: {}), render {:.3} s",
+            load.as_secs_f64(),
+            s.compile_time.as_secs_f64(),
+            s.shaders,
+            s.bvh_time.as_secs_f64(),
+            s.triangles,
+            render_s
+        );
+        println!(
+            "{} rays ({:.2} M rays/s), {} shading calls, {} non-finite values caught by the guard",
+            s.rays,
+            s.rays as f64 / render_s.max(1e-9) / 1e6,
+            s.shading_calls,
+            s.nonfinite
+        );
+        println!(
+            "wrote {} (layers: {})",
+            exr_path.display(),
+            layers.join(", ")
+        );
+        if let Some(p) = &png_path {
             println!("wrote {}", p.display());
         }
     }

@@ -1,0 +1,295 @@
+//! `shadenet render`: a scene file in, a multi-layer EXR (and a PNG preview) out.
+//!
+//! The facade's part of rendering is what the tracer must not do: it links each material's
+//! network (applying the scene's parameter overrides to node inputs first) and picks the
+//! back end. Everything else — BVH, passes, specialization per component mask, film — is
+//! `shadenet_tracer`'s.
+//!
+//! With no scene file, [`default_scene`] is the scene embedded in the binary
+//! (`examples/scenes/default.toml` and the network files it names), so `shadenet render`
+//! works from any directory.
+
+use shadenet_graph::ir::Program;
+use shadenet_graph::network::Network;
+use shadenet_graph::{NodeLibrary, link, lower};
+use shadenet_tracer::passes::PassDef;
+use shadenet_tracer::scene::{self, MaterialRef, MaterialSource, Scene, SceneError};
+use shadenet_tracer::shader::{InterpBackend, ShaderBackend};
+use shadenet_tracer::{RenderError, Renderer};
+use std::path::{Component, Path, PathBuf};
+
+/// The embedded default scene's path (as it is named in messages).
+pub const DEFAULT_SCENE_PATH: &str = "examples/scenes/default.toml";
+
+/// The embedded files: the default scene and every network file it names.
+const EMBEDDED: &[(&str, &str)] = &[
+    (
+        "examples/scenes/default.toml",
+        include_str!("../examples/scenes/default.toml"),
+    ),
+    (
+        "examples/scenes/materials/matte.json",
+        include_str!("../examples/scenes/materials/matte.json"),
+    ),
+    (
+        "examples/scenes/materials/plastic.json",
+        include_str!("../examples/scenes/materials/plastic.json"),
+    ),
+    (
+        "examples/scenes/materials/satin.json",
+        include_str!("../examples/scenes/materials/satin.json"),
+    ),
+    (
+        "examples/scenes/materials/checker_floor.json",
+        include_str!("../examples/scenes/materials/checker_floor.json"),
+    ),
+    (
+        "examples/scenes/materials/ramp.json",
+        include_str!("../examples/scenes/materials/ramp.json"),
+    ),
+    (
+        "examples/networks/marble.json",
+        include_str!("../examples/networks/marble.json"),
+    ),
+];
+
+/// Which back end runs the materials.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BackendKind {
+    /// The interpreter (f32).
+    Interp,
+    /// The Cranelift JIT (not built yet).
+    Jit,
+}
+
+/// Command-line overrides of a scene's settings.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RenderOptions {
+    /// Samples per pixel.
+    pub spp: Option<u32>,
+    /// Passes by standard name (replace the scene's).
+    pub passes: Option<Vec<String>>,
+    /// Resolution.
+    pub res: Option<(u32, u32)>,
+}
+
+/// Anything that stops a render before the first pixel.
+#[derive(Debug, thiserror::Error)]
+pub enum SetupError {
+    /// The scene file is invalid.
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    /// A material's network could not be read or linked.
+    #[error("material `{material}` ({source_name}): {message}")]
+    Material {
+        /// The material's key.
+        material: String,
+        /// Its network file, or "inline".
+        source_name: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// An option is invalid.
+    #[error("{0}")]
+    Option(String),
+    /// The back end is not available.
+    #[error("{0}")]
+    Backend(String),
+    /// The tracer refused the scene.
+    #[error(transparent)]
+    Render(#[from] RenderError),
+}
+
+/// Where network files are read from: the disk, or the embedded default scene's files.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Files {
+    /// The file system.
+    Disk,
+    /// The files embedded in the binary.
+    Embedded,
+}
+
+impl Files {
+    fn read(self, path: &Path) -> std::io::Result<String> {
+        match self {
+            Files::Disk => std::fs::read_to_string(path),
+            Files::Embedded => {
+                let want = normalize(path);
+                EMBEDDED
+                    .iter()
+                    .find(|(p, _)| normalize(Path::new(p)) == want)
+                    .map(|(_, text)| text.to_string())
+                    .ok_or_else(|| {
+                        std::io::Error::new(
+                            std::io::ErrorKind::NotFound,
+                            "not among the embedded files",
+                        )
+                    })
+            }
+        }
+    }
+}
+
+/// `a/b/../c` → `a/c` (lexically; the embedded files have no links).
+fn normalize(p: &Path) -> PathBuf {
+    let mut out = PathBuf::new();
+    for c in p.components() {
+        match c {
+            Component::ParentDir => {
+                out.pop();
+            }
+            Component::CurDir => {}
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+/// The embedded default scene.
+pub fn default_scene() -> Result<Scene, SetupError> {
+    let text = EMBEDDED[0].1;
+    Ok(scene::parse(text, Path::new(DEFAULT_SCENE_PATH))?)
+}
+
+/// Applies command-line overrides to a scene.
+pub fn apply_options(scene: &mut Scene, opts: &RenderOptions) -> Result<(), SetupError> {
+    if let Some(spp) = opts.spp {
+        if spp == 0 || spp > 1 << 16 {
+            return Err(SetupError::Option("--spp must be 1 to 65536".into()));
+        }
+        scene.settings.spp = spp;
+    }
+    if let Some((w, h)) = opts.res {
+        if w == 0 || h == 0 || w > 16384 || h > 16384 {
+            return Err(SetupError::Option(
+                "--res must be between 1x1 and 16384x16384".into(),
+            ));
+        }
+        scene.camera.width = w;
+        scene.camera.height = h;
+    }
+    if let Some(names) = &opts.passes {
+        let passes = names
+            .iter()
+            .filter(|n| !n.is_empty())
+            .map(|n| PassDef::standard(n).map_err(|e| SetupError::Option(format!("--passes: {e}"))))
+            .collect::<Result<Vec<_>, _>>()?;
+        shadenet_tracer::passes::check_pass_names(&passes)
+            .map_err(|e| SetupError::Option(format!("--passes: {e}")))?;
+        scene.settings.passes = passes;
+    }
+    Ok(())
+}
+
+/// A compiled material and what it declared that the renderer ignores.
+#[derive(Clone, Debug)]
+pub struct CompiledMaterial {
+    /// The program.
+    pub program: Program,
+    /// Light nodes in its network (the scene's `[[lights]]` are used instead).
+    pub ignored_lights: usize,
+}
+
+/// Reads, overrides, links and lowers one material's network.
+pub fn compile_material(
+    m: &MaterialRef,
+    files: Files,
+    scene_dir: &Path,
+) -> Result<CompiledMaterial, SetupError> {
+    let (source_name, dir) = match &m.source {
+        MaterialSource::File(p) => (
+            p.display().to_string(),
+            p.parent().map(Path::to_path_buf).unwrap_or_default(),
+        ),
+        MaterialSource::Inline(_) => ("inline".to_string(), scene_dir.to_path_buf()),
+    };
+    let fail = |message: String| SetupError::Material {
+        material: m.name.clone(),
+        source_name: source_name.clone(),
+        message,
+    };
+    let mut network: Network = match &m.source {
+        MaterialSource::File(p) => {
+            let text = files
+                .read(p)
+                .map_err(|e| fail(format!("cannot read the network: {e}")))?;
+            Network::from_json(&text).map_err(|e| fail(format!("malformed network: {e}")))?
+        }
+        MaterialSource::Inline(v) => serde_json::from_value(v.clone())
+            .map_err(|e| fail(format!("malformed inline network: {e}")))?,
+    };
+    for (node, input, value) in &m.overrides {
+        let names: Vec<String> = network.nodes.iter().map(|n| n.name.clone()).collect();
+        let Some(spec) = network.nodes.iter_mut().find(|n| &n.name == node) else {
+            return Err(fail(format!(
+                "set \"{node}.{input}\": the network has no node `{node}` (its nodes: {})",
+                names.join(", ")
+            )));
+        };
+        spec.inputs.insert(input.clone(), value.clone());
+    }
+    let lib = NodeLibrary::standard();
+    let linked = link(&network, &lib).map_err(|e| fail(e.to_string()))?;
+    let mut program = lower(&linked, &lib).map_err(|e| fail(e.to_string()))?;
+    shadenet_graph::ir::validate(&program)
+        .map_err(|e| fail(format!("internal error: invalid IR: {e}")))?;
+    program.name = m.name.clone();
+    for t in &mut program.textures {
+        if Path::new(t.as_str()).is_relative() {
+            *t = dir.join(&*t).to_string_lossy().into_owned();
+        }
+    }
+    Ok(CompiledMaterial {
+        program,
+        ignored_lights: linked.lights.len(),
+    })
+}
+
+/// The back end for a kind.
+pub fn backend(kind: BackendKind) -> Result<Box<dyn ShaderBackend>, SetupError> {
+    match kind {
+        BackendKind::Interp => Ok(Box::new(InterpBackend)),
+        BackendKind::Jit => Err(SetupError::Backend(
+            "the JIT back end is not available yet (it is being built on its own branch); \
+             use --backend interp"
+                .into(),
+        )),
+    }
+}
+
+/// Compiles every material of a scene and prepares the renderer.
+pub fn prepare(
+    scene: Scene,
+    files: Files,
+    scene_dir: &Path,
+    backend: &dyn ShaderBackend,
+) -> Result<(Renderer, Vec<CompiledMaterial>), SetupError> {
+    let compiled = scene
+        .materials
+        .iter()
+        .map(|m| compile_material(m, files, scene_dir))
+        .collect::<Result<Vec<_>, _>>()?;
+    let programs = compiled.iter().map(|c| c.program.clone()).collect();
+    let renderer = Renderer::new(scene, programs, backend)?;
+    Ok((renderer, compiled))
+}
+
+/// Loads a scene file (or the embedded default with `None`), applies the options and
+/// prepares the renderer with the interpreter: the whole setup in one call, for tests and
+/// embedding.
+pub fn setup(path: Option<&Path>, opts: &RenderOptions) -> Result<Renderer, SetupError> {
+    let (mut scene, files, dir) = match path {
+        Some(p) => (
+            scene::load(p)?,
+            Files::Disk,
+            p.parent().map(Path::to_path_buf).unwrap_or_default(),
+        ),
+        None => (
+            default_scene()?,
+            Files::Embedded,
+            PathBuf::from("examples/scenes"),
+        ),
+    };
+    apply_options(&mut scene, opts)?;
+    Ok(prepare(scene, files, &dir, &InterpBackend)?.0)
+}

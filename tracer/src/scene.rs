@@ -1,0 +1,1094 @@
+//! The scene file (TOML): its data model, parsing and validation.
+//!
+//! `docs/scene-format.md` is the user's reference; this module is its implementation. Every
+//! table rejects unknown keys (`deny_unknown_fields`), and every error names the key (and
+//! the file) it is about. Loading a scene reads its meshes (OBJ, glTF or built-in shapes),
+//! checks its transforms, lights and render settings, and resolves material references to
+//! a [`MaterialSource`] — compiling a material's network is the caller's business (the
+//! tracer never sees nodes).
+
+use crate::geometry::{self, Mesh};
+use crate::passes::{PassDef, PassKind, RayMatch, Rule, RuleAction};
+use glam::{DMat4, DVec3};
+use serde::Deserialize;
+use shadenet_graph::nodes::{LightDesc, LightKind};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// A scene that cannot be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// The scene file could not be read.
+    #[error("cannot read scene {}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The file is not valid TOML or not of the expected shape (the message names the key
+    /// and its line).
+    #[error("{}: {message}", path.display())]
+    Syntax {
+        /// The file.
+        path: PathBuf,
+        /// toml's message: line, column, key.
+        message: String,
+    },
+    /// A value is invalid.
+    #[error("{}: `{key}`: {message}", path.display())]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// The key, as a dotted path (`instances[2].rotate`).
+        key: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A mesh file could not be loaded.
+    #[error("{}: `{key}`: cannot load mesh {}: {message}", path.display(), file.display())]
+    Mesh {
+        /// The scene file.
+        path: PathBuf,
+        /// The key naming the mesh.
+        key: String,
+        /// The mesh file.
+        file: PathBuf,
+        /// Why.
+        message: String,
+    },
+}
+
+// ---------------------------------------------------------------------------------------
+// The file, as written
+// ---------------------------------------------------------------------------------------
+
+/// The scene file as written (see `docs/scene-format.md`).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    /// The camera.
+    pub camera: CameraSpec,
+    /// Render settings.
+    #[serde(default)]
+    pub render: RenderSpec,
+    /// Materials by name.
+    #[serde(default)]
+    pub materials: BTreeMap<String, MaterialSpec>,
+    /// Meshes by name.
+    #[serde(default)]
+    pub meshes: BTreeMap<String, MeshSpec>,
+    /// Placed meshes.
+    #[serde(default)]
+    pub instances: Vec<InstanceSpec>,
+    /// Lights.
+    #[serde(default)]
+    pub lights: Vec<LightSpec>,
+}
+
+/// `[camera]`: a pinhole perspective camera.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraSpec {
+    /// Eye position.
+    pub position: [f64; 3],
+    /// The point looked at.
+    pub look_at: [f64; 3],
+    /// Up direction (default +y).
+    #[serde(default = "default_up")]
+    pub up: [f64; 3],
+    /// Vertical field of view, degrees (default 45).
+    #[serde(default = "default_fov")]
+    pub fov: f64,
+    /// Image size `[width, height]` in pixels (default 320×240).
+    #[serde(default = "default_resolution")]
+    pub resolution: [u32; 2],
+}
+
+fn default_up() -> [f64; 3] {
+    [0.0, 1.0, 0.0]
+}
+fn default_fov() -> f64 {
+    45.0
+}
+fn default_resolution() -> [u32; 2] {
+    [320, 240]
+}
+
+/// `[render]`: sampling, depth limits, passes and ray-match rules.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RenderSpec {
+    /// Samples per pixel.
+    #[serde(default = "one")]
+    pub spp: u32,
+    /// Reflection rays deeper than this return black.
+    #[serde(default = "four")]
+    pub max_reflection_depth: u32,
+    /// Refraction rays deeper than this return black.
+    #[serde(default = "six")]
+    pub max_refraction_depth: u32,
+    /// Diffuse (indirect) rays deeper than this return black.
+    #[serde(default = "one")]
+    pub max_diffuse_depth: u32,
+    /// Passes by standard name: a render component or an override pass.
+    #[serde(default)]
+    pub passes: Vec<String>,
+    /// Custom passes: `[[render.pass]]`.
+    #[serde(default)]
+    pub pass: Vec<PassSpec>,
+    /// Ray-match rules, first match wins: `[[render.rules]]`.
+    #[serde(default)]
+    pub rules: Vec<RuleSpec>,
+    /// Rays per shaded point of the `occlusion` override pass.
+    #[serde(default = "sixteen")]
+    pub occlusion_samples: u32,
+    /// Distance beyond which geometry does not occlude (the `occlusion` override pass).
+    #[serde(default = "default_occlusion_distance")]
+    pub occlusion_distance: f64,
+    /// Tile edge in pixels.
+    #[serde(default = "sixteen")]
+    pub tile_size: u32,
+}
+
+impl Default for RenderSpec {
+    fn default() -> Self {
+        RenderSpec {
+            spp: 1,
+            max_reflection_depth: 4,
+            max_refraction_depth: 6,
+            max_diffuse_depth: 1,
+            passes: Vec::new(),
+            pass: Vec::new(),
+            rules: Vec::new(),
+            occlusion_samples: 16,
+            occlusion_distance: default_occlusion_distance(),
+            tile_size: 16,
+        }
+    }
+}
+
+fn one() -> u32 {
+    1
+}
+fn four() -> u32 {
+    4
+}
+fn six() -> u32 {
+    6
+}
+fn sixteen() -> u32 {
+    16
+}
+fn default_occlusion_distance() -> f64 {
+    1.0
+}
+
+/// `[[render.pass]]`: a named pass summing components, or an override pass.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PassSpec {
+    /// The layer name in the EXR.
+    pub name: String,
+    /// Components summed into this pass.
+    #[serde(default)]
+    pub components: Option<Vec<String>>,
+    /// An override shader instead: `normal`, `depth`, `uv` or `occlusion`.
+    #[serde(default, rename = "override")]
+    pub override_: Option<String>,
+}
+
+/// `[[render.rules]]`: what hits of matching rays shade.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RuleSpec {
+    /// Ray type: `camera`, `reflection`, `refraction`, `diffuse` or `any` (default).
+    #[serde(default)]
+    pub ray: Option<String>,
+    /// Exactly this depth.
+    #[serde(default)]
+    pub depth: Option<u32>,
+    /// At least this depth.
+    #[serde(default)]
+    pub min_depth: Option<u32>,
+    /// At most this depth.
+    #[serde(default)]
+    pub max_depth: Option<u32>,
+    /// Components the hit computes (`["all"]` for every one).
+    #[serde(default)]
+    pub components: Option<Vec<String>>,
+    /// Replace the material with an override shader.
+    #[serde(default, rename = "override")]
+    pub override_: Option<String>,
+}
+
+/// `[materials.NAME]`: a network file, or an inline network, with parameter overrides.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSpec {
+    /// A network file, relative to the scene file.
+    #[serde(default)]
+    pub network: Option<String>,
+    /// An inline network as a TOML table (the JSON format's keys).
+    #[serde(default)]
+    pub inline: Option<toml::Value>,
+    /// An inline network as JSON text.
+    #[serde(default)]
+    pub json: Option<String>,
+    /// Overrides `"node.input" = value`, applied to the network before linking.
+    #[serde(default)]
+    pub set: BTreeMap<String, toml::Value>,
+}
+
+/// `[meshes.NAME]`: where a mesh's triangles come from.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum MeshSpec {
+    /// The cube [−1, 1]³, faces outward.
+    Box {},
+    /// The unit sphere (radius 1 at the origin), tessellated.
+    Sphere {
+        /// Segments around the equator (rings: half as many); at least 3.
+        #[serde(default = "default_segments")]
+        segments: u32,
+    },
+    /// The square [−1, 1]² in the plane z = 0, facing +z.
+    Quad {},
+    /// A Wavefront OBJ file (every object in it), relative to the scene.
+    Obj {
+        /// The file.
+        file: String,
+    },
+    /// A glTF 2.0 file (`.gltf` or `.glb`; every mesh of its default scene, with node
+    /// transforms), relative to the scene.
+    Gltf {
+        /// The file.
+        file: String,
+    },
+}
+
+fn default_segments() -> u32 {
+    48
+}
+
+/// A scale: one number (uniform) or three.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(untagged)]
+pub enum ScaleSpec {
+    /// Uniform.
+    Uniform(f64),
+    /// Per axis.
+    Axes([f64; 3]),
+}
+
+/// `[[instances]]`: a mesh placed in the world with a material.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InstanceSpec {
+    /// Optional name (for messages).
+    #[serde(default)]
+    pub name: Option<String>,
+    /// A key of `[meshes]`.
+    pub mesh: String,
+    /// A key of `[materials]`.
+    pub material: String,
+    /// Translation.
+    #[serde(default)]
+    pub translate: Option<[f64; 3]>,
+    /// Rotation in degrees about x, then y, then z.
+    #[serde(default)]
+    pub rotate: Option<[f64; 3]>,
+    /// Scale.
+    #[serde(default)]
+    pub scale: Option<ScaleSpec>,
+    /// A full object → world matrix, 16 numbers row-major (points are columns); excludes
+    /// translate/rotate/scale.
+    #[serde(default)]
+    pub matrix: Option<Vec<f64>>,
+}
+
+/// `[[lights]]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum LightSpec {
+    /// A point light; intensity in W/sr.
+    Point {
+        /// Position.
+        position: [f64; 3],
+        /// Intensity.
+        #[serde(default = "unit")]
+        intensity: f64,
+        /// Color.
+        #[serde(default = "white")]
+        color: [f64; 3],
+    },
+    /// A spot light; intensity in W/sr.
+    Spot {
+        /// Position.
+        position: [f64; 3],
+        /// Direction it points in.
+        direction: [f64; 3],
+        /// Full cone angle, degrees.
+        #[serde(default = "default_cone")]
+        cone_angle: f64,
+        /// Penumbra, degrees (Maya's sign convention).
+        #[serde(default)]
+        penumbra_angle: f64,
+        /// cosⁿ falloff exponent.
+        #[serde(default)]
+        dropoff: f64,
+        /// Intensity.
+        #[serde(default = "unit")]
+        intensity: f64,
+        /// Color.
+        #[serde(default = "white")]
+        color: [f64; 3],
+    },
+    /// A distant light; intensity is the irradiance perpendicular to it.
+    Distant {
+        /// Direction the light travels in.
+        direction: [f64; 3],
+        /// Intensity.
+        #[serde(default = "unit")]
+        intensity: f64,
+        /// Color.
+        #[serde(default = "white")]
+        color: [f64; 3],
+    },
+    /// A one-sided quad area light `corner + s·edge_u + t·edge_v`, emitting radiance towards
+    /// `edge_u × edge_v`.
+    Quad {
+        /// Corner.
+        corner: [f64; 3],
+        /// First edge.
+        edge_u: [f64; 3],
+        /// Second edge.
+        edge_v: [f64; 3],
+        /// Radiance.
+        #[serde(default = "unit")]
+        intensity: f64,
+        /// Color.
+        #[serde(default = "white")]
+        color: [f64; 3],
+        /// Light samples per shaded point.
+        #[serde(default = "four")]
+        samples: u32,
+        /// Whether camera and secondary rays see its face (as `emission`).
+        #[serde(default = "yes")]
+        visible: bool,
+    },
+    /// Ambient light: a radiance without direction.
+    Ambient {
+        /// Intensity.
+        #[serde(default = "unit")]
+        intensity: f64,
+        /// Color.
+        #[serde(default = "white")]
+        color: [f64; 3],
+    },
+    /// A constant environment: radiance from every direction, sampled in the light loop,
+    /// and seen by rays that escape the scene.
+    Environment {
+        /// Radiance.
+        #[serde(default = "unit")]
+        intensity: f64,
+        /// Color.
+        #[serde(default = "white")]
+        color: [f64; 3],
+        /// Light samples per shaded point.
+        #[serde(default = "sixteen")]
+        samples: u32,
+    },
+}
+
+fn unit() -> f64 {
+    1.0
+}
+fn white() -> [f64; 3] {
+    [1.0; 3]
+}
+fn default_cone() -> f64 {
+    40.0
+}
+fn yes() -> bool {
+    true
+}
+
+// ---------------------------------------------------------------------------------------
+// The scene, resolved
+// ---------------------------------------------------------------------------------------
+
+/// Where a material's network comes from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MaterialSource {
+    /// A network file (already made absolute or relative to the working directory).
+    File(PathBuf),
+    /// An inline network, as JSON.
+    Inline(serde_json::Value),
+}
+
+/// A material as the scene names it; the caller compiles it to a program.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MaterialRef {
+    /// The key in `[materials]`.
+    pub name: String,
+    /// The network.
+    pub source: MaterialSource,
+    /// `(node, input, value)` overrides to apply to the network before linking.
+    pub overrides: Vec<(String, String, serde_json::Value)>,
+}
+
+/// The camera, resolved.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraDesc {
+    /// Eye.
+    pub position: DVec3,
+    /// Looked-at point.
+    pub look_at: DVec3,
+    /// Up.
+    pub up: DVec3,
+    /// Vertical field of view, radians.
+    pub fov: f64,
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+}
+
+/// Render settings, resolved.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    /// Samples per pixel (≥ 1).
+    pub spp: u32,
+    /// Depth limits by ray type.
+    pub max_reflection_depth: u32,
+    /// Refraction depth limit.
+    pub max_refraction_depth: u32,
+    /// Diffuse depth limit.
+    pub max_diffuse_depth: u32,
+    /// The passes written besides `beauty`.
+    pub passes: Vec<PassDef>,
+    /// Ray-match rules, first match wins.
+    pub rules: Vec<Rule>,
+    /// Occlusion-pass rays per point.
+    pub occlusion_samples: u32,
+    /// Occlusion-pass distance.
+    pub occlusion_distance: f32,
+    /// Tile edge.
+    pub tile_size: u32,
+}
+
+/// One placed mesh.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Instance {
+    /// Name for messages.
+    pub name: String,
+    /// Index into [`Scene::meshes`].
+    pub mesh: usize,
+    /// Index into [`Scene::materials`].
+    pub material: usize,
+    /// Object → world.
+    pub transform: DMat4,
+}
+
+/// A quad light's face, for rays that see it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Emitter {
+    /// Corner.
+    pub corner: DVec3,
+    /// First edge.
+    pub edge_u: DVec3,
+    /// Second edge.
+    pub edge_v: DVec3,
+    /// Radiance.
+    pub radiance: [f64; 3],
+}
+
+/// A loaded scene: everything but compiled materials.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// The camera.
+    pub camera: CameraDesc,
+    /// Render settings.
+    pub settings: Settings,
+    /// Materials in `[materials]` key order.
+    pub materials: Vec<MaterialRef>,
+    /// Meshes in `[meshes]` key order, object space.
+    pub meshes: Vec<Mesh>,
+    /// Their names.
+    pub mesh_names: Vec<String>,
+    /// Placed meshes.
+    pub instances: Vec<Instance>,
+    /// Lights, in runtime form.
+    pub lights: Vec<LightDesc>,
+    /// Quad lights whose face rays can see.
+    pub emitters: Vec<Emitter>,
+    /// Radiance of escaped rays (sum of the environment lights).
+    pub background: [f64; 3],
+}
+
+/// Loads a scene file from disk.
+pub fn load(path: &Path) -> Result<Scene, SceneError> {
+    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    parse(&text, path)
+}
+
+/// Parses scene text; `path` names the file in messages and relative paths are resolved
+/// against its directory.
+pub fn parse(text: &str, path: &Path) -> Result<Scene, SceneError> {
+    let file: SceneFile = toml::from_str(text).map_err(|e| SceneError::Syntax {
+        path: path.to_path_buf(),
+        message: e.to_string().trim_end().to_string(),
+    })?;
+    resolve(file, path)
+}
+
+struct Ctx<'a> {
+    path: &'a Path,
+    dir: PathBuf,
+}
+
+impl Ctx<'_> {
+    fn invalid(&self, key: impl Into<String>, message: impl Into<String>) -> SceneError {
+        SceneError::Invalid {
+            path: self.path.to_path_buf(),
+            key: key.into(),
+            message: message.into(),
+        }
+    }
+
+    fn finite(&self, key: &str, v: &[f64]) -> Result<(), SceneError> {
+        if let Some(x) = v.iter().find(|x| !x.is_finite()) {
+            return Err(self.invalid(key, format!("{x} is not a finite number")));
+        }
+        Ok(())
+    }
+
+    fn vec3(&self, key: &str, v: [f64; 3]) -> Result<DVec3, SceneError> {
+        self.finite(key, &v)?;
+        Ok(DVec3::from_array(v))
+    }
+
+    fn unit(&self, key: &str, v: [f64; 3]) -> Result<DVec3, SceneError> {
+        let d = self.vec3(key, v)?;
+        if d.length_squared() == 0.0 {
+            return Err(self.invalid(key, "the direction is zero"));
+        }
+        Ok(d.normalize())
+    }
+
+    fn file(&self, name: &str) -> PathBuf {
+        let p = Path::new(name);
+        if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            self.dir.join(p)
+        }
+    }
+}
+
+fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
+    let cx = Ctx {
+        path,
+        dir: path
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_else(|| PathBuf::from(".")),
+    };
+
+    // Camera.
+    let c = &file.camera;
+    let position = cx.vec3("camera.position", c.position)?;
+    let look_at = cx.vec3("camera.look_at", c.look_at)?;
+    let up = cx.unit("camera.up", c.up)?;
+    if position == look_at {
+        return Err(cx.invalid("camera.look_at", "is the camera position"));
+    }
+    if (look_at - position).normalize().cross(up).length_squared() < 1e-12 {
+        return Err(cx.invalid("camera.up", "is parallel to the viewing direction"));
+    }
+    if !(c.fov.is_finite() && c.fov > 0.0 && c.fov < 180.0) {
+        return Err(cx.invalid("camera.fov", "must be between 0 and 180 degrees"));
+    }
+    let [width, height] = c.resolution;
+    if width == 0 || height == 0 || width > 16384 || height > 16384 {
+        return Err(cx.invalid(
+            "camera.resolution",
+            "must be between [1, 1] and [16384, 16384]",
+        ));
+    }
+    let camera = CameraDesc {
+        position,
+        look_at,
+        up,
+        fov: c.fov.to_radians(),
+        width,
+        height,
+    };
+
+    // Materials.
+    let mut materials = Vec::new();
+    for (name, m) in &file.materials {
+        let key = format!("materials.{name}");
+        let source = match (&m.network, &m.inline, &m.json) {
+            (Some(f), None, None) => MaterialSource::File(cx.file(f)),
+            (None, Some(t), None) => MaterialSource::Inline(
+                serde_json::to_value(t)
+                    .map_err(|e| cx.invalid(format!("{key}.inline"), e.to_string()))?,
+            ),
+            (None, None, Some(j)) => MaterialSource::Inline(
+                serde_json::from_str(j)
+                    .map_err(|e| cx.invalid(format!("{key}.json"), e.to_string()))?,
+            ),
+            _ => {
+                return Err(cx.invalid(
+                    key,
+                    "give exactly one of `network` (a file), `inline` (a table) or `json` (text)",
+                ));
+            }
+        };
+        let mut overrides = Vec::new();
+        for (target, value) in &m.set {
+            let k = format!("{key}.set.\"{target}\"");
+            let Some((node, input)) = target.rsplit_once('.') else {
+                return Err(cx.invalid(k, "expected \"node.input\""));
+            };
+            check_toml_finite(&cx, &k, value)?;
+            let v = serde_json::to_value(value).map_err(|e| cx.invalid(&k, e.to_string()))?;
+            overrides.push((node.to_string(), input.to_string(), v));
+        }
+        materials.push(MaterialRef {
+            name: name.clone(),
+            source,
+            overrides,
+        });
+    }
+
+    // Meshes.
+    let mut meshes = Vec::new();
+    let mut mesh_names = Vec::new();
+    for (name, m) in &file.meshes {
+        let key = format!("meshes.{name}");
+        let mesh = match m {
+            MeshSpec::Box {} => geometry::unit_box(),
+            MeshSpec::Quad {} => geometry::unit_quad(),
+            MeshSpec::Sphere { segments } => {
+                if *segments < 3 || *segments > 4096 {
+                    return Err(cx.invalid(format!("{key}.segments"), "must be between 3 and 4096"));
+                }
+                geometry::unit_sphere(*segments)
+            }
+            MeshSpec::Obj { file: f } | MeshSpec::Gltf { file: f } => {
+                let p = cx.file(f);
+                let loaded = if matches!(m, MeshSpec::Obj { .. }) {
+                    geometry::load_obj(&p)
+                } else {
+                    geometry::load_gltf(&p)
+                };
+                loaded.map_err(|message| SceneError::Mesh {
+                    path: path.to_path_buf(),
+                    key: format!("{key}.file"),
+                    file: p.clone(),
+                    message,
+                })?
+            }
+        };
+        meshes.push(mesh);
+        mesh_names.push(name.clone());
+    }
+
+    // Instances.
+    let mat_names: Vec<&String> = file.materials.keys().collect();
+    let mut instances = Vec::new();
+    for (i, inst) in file.instances.iter().enumerate() {
+        let key = format!("instances[{i}]");
+        let mesh = mesh_names
+            .iter()
+            .position(|n| *n == inst.mesh)
+            .ok_or_else(|| {
+                cx.invalid(
+                    format!("{key}.mesh"),
+                    format!(
+                        "no mesh `{}` in [meshes] (it has: {})",
+                        inst.mesh,
+                        list(mesh_names.iter())
+                    ),
+                )
+            })?;
+        let material = mat_names
+            .iter()
+            .position(|n| **n == inst.material)
+            .ok_or_else(|| {
+                cx.invalid(
+                    format!("{key}.material"),
+                    format!(
+                        "unknown material `{}` (the scene's [materials] are: {})",
+                        inst.material,
+                        list(mat_names.iter().copied())
+                    ),
+                )
+            })?;
+        let transform = instance_transform(&cx, &key, inst)?;
+        instances.push(Instance {
+            name: inst
+                .name
+                .clone()
+                .unwrap_or_else(|| format!("{} #{i}", inst.mesh)),
+            mesh,
+            material,
+            transform,
+        });
+    }
+
+    // Lights.
+    let mut lights = Vec::new();
+    let mut emitters = Vec::new();
+    let mut background = [0.0; 3];
+    for (i, l) in file.lights.iter().enumerate() {
+        let key = format!("lights[{i}]");
+        let power = |intensity: f64, color: [f64; 3]| -> Result<[f64; 3], SceneError> {
+            cx.finite(&format!("{key}.intensity"), &[intensity])?;
+            cx.finite(&format!("{key}.color"), &color)?;
+            Ok(color.map(|c| c * intensity))
+        };
+        let name = format!("light{i}");
+        let (kind, power) = match l {
+            LightSpec::Point {
+                position,
+                intensity,
+                color,
+            } => (
+                LightKind::Point {
+                    position: cx.vec3(&format!("{key}.position"), *position)?.to_array(),
+                },
+                power(*intensity, *color)?,
+            ),
+            LightSpec::Spot {
+                position,
+                direction,
+                cone_angle,
+                penumbra_angle,
+                dropoff,
+                intensity,
+                color,
+            } => {
+                cx.finite(
+                    &format!("{key}.cone_angle"),
+                    &[*cone_angle, *penumbra_angle, *dropoff],
+                )?;
+                (
+                    LightKind::Spot {
+                        position: cx.vec3(&format!("{key}.position"), *position)?.to_array(),
+                        direction: cx.unit(&format!("{key}.direction"), *direction)?.to_array(),
+                        cone_angle: cone_angle.to_radians(),
+                        penumbra_angle: penumbra_angle.to_radians(),
+                        dropoff: *dropoff,
+                    },
+                    power(*intensity, *color)?,
+                )
+            }
+            LightSpec::Distant {
+                direction,
+                intensity,
+                color,
+            } => (
+                LightKind::Distant {
+                    direction: cx.unit(&format!("{key}.direction"), *direction)?.to_array(),
+                },
+                power(*intensity, *color)?,
+            ),
+            LightSpec::Quad {
+                corner,
+                edge_u,
+                edge_v,
+                intensity,
+                color,
+                samples,
+                visible,
+            } => {
+                let c = cx.vec3(&format!("{key}.corner"), *corner)?;
+                let u = cx.vec3(&format!("{key}.edge_u"), *edge_u)?;
+                let v = cx.vec3(&format!("{key}.edge_v"), *edge_v)?;
+                if u.cross(v).length_squared() == 0.0 {
+                    return Err(cx.invalid(format!("{key}.edge_v"), "the quad has no area"));
+                }
+                if *samples == 0 || *samples > 65536 {
+                    return Err(cx.invalid(format!("{key}.samples"), "must be 1 to 65536"));
+                }
+                let p = power(*intensity, *color)?;
+                if *visible {
+                    emitters.push(Emitter {
+                        corner: c,
+                        edge_u: u,
+                        edge_v: v,
+                        radiance: p,
+                    });
+                }
+                (
+                    LightKind::Quad {
+                        corner: c.to_array(),
+                        edge_u: u.to_array(),
+                        edge_v: v.to_array(),
+                        samples: *samples,
+                    },
+                    p,
+                )
+            }
+            LightSpec::Ambient { intensity, color } => {
+                (LightKind::Ambient, power(*intensity, *color)?)
+            }
+            LightSpec::Environment {
+                intensity,
+                color,
+                samples,
+            } => {
+                if *samples == 0 || *samples > 65536 {
+                    return Err(cx.invalid(format!("{key}.samples"), "must be 1 to 65536"));
+                }
+                let p = power(*intensity, *color)?;
+                for (b, x) in background.iter_mut().zip(p) {
+                    *b += x;
+                }
+                (LightKind::Environment { samples: *samples }, p)
+            }
+        };
+        lights.push(LightDesc { name, kind, power });
+    }
+
+    let settings = resolve_settings(&cx, &file.render)?;
+    Ok(Scene {
+        camera,
+        settings,
+        materials,
+        meshes,
+        mesh_names,
+        instances,
+        lights,
+        emitters,
+        background,
+    })
+}
+
+fn list<'a>(names: impl Iterator<Item = &'a String>) -> String {
+    let v: Vec<&str> = names.map(|s| s.as_str()).collect();
+    if v.is_empty() {
+        "none".into()
+    } else {
+        v.join(", ")
+    }
+}
+
+fn check_toml_finite(cx: &Ctx, key: &str, v: &toml::Value) -> Result<(), SceneError> {
+    match v {
+        toml::Value::Float(x) if !x.is_finite() => {
+            Err(cx.invalid(key, format!("{x} is not a finite number")))
+        }
+        toml::Value::Array(a) => a.iter().try_for_each(|x| check_toml_finite(cx, key, x)),
+        toml::Value::Table(t) => t.values().try_for_each(|x| check_toml_finite(cx, key, x)),
+        _ => Ok(()),
+    }
+}
+
+fn instance_transform(cx: &Ctx, key: &str, inst: &InstanceSpec) -> Result<DMat4, SceneError> {
+    let m = if let Some(m) = &inst.matrix {
+        if inst.translate.is_some() || inst.rotate.is_some() || inst.scale.is_some() {
+            return Err(cx.invalid(
+                format!("{key}.matrix"),
+                "give either `matrix` or `translate`/`rotate`/`scale`, not both",
+            ));
+        }
+        if m.len() != 16 {
+            return Err(cx.invalid(
+                format!("{key}.matrix"),
+                format!("expected 16 numbers (row-major 4×4), found {}", m.len()),
+            ));
+        }
+        cx.finite(&format!("{key}.matrix"), m)?;
+        // Row-major in the file; glam is column-major.
+        DMat4::from_cols_array(&std::array::from_fn(|i| m[(i % 4) * 4 + i / 4]))
+    } else {
+        let t = match inst.translate {
+            Some(t) => cx.vec3(&format!("{key}.translate"), t)?,
+            None => DVec3::ZERO,
+        };
+        let r = match inst.rotate {
+            Some(r) => cx.vec3(&format!("{key}.rotate"), r)?,
+            None => DVec3::ZERO,
+        };
+        let s = match &inst.scale {
+            Some(ScaleSpec::Uniform(s)) => cx.vec3(&format!("{key}.scale"), [*s; 3])?,
+            Some(ScaleSpec::Axes(s)) => cx.vec3(&format!("{key}.scale"), *s)?,
+            None => DVec3::ONE,
+        };
+        let rot = DMat4::from_rotation_z(r.z.to_radians())
+            * DMat4::from_rotation_y(r.y.to_radians())
+            * DMat4::from_rotation_x(r.x.to_radians());
+        DMat4::from_translation(t) * rot * DMat4::from_scale(s)
+    };
+    if m.determinant().abs() < 1e-300 || !m.determinant().is_finite() {
+        return Err(cx.invalid(
+            key,
+            "the transform is singular (a zero scale flattens the mesh)",
+        ));
+    }
+    Ok(m)
+}
+
+fn resolve_settings(cx: &Ctx, r: &RenderSpec) -> Result<Settings, SceneError> {
+    if r.spp == 0 || r.spp > 1 << 16 {
+        return Err(cx.invalid("render.spp", "must be 1 to 65536"));
+    }
+    if r.max_reflection_depth > 64 || r.max_refraction_depth > 64 || r.max_diffuse_depth > 64 {
+        return Err(cx.invalid("render.max_*_depth", "depth limits must be at most 64"));
+    }
+    if r.tile_size == 0 || r.tile_size > 1024 {
+        return Err(cx.invalid("render.tile_size", "must be 1 to 1024"));
+    }
+    if r.occlusion_samples == 0 || r.occlusion_samples > 65536 {
+        return Err(cx.invalid("render.occlusion_samples", "must be 1 to 65536"));
+    }
+    if !(r.occlusion_distance.is_finite() && r.occlusion_distance > 0.0) {
+        return Err(cx.invalid("render.occlusion_distance", "must be a positive number"));
+    }
+    let mut passes: Vec<PassDef> = Vec::new();
+    for (i, name) in r.passes.iter().enumerate() {
+        let p =
+            PassDef::standard(name).map_err(|e| cx.invalid(format!("render.passes[{i}]"), e))?;
+        passes.push(p);
+    }
+    for (i, p) in r.pass.iter().enumerate() {
+        let key = format!("render.pass[{i}]");
+        let kind = match (&p.components, &p.override_) {
+            (Some(c), None) if !c.is_empty() => PassKind::Components(c.clone()),
+            (None, Some(o)) => PassKind::Override(
+                o.parse()
+                    .map_err(|e: String| cx.invalid(format!("{key}.override"), e))?,
+            ),
+            _ => {
+                return Err(cx.invalid(
+                    key,
+                    "give either `components` (a non-empty list) or `override`",
+                ));
+            }
+        };
+        passes.push(PassDef {
+            name: p.name.clone(),
+            kind,
+        });
+    }
+    crate::passes::check_pass_names(&passes).map_err(|e| cx.invalid("render.passes", e))?;
+    let mut rules = Vec::new();
+    for (i, s) in r.rules.iter().enumerate() {
+        let key = format!("render.rules[{i}]");
+        let ray = match s.ray.as_deref() {
+            None | Some("any") => None,
+            Some(t) => Some(RayMatch::parse(t).map_err(|e| cx.invalid(format!("{key}.ray"), e))?),
+        };
+        let (min_depth, max_depth) = match (s.depth, s.min_depth, s.max_depth) {
+            (Some(d), None, None) => (d, d),
+            (None, lo, hi) => (lo.unwrap_or(0), hi.unwrap_or(u32::MAX)),
+            _ => {
+                return Err(cx.invalid(
+                    format!("{key}.depth"),
+                    "give `depth` or `min_depth`/`max_depth`, not both",
+                ));
+            }
+        };
+        let action = match (&s.components, &s.override_) {
+            (Some(c), None) if c.iter().any(|x| x == "all") => RuleAction::All,
+            (Some(c), None) => RuleAction::Components(c.clone()),
+            (None, Some(o)) => RuleAction::Override(
+                o.parse()
+                    .map_err(|e: String| cx.invalid(format!("{key}.override"), e))?,
+            ),
+            _ => {
+                return Err(cx.invalid(
+                    key,
+                    "give either `components` (a list, or [\"all\"]) or `override`",
+                ));
+            }
+        };
+        rules.push(Rule {
+            ray,
+            min_depth,
+            max_depth,
+            action,
+        });
+    }
+    Ok(Settings {
+        spp: r.spp,
+        max_reflection_depth: r.max_reflection_depth,
+        max_refraction_depth: r.max_refraction_depth,
+        max_diffuse_depth: r.max_diffuse_depth,
+        passes,
+        rules,
+        occlusion_samples: r.occlusion_samples,
+        occlusion_distance: r.occlusion_distance as f32,
+        tile_size: r.tile_size,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const HEAD: &str = "[camera]\nposition = [0, 0, 3]\nlook_at = [0, 0, 0]\n\
+        [materials.m]\njson = '{\"nodes\": [], \"outputs\": {}}'\n[meshes.q]\ntype = \"quad\"\n";
+
+    fn err(extra: &str) -> String {
+        parse(&format!("{HEAD}{extra}"), Path::new("s.toml"))
+            .err()
+            .unwrap_or_else(|| panic!("accepted: {extra}"))
+            .to_string()
+    }
+
+    #[test]
+    fn errors_name_the_key() {
+        let inst = "[[instances]]\nmesh = \"q\"\nmaterial = \"m\"\n";
+        for (extra, want) in [
+            (format!("{inst}matrix = [1, 0, 0]\n"), "instances[0].matrix"),
+            (format!("{inst}scale = [1, 0, 1]\n"), "singular"),
+            (format!("{inst}rotate = [0, inf, 0]\n"), "instances[0].rotate"),
+            (format!("{inst}translate = [0, 0, 0]\nmatrix = [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]\n"), "not both"),
+            ("[render]\nspp = 0\n".to_string(), "render.spp"),
+            ("[render]\npasses = [\"beauty\"]\n".to_string(), "always written"),
+            ("[render]\npasses = [\"diffuse\", \"diffuse\"]\n".to_string(), "twice"),
+            ("[[render.rules]]\nray = \"glossy\"\ncomponents = [\"diffuse\"]\n".to_string(), "render.rules[0].ray"),
+            ("[[render.pass]]\nname = \"x\"\noverride = \"curvature\"\n".to_string(), "render.pass[0].override"),
+            ("[[lights]]\ntype = \"quad\"\ncorner = [0, 0, 0]\nedge_u = [1, 0, 0]\nedge_v = [2, 0, 0]\n".to_string(), "no area"),
+            ("[[lights]]\ntype = \"laser\"\n".to_string(), "laser"),
+            ("[[lights]]\ntype = \"point\"\nposition = [0, 0, 1]\nintensty = 3\n".to_string(), "intensty"),
+            ("[meshes.s]\ntype = \"sphere\"\nsegments = 2\n".to_string(), "meshes.s.segments"),
+            ("[materials.n]\nnetwork = \"a.json\"\njson = '{}'\n".to_string(), "exactly one"),
+            ("[materials.n]\nnetwork = \"a.json\"\nset = { \"color\" = 1 }\n".to_string(), "node.input"),
+        ] {
+            let e = err(&extra);
+            assert!(e.contains(want), "{extra}: `{want}` not in {e}");
+            assert!(e.starts_with("s.toml"), "{e}");
+        }
+    }
+
+    #[test]
+    fn transforms_compose_translate_rotate_scale() {
+        let s = parse(
+            &format!(
+                "{HEAD}[[instances]]\nmesh = \"q\"\nmaterial = \"m\"\n\
+                 translate = [1, 2, 3]\nrotate = [0, 90, 0]\nscale = 2\n\
+                 [[instances]]\nmesh = \"q\"\nmaterial = \"m\"\n\
+                 matrix = [1, 0, 0, 5,  0, 1, 0, 6,  0, 0, 1, 7,  0, 0, 0, 1]\n"
+            ),
+            Path::new("s.toml"),
+        )
+        .unwrap();
+        let p = s.instances[0]
+            .transform
+            .transform_point3(DVec3::new(1.0, 0.0, 0.0));
+        // scale 2 → (2,0,0); rotate 90° about y → (0,0,-2); translate → (1,2,1).
+        assert!((p - DVec3::new(1.0, 2.0, 1.0)).length() < 1e-12, "{p}");
+        let q = s.instances[1].transform.transform_point3(DVec3::ZERO);
+        assert_eq!(q, DVec3::new(5.0, 6.0, 7.0), "row-major, points as columns");
+    }
+}
