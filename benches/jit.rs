@@ -1,0 +1,2 @@
+//! Placeholder: the JIT benchmark lands in the next commit.
+fn main() {}
