@@ -9,6 +9,7 @@
 
 pub mod output;
 pub mod shade;
+pub mod trees;
 
 pub use shadenet_graph as graph;
 pub use shadenet_runtime as runtime;

@@ -408,12 +408,18 @@ fn compile(
     let mut module = JITModule::new(builder);
     let helpers = Helpers::declare(&mut module).map_err(Fail::Codegen)?;
     let layout = UniformLayout::new(program);
+    let mut text = String::new();
+    if want_clif {
+        let _ = writeln!(text, "; helper functions (u0:N = symbol):");
+        for (id, decl) in module.declarations().get_functions() {
+            let _ = writeln!(text, ";   u0:{} = {}", id.as_u32(), decl.linkage_name(id));
+        }
+    }
     let mut stats = CompileStats {
         optimize,
         ops: program.op_count(),
         ..CompileStats::default()
     };
-    let mut text = String::new();
     let mut modes = Vec::new();
     if !program.prelude.body.is_empty() {
         modes.push((Mode::Prelude, "prelude"));
