@@ -7,10 +7,14 @@
 //! - **Prelude**: the program's prelude, scalar, its values stored into the uniform block.
 //!
 //! A value of the IR becomes one CLIF value per component (a vec3 is three, a matrix44
-//! sixteen). Constants, streams, parameters and prelude values are *rematerialized*: emitted
-//! where they are used, not where they are listed, so a loaded stream never stays live
-//! across a large expression (the multiplication tree reads `P` 1024 times) and a use inside
-//! a conditional arm never refers to a value of another arm.
+//! sixteen). Constants, streams, parameters and prelude values are emitted where they are
+//! *used*, not where they are listed, so that a use inside a conditional arm never refers to
+//! a value of another arm: constants are rematerialized at each use; reads of memory that
+//! does not change during a call (fragment streams, uniform slots, the environment's
+//! matrices and ambient light) are loaded once per block scope and reused by the scope and
+//! the scopes nested in it. That is load forwarding of immutable inputs, not value
+//! numbering: every arithmetic op of the program is emitted as written (with CSE off, the
+//! multiplication tree keeps all its products).
 //!
 //! Conditionals (`If`): the scalar mode branches. The batch mode computes the lanes that take
 //! each arm under the current active mask, runs the then arm only if some lane takes it and
@@ -223,6 +227,22 @@ pub struct Lowerer<'a, 'b> {
     lights: Vec<(Vec<V>, Vec<V>)>,
     /// Batch: lanes active in the current arm (`None`: all).
     active: Option<V>,
+    /// Loads of immutable memory (fragment, uniforms, environment) already emitted, per
+    /// block scope (innermost last): each is loaded once per scope.
+    loads: Vec<HashMap<LoadKey, V>>,
+}
+
+/// A read of memory that does not change during a call.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum LoadKey {
+    /// Component of a stream.
+    Stream(Stream, i32),
+    /// A uniform slot.
+    Uniform(usize),
+    /// An environment matrix element.
+    Env(usize, usize),
+    /// A component of the ambient light.
+    Ambient(i32),
 }
 
 fn flags() -> MemFlagsData {
@@ -272,6 +292,7 @@ impl<'a, 'b> Lowerer<'a, 'b> {
             ambient: None,
             lights: Vec::new(),
             active: None,
+            loads: vec![HashMap::new()],
         }
     }
 
@@ -338,6 +359,27 @@ impl<'a, 'b> Lowerer<'a, 'b> {
         let out = self.b.ins().stack_addr(self.ptr, ss, 0);
         let zero = self.b.ins().iconst(I32, 0);
         self.b.ins().call(f, &[self.ctx, zero, out, out]);
+    }
+
+    // ---- loads of immutable memory, once per scope ----
+
+    fn cached(&mut self, key: LoadKey, load: impl FnOnce(&mut Self) -> V) -> V {
+        if let Some(v) = self.loads.iter().rev().find_map(|m| m.get(&key)) {
+            return *v;
+        }
+        let v = load(self);
+        if let Some(top) = self.loads.last_mut() {
+            top.insert(key, v);
+        }
+        v
+    }
+
+    fn push_scope(&mut self) {
+        self.loads.push(HashMap::new());
+    }
+
+    fn pop_scope(&mut self) {
+        self.loads.pop();
     }
 
     // ---- representation ----
@@ -490,15 +532,16 @@ impl<'a, 'b> Lowerer<'a, 'b> {
                 let (field, n) = stream_field(*s);
                 let mut out = Vec::new();
                 for c in 0..n {
-                    let x = if self.batch() {
-                        let ty = self.clif_ty(k);
-                        self.b
-                            .ins()
-                            .load(ty, flags().with_aligned(), self.frag, field.1 + 16 * c)
-                    } else {
-                        let ty = if k == Kind::F { F32 } else { I32 };
-                        self.b.ins().load(ty, flags(), self.frag, field.0 + 4 * c)
-                    };
+                    let x = self.cached(LoadKey::Stream(*s, c), |me| {
+                        if me.batch() {
+                            let ty = me.clif_ty(k);
+                            me.b.ins()
+                                .load(ty, flags().with_aligned(), me.frag, field.1 + 16 * c)
+                        } else {
+                            let ty = if k == Kind::F { F32 } else { I32 };
+                            me.b.ins().load(ty, flags(), me.frag, field.0 + 4 * c)
+                        }
+                    });
                     out.push(x);
                 }
                 Ok(out)
@@ -511,7 +554,11 @@ impl<'a, 'b> Lowerer<'a, 'b> {
         let k = kind(ty);
         let base = self.uniforms;
         (0..comps(ty))
-            .map(|c| self.load_scalar(k, base, ((slot + c) * 4) as i32))
+            .map(|c| {
+                self.cached(LoadKey::Uniform(slot + c), |me| {
+                    me.load_scalar(k, base, ((slot + c) * 4) as i32)
+                })
+            })
             .collect()
     }
 
@@ -646,8 +693,11 @@ impl<'a, 'b> Lowerer<'a, 'b> {
                     .ok_or_else(|| self.unsupported(v, "no ambient slot"))?;
                 let mut out = Vec::new();
                 for c in 0..3 {
-                    let x = self.b.ins().stack_load(self.ptr, F32, ss, c * 4);
-                    out.push(self.widen(x, Kind::F));
+                    let x = self.cached(LoadKey::Ambient(c), |me| {
+                        let x = me.b.ins().stack_load(me.ptr, F32, ss, c * 4);
+                        me.widen(x, Kind::F)
+                    });
+                    out.push(x);
                 }
                 Ok(out)
             }
@@ -743,12 +793,16 @@ impl<'a, 'b> Lowerer<'a, 'b> {
         let merge = self.merge_block(&ks);
         self.b.ins().brif(c, tb, &[], eb, &[]);
         self.b.switch_to_block(tb);
+        self.push_scope();
         self.block(then_)?;
         let ty = self.yields(then_)?;
+        self.pop_scope();
         self.b.ins().jump(merge, &Self::args(&ty));
         self.b.switch_to_block(eb);
+        self.push_scope();
         self.block(else_)?;
         let ey = self.yields(else_)?;
+        self.pop_scope();
         self.b.ins().jump(merge, &Self::args(&ey));
         self.b.switch_to_block(merge);
         let res = self.b.block_params(merge).to_vec();
@@ -770,8 +824,10 @@ impl<'a, 'b> Lowerer<'a, 'b> {
         self.b.ins().brif(any_t, tb, &[], after_then, &z);
         self.b.switch_to_block(tb);
         self.active = Some(tm);
+        self.push_scope();
         self.block(then_)?;
         let ty = self.yields(then_)?;
+        self.pop_scope();
         self.b.ins().jump(after_then, &Self::args(&ty));
         self.b.switch_to_block(after_then);
         let tv = self.b.block_params(after_then).to_vec();
@@ -784,8 +840,10 @@ impl<'a, 'b> Lowerer<'a, 'b> {
         self.b.ins().brif(any_e, eb, &[], merge, &z);
         self.b.switch_to_block(eb);
         self.active = Some(em);
+        self.push_scope();
         self.block(else_)?;
         let ey = self.yields(else_)?;
+        self.pop_scope();
         self.b.ins().jump(merge, &Self::args(&ey));
         self.b.switch_to_block(merge);
         self.active = outer;
@@ -847,9 +905,11 @@ impl<'a, 'b> Lowerer<'a, 'b> {
 
         self.b.switch_to_block(body_blk);
         self.lights.push((out[0..3].to_vec(), out[3..6].to_vec()));
+        self.push_scope();
         self.block(body)?;
-        self.lights.pop();
         let ys = self.yields(body)?;
+        self.pop_scope();
+        self.lights.pop();
         for ((var, k), y) in sums.iter().zip(ys) {
             let s = self.b.use_var(*var);
             let s2 = match k {
@@ -1235,11 +1295,12 @@ impl<'a, 'b> Lowerer<'a, 'b> {
     /// object m, 3 object inverse).
     fn env_elem(&mut self, which: usize, e: usize) -> V {
         let ss = self.mats.expect("matrices prepared for transforms");
-        let x = self
-            .b
-            .ins()
-            .stack_load(self.ptr, F32, ss, ((which * 16 + e) * 4) as i32);
-        self.widen(x, Kind::F)
+        self.cached(LoadKey::Env(which, e), |me| {
+            let x =
+                me.b.ins()
+                    .stack_load(me.ptr, F32, ss, ((which * 16 + e) * 4) as i32);
+            me.widen(x, Kind::F)
+        })
     }
 
     /// `ops::transform(kind, m, m_inv, v)` with `m` and `m_inv` environment matrices.
