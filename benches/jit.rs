@@ -16,7 +16,7 @@
 //! `SHADENET_B1_LEVELS=8,10` restricts the table's levels; `SHADENET_B1_TABLE_ONLY=1` skips
 //! criterion.
 
-use criterion::{Criterion, criterion_group, criterion_main};
+use criterion::{Criterion, criterion_group};
 use shadenet::graph::opt::{Passes, Specialization};
 use shadenet::graph::{NodeLibrary, compile_json};
 use shadenet::runtime::{
@@ -258,4 +258,65 @@ fn b1(c: &mut Criterion) {
 }
 
 criterion_group!(benches, b1);
-criterion_main!(benches);
+
+/// `cargo test --benches` (no `--bench` argument) runs a quick check instead: every back end
+/// and the native reference agree at levels 1–4 on a small frame.
+fn smoke() {
+    let frags: Vec<Fragment> = fragments().into_iter().step_by(997).collect();
+    let packs = packets(&frags);
+    let env = ShadeEnv::default();
+    for level in 1..=4 {
+        let l = prepare(level);
+        let mut outs: Vec<Vec<u32>> = Vec::new();
+        for run in 0..4 {
+            let mut all = Vec::new();
+            let mut out = vec![0.0f32; 3 * LANES];
+            for (i, p) in packs.iter().enumerate() {
+                let n = (frags.len() - i * LANES).min(LANES);
+                match run {
+                    0 => {
+                        l.interp.shade_x4(&env, u32::MAX, p, n, &mut out);
+                    }
+                    1 => {
+                        l.jit.shade_x4(&env, u32::MAX, p, n, &mut out);
+                    }
+                    2 => {
+                        for lane in 0..n {
+                            let ctx = ShadeCtx::new(p.lane(lane), &env);
+                            let mut one = [0.0f32; 3];
+                            l.jit.shade(&ctx, &mut one);
+                            for k in 0..3 {
+                                out[k * LANES + lane] = one[k];
+                            }
+                        }
+                    }
+                    _ => {
+                        if cfg!(not(target_arch = "x86_64")) {
+                            continue;
+                        }
+                        shade_native(level, std::slice::from_ref(p), &mut out);
+                    }
+                }
+                for lane in 0..n {
+                    for k in 0..3 {
+                        all.push(out[k * LANES + lane].to_bits());
+                    }
+                }
+            }
+            outs.push(all);
+        }
+        for (i, o) in outs.iter().enumerate().skip(1) {
+            assert!(o.is_empty() || *o == outs[0], "level {level}: run {i} differs");
+        }
+    }
+    println!("jit bench smoke check: ok (run `cargo bench --bench jit` to measure)");
+}
+
+fn main() {
+    if !std::env::args().any(|a| a == "--bench") {
+        smoke();
+        return;
+    }
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}

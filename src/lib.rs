@@ -3,7 +3,8 @@
 //! ## Crate map
 //!
 //! The facade re-exports the member crates: [`graph`] (networks, node library, linker, IR,
-//! op semantics) and [`runtime`] (shading context, lights, interpreter); [`shade`] shades a
+//! op semantics), [`runtime`] (shading context, lights, interpreter, back-end traits) and
+//! [`jit`] (the Cranelift back end); [`shade`] shades a
 //! network over a grid without a renderer and [`output`] writes PNG and EXR images. It owns
 //! the `shadenet` CLI and must not add shading semantics of its own.
 
@@ -12,6 +13,7 @@ pub mod shade;
 pub mod trees;
 
 pub use shadenet_graph as graph;
+pub use shadenet_jit as jit;
 pub use shadenet_runtime as runtime;
 
 pub use shadenet_graph::{CompileError, Compiled, NodeLibrary, compile_json};
