@@ -7,7 +7,8 @@
 //! off: `P` is loaded from the packet once, every leaf passes it through an empty `asm!`
 //! (zero instructions, but opaque to the optimizer, so that rustc — like our pipeline with
 //! CSE off — keeps all `2^L` leaves and `2^L − 1` products instead of collapsing the tree
-//! to `L` squarings), every node is one `mulps` per component, and the output passes the
+//! to `L` squarings; `pure` and with a distinct text per leaf, so that it neither orders the
+//! leaves nor lets two of them merge), every node is one `mulps` per component, and the output passes the
 //! same guard (non-finite → 0, counted over the active lanes). It is written with SSE
 //! intrinsics and compiled by rustc with optimizations: the ceiling the JIT is measured
 //! against.
@@ -18,7 +19,7 @@ fn tree(level: u32) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "/// The level-{level} tree ({} products).\n#[allow(clippy::all, unused_variables)]\npub fn tree{level}(f: &FragmentX4, out: &mut [f32], active: usize) -> u32 {{\n    unsafe {{\n        let p = load_p(f);",
+        "/// The level-{level} tree ({} products).\n#[allow(clippy::all, unused_variables, unused_unsafe)]\npub fn tree{level}(f: &FragmentX4, out: &mut [f32], active: usize) -> u32 {{\n    unsafe {{\n        let p = load_p(f);",
         (1u32 << level) - 1
     );
     let mut next = 0usize;
@@ -31,7 +32,10 @@ fn node(depth: u32, s: &mut String, next: &mut usize) -> String {
     *next += 1;
     let id = *next;
     if depth == 0 {
-        let _ = writeln!(s, "        let v{id} = leaf(p);");
+        let _ = writeln!(
+            s,
+            "        let v{id} = [leaf!(p[0], \"{id}.0\"), leaf!(p[1], \"{id}.1\"), leaf!(p[2], \"{id}.2\")];"
+        );
         return format!("v{id}");
     }
     let a = node(depth - 1, s, next);
@@ -53,15 +57,16 @@ fn main() {
          unsafe fn load_p(f: &FragmentX4) -> [__m128; 3] {\n    \
          // SAFETY: each component row of a packet is four floats.\n    \
          unsafe { [0, 1, 2].map(|c| _mm_loadu_ps(f.p[c].as_ptr())) }\n}\n\n\
-         /// A leaf: `P` through an empty asm statement, which the optimizer cannot see through\n\
-         /// (nor merge with another: it is not `pure`).\n\
-         #[inline(always)]\n\
-         fn leaf(p: [__m128; 3]) -> [__m128; 3] {\n    \
-         p.map(|mut x| {\n        \
+         /// A leaf: a value through an empty asm statement the optimizer cannot see through;\n\
+         /// `pure`, so it schedules freely, and each leaf's text differs, so no two merge.\n\
+         macro_rules! leaf {\n    \
+         ($x:expr, $id:literal) => {{\n        \
+         let mut x = $x;\n        \
          // SAFETY: an empty instruction string: it only pins the value in a register.\n        \
-         unsafe { std::arch::asm!(\"/* {0} */\", inout(xmm_reg) x, options(nomem, nostack, preserves_flags)) };\n        \
+         unsafe { std::arch::asm!(concat!(\"/* leaf \", $id, \" {0} */\"), inout(xmm_reg) x, options(pure, nomem, nostack, preserves_flags)) };\n        \
          x\n    \
-         })\n}\n\n\
+         }};\n\
+         }\n\n\
          #[inline(always)]\n\
          unsafe fn guard(v: [__m128; 3], out: &mut [f32], active: usize) -> u32 {\n    \
          unsafe {\n        \
