@@ -9,8 +9,8 @@
 //! components, by name; default all), `raytypes=camera,shadow,…` (default all), `bake=false`
 //! (class compilation; default true), `no=cse,fold,…` (passes switched off).
 
-use shadenet_graph::ir::{Program, parse, validate};
 use shadenet_graph::ir::{RAY_CAMERA, RAY_DIFFUSE, RAY_REFLECTION, RAY_REFRACTION, RAY_SHADOW};
+use shadenet_graph::ir::{Program, parse, validate};
 use shadenet_graph::opt::{self, Specialization};
 use std::path::Path;
 
@@ -18,14 +18,8 @@ fn spec_of(line: Option<&str>, p: &Program) -> Specialization {
     let mut spec = Specialization::default();
     let Some(line) = line else { return spec };
     for kv in line.split_whitespace() {
-        let (k, v) = kv
-            .split_once('=')
-            .unwrap_or_else(|| panic!("bad spec item {kv}"));
-        let list: Vec<String> = v
-            .split(',')
-            .filter(|s| !s.is_empty())
-            .map(String::from)
-            .collect();
+        let (k, v) = kv.split_once('=').unwrap_or_else(|| panic!("bad spec item {kv}"));
+        let list: Vec<String> = v.split(',').filter(|s| !s.is_empty()).map(String::from).collect();
         match k {
             "components" => spec.components = Specialization::mask_of(p, &list).unwrap(),
             "raytypes" => {
@@ -115,22 +109,13 @@ fn filetests() {
     let bless = std::env::var("SHADENET_BLESS").is_ok_and(|v| v == "1");
     let mut failures = Vec::new();
     let mut count = 0;
-    let mut dirs: Vec<_> = std::fs::read_dir(&root)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .collect();
+    let mut dirs: Vec<_> = std::fs::read_dir(&root).unwrap().map(|e| e.unwrap().path()).collect();
     dirs.sort();
     for dir in dirs {
         let pass = dir.file_name().unwrap().to_string_lossy().into_owned();
-        let mut files: Vec<_> = std::fs::read_dir(&dir)
-            .unwrap()
-            .map(|e| e.unwrap().path())
-            .collect();
+        let mut files: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).collect();
         files.sort();
-        for f in files
-            .iter()
-            .filter(|f| f.extension().is_some_and(|e| e == "ir"))
-        {
+        for f in files.iter().filter(|f| f.extension().is_some_and(|e| e == "ir")) {
             count += 1;
             if let Err(e) = run_file(&pass, f, bless) {
                 failures.push(e);
@@ -138,10 +123,5 @@ fn filetests() {
         }
     }
     assert!(count > 0, "no filetests found");
-    assert!(
-        failures.is_empty(),
-        "{} of {count} filetests failed:\n\n{}",
-        failures.len(),
-        failures.join("\n\n")
-    );
+    assert!(failures.is_empty(), "{} of {count} filetests failed:\n\n{}", failures.len(), failures.join("\n\n"));
 }

@@ -70,39 +70,21 @@ fn specular_only_keeps_no_op_of_other_components() {
         );
     }
     for out in o.outputs.iter().filter(|x| x.component != Some(k)) {
-        assert!(
-            matches!(o.op(out.value), Op::Const(_)),
-            "{} is not constant",
-            out.name
-        );
+        assert!(matches!(o.op(out.value), Op::Const(_)), "{} is not constant", out.name);
     }
     // One light loop (specular) instead of two, and no checker work feeds it? The specular
     // term does not read the albedo: the checker is gone too.
-    let loops = o
-        .listed()
-        .into_iter()
-        .filter(|v| matches!(o.op(*v), Op::Illuminance { .. }))
-        .count();
+    let loops = o.listed().into_iter().filter(|v| matches!(o.op(*v), Op::Illuminance { .. })).count();
     assert_eq!(loops, 1, "{o}");
     assert!(report.ops_after < report.ops_before / 2, "{report}");
-    assert!(
-        !report
-            .needs
-            .streams
-            .contains(&shadenet_graph::ir::Stream::Uv),
-        "{report}"
-    );
+    assert!(!report.needs.streams.contains(&shadenet_graph::ir::Stream::Uv), "{report}");
 }
 
 #[test]
 fn needs_list_no_tangents_or_differentials_unless_read() {
     let p = compile(PHONG);
     let (_, r) = opt::run(&p, &Specialization::default());
-    assert!(
-        !r.needs.tangents() && !r.needs.differentials(),
-        "{}",
-        r.needs
-    );
+    assert!(!r.needs.tangents() && !r.needs.differentials(), "{}", r.needs);
     assert!(r.needs.lights);
     let with_tangent = compile(
         r#"{"nodes": [{"name": "g", "type": "samplerInfo"},
@@ -142,11 +124,7 @@ fn texture_on_a_dead_branch_is_never_opened() {
     for live in [false, true] {
         let path = texture_network(&dir, live);
         let c = shadenet::load_network(&path).unwrap();
-        assert_eq!(
-            c.program.textures.len(),
-            1,
-            "the unoptimized program names the texture"
-        );
+        assert_eq!(c.program.textures.len(), 1, "the unoptimized program names the texture");
         let (o, r) = opt::run(&c.program, &Specialization::default());
         let loaded = shadenet_runtime::Interpreter::<f32>::new(&o);
         if live {
@@ -164,24 +142,13 @@ fn texture_on_a_dead_branch_is_never_opened() {
         // The CLI optimizes before shading: dead → an image, live → a clear error.
         let png = dir.join("out.png");
         let run = std::process::Command::new(env!("CARGO_BIN_EXE_shadenet"))
-            .args([
-                "shade",
-                path.to_str().unwrap(),
-                "-o",
-                png.to_str().unwrap(),
-                "--res",
-                "8x8",
-                "-q",
-            ])
+            .args(["shade", path.to_str().unwrap(), "-o", png.to_str().unwrap(), "--res", "8x8", "-q"])
             .output()
             .unwrap();
         let err = String::from_utf8_lossy(&run.stderr);
         if live {
             assert_eq!(run.status.code(), Some(1), "{err}");
-            assert!(
-                err.contains("cannot load texture") && err.contains("missing.png"),
-                "{err}"
-            );
+            assert!(err.contains("cannot load texture") && err.contains("missing.png"), "{err}");
         } else {
             assert!(run.status.success(), "{err}");
         }
