@@ -3,8 +3,8 @@
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand, ValueEnum};
 use shadenet::graph::NodeLibrary;
-use shadenet::graph::nodes::{LightDesc, LightKind};
 use shadenet::graph::opt::{self, Specialization};
+use shadenet::graph::nodes::{LightDesc, LightKind};
 use shadenet::output::{write_exr, write_png};
 use shadenet::runtime::{Backend, InterpBackend, Material};
 use shadenet::shade::{grid_env, shade_grid, shade_grid_with};
@@ -86,13 +86,11 @@ struct OptArgs {
 
 impl OptArgs {
     fn spec(&self, program: &shadenet::graph::ir::Program) -> Result<Specialization> {
-        use shadenet::graph::ir::{
-            RAY_CAMERA, RAY_DIFFUSE, RAY_REFLECTION, RAY_REFRACTION, RAY_SHADOW,
-        };
+        use shadenet::graph::ir::{RAY_CAMERA, RAY_DIFFUSE, RAY_REFLECTION, RAY_REFRACTION, RAY_SHADOW};
         let mut spec = Specialization::default();
         if let Some(c) = &self.components {
-            spec.components = Specialization::mask_of(program, c)
-                .map_err(|e| anyhow::anyhow!("--components: {e}"))?;
+            spec.components =
+                Specialization::mask_of(program, c).map_err(|e| anyhow::anyhow!("--components: {e}"))?;
         }
         if let Some(r) = &self.raytypes {
             spec.ray_types = 0;
@@ -233,13 +231,10 @@ fn load(path: &Path) -> Result<shadenet::Compiled> {
 
 fn compile(args: &CompileArgs) -> Result<()> {
     let c = load(&args.network)?;
-    let emit = args.emit.clone().unwrap_or_else(|| {
-        if args.stats {
-            "none".into()
-        } else {
-            "ir".into()
-        }
-    });
+    let emit = args
+        .emit
+        .clone()
+        .unwrap_or_else(|| if args.stats { "none".into() } else { "ir".into() });
     let after = match emit.as_str() {
         "ir" | "none" | "ir:before" | "clif" => None,
         e => match e.strip_prefix("ir:after=") {
