@@ -7,8 +7,11 @@ use shadenet::graph::ir::Space;
 use shadenet::graph::nodes::{LightDesc, LightKind};
 use shadenet::graph::opt::{self, Specialization};
 use shadenet::output::{OutputError, write_atomic, write_exr, write_png};
-use shadenet::shade::{grid_env, shade_grid};
+use shadenet::runtime::{Backend, InterpBackend, Material};
+use shadenet::shade::{grid_env, shade_grid, shade_grid_with};
+use shadenet_jit::{JitBackend, JitOptions};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 #[derive(Parser)]
@@ -76,10 +79,12 @@ struct CompileArgs {
     network: PathBuf,
     /// What to print: `ir` (the optimized program), `ir:after=PASS` (the program after every
     /// run of PASS: specialize, fold, dead_branch, cse, dce, hoist), `ir:before` (the
-    /// unoptimized program) or `none`. Default: `ir`, or `none` with --stats.
+    /// unoptimized program), `clif` (the Cranelift IR the JIT compiles: prelude, scalar and
+    /// batch entries) or `none`. Default: `ir`, or `none` with --stats.
     #[arg(long)]
     emit: Option<String>,
-    /// Print, per pass, ops before/after, changes and time, then the program's needs.
+    /// Print, per pass, ops before/after, changes and time, then the program's needs and the
+    /// JIT's compile statistics (lowering, Cranelift and linking time, code size).
     #[arg(long)]
     stats: bool,
     #[command(flatten)]
@@ -168,6 +173,16 @@ enum Precision {
     F64,
 }
 
+#[derive(Clone, Copy, ValueEnum, PartialEq, Debug)]
+enum BackendArg {
+    /// The interpreter.
+    Interp,
+    /// The Cranelift JIT, scalar entry.
+    Jit,
+    /// The Cranelift JIT, 4-wide batch entry.
+    JitBatch,
+}
+
 #[derive(clap::Args)]
 struct ShadeArgs {
     /// The network file (.json).
@@ -190,7 +205,12 @@ struct ShadeArgs {
     /// spot:X,Y,Z:DX,DY,DZ:INTENSITY:CONE_DEG[:R,G,B], ambient:INTENSITY[:R,G,B].
     #[arg(long)]
     light: Vec<String>,
-    /// Interpreter precision.
+    /// Back end: `interp` (the interpreter), `jit` (Cranelift, one call per fragment) or
+    /// `jit-batch` (Cranelift, four fragments per call). Default: `jit`, or `interp` with
+    /// `--precision f64`.
+    #[arg(long, value_enum)]
+    backend: Option<BackendArg>,
+    /// Precision: f32 (shading) or f64 (the interpreter's accuracy reference).
     #[arg(long, value_enum, default_value_t = Precision::F32)]
     precision: Precision,
     /// Worker threads (default: all cores).
@@ -202,7 +222,7 @@ struct ShadeArgs {
 }
 
 #[derive(Clone, Copy, ValueEnum, PartialEq)]
-enum BackendArg {
+enum RenderBackendArg {
     /// The interpreter.
     Interp,
     /// The Cranelift JIT (not available yet).
@@ -221,8 +241,8 @@ struct RenderArgs {
     #[arg(long)]
     png: Option<PathBuf>,
     /// Back end that runs the materials.
-    #[arg(long, value_enum, default_value_t = BackendArg::Interp)]
-    backend: BackendArg,
+    #[arg(long, value_enum, default_value_t = RenderBackendArg::Interp)]
+    backend: RenderBackendArg,
     /// Samples per pixel (overrides the scene).
     #[arg(long)]
     spp: Option<u32>,
@@ -298,11 +318,11 @@ fn compile(args: &CompileArgs) -> Result<()> {
         }
     });
     let after = match emit.as_str() {
-        "ir" | "none" | "ir:before" => None,
+        "ir" | "none" | "ir:before" | "clif" => None,
         e => match e.strip_prefix("ir:after=") {
             Some(pass) if opt::pass(pass).is_some() => Some(pass.to_string()),
             _ => bail!(
-                "--emit `{e}`: expected ir, ir:before, ir:after=PASS (specialize, fold, dead_branch, cse, dce, hoist) or none"
+                "--emit `{e}`: expected ir, ir:before, ir:after=PASS (specialize, fold, dead_branch, cse, dce, hoist), clif or none"
             ),
         },
     };
@@ -313,7 +333,7 @@ fn compile(args: &CompileArgs) -> Result<()> {
         if emit == "ir" {
             print_out(&c.program.to_string());
         }
-        return Ok(());
+        return jit_outputs(&c.program, emit == "clif", args.stats, true);
     }
     let spec = args.opt.spec(&c.program)?;
     let mut runs = 0;
@@ -330,6 +350,41 @@ fn compile(args: &CompileArgs) -> Result<()> {
     }
     if args.stats {
         print_out(&report.to_string());
+    }
+    jit_outputs(&program, emit == "clif", args.stats, spec.passes.cse)
+}
+
+/// `--emit clif` and the JIT half of `--stats` for an already optimized program; `speed`:
+/// Cranelift's optimization level as the JIT picks it (`speed` unless CSE is off).
+fn jit_outputs(
+    program: &shadenet::graph::ir::Program,
+    clif: bool,
+    stats: bool,
+    speed: bool,
+) -> Result<()> {
+    if clif {
+        print_out(&shadenet_jit::emit_clif(
+            program,
+            &JitOptions::default(),
+            speed,
+        )?);
+    }
+    if stats {
+        let backend = JitBackend::with_options(JitOptions {
+            fallback: false,
+            opt: if speed {
+                shadenet_jit::OptLevel::Speed
+            } else {
+                shadenet_jit::OptLevel::None
+            },
+            ..JitOptions::default()
+        });
+        match backend.compile_program(program, std::time::Duration::ZERO) {
+            Ok(m) => print_out(&format!("jit: {}\n", m.info().stats)),
+            Err(e) => print_out(&format!(
+                "jit: {e}; the interpreter would run this material\n"
+            )),
+        }
     }
     Ok(())
 }
@@ -474,12 +529,19 @@ fn shade(args: ShadeArgs) -> Result<()> {
     // components need is computed, and textures on dead branches are never opened.
     let spec = args.opt.spec(&compiled.program)?;
     let mask = spec.components;
-    let optimized;
-    let program = if args.opt.no_opt {
-        program
-    } else {
-        optimized = opt::run(program, &spec).0;
-        &optimized
+    let backend = match (args.backend, args.precision) {
+        (None, Precision::F64) => BackendArg::Interp,
+        (None, Precision::F32) => BackendArg::Jit,
+        (Some(BackendArg::Interp), _) => BackendArg::Interp,
+        (Some(b), Precision::F64) => bail!(
+            "--precision f64 runs the interpreter (the accuracy reference); --backend {} is f32 only",
+            if b == BackendArg::Jit {
+                "jit"
+            } else {
+                "jit-batch"
+            }
+        ),
+        (Some(b), Precision::F32) => b,
     };
     let names = program.output_names();
     let aov = args.aov.clone().unwrap_or_else(|| names[0].to_string());
@@ -496,16 +558,62 @@ fn shade(args: ShadeArgs) -> Result<()> {
                 format!("--component: `{c}` is not a component of this material")
             })?),
         };
-    let load_time = t0.elapsed();
-
     let env = grid_env(&lights);
     let (w, h) = args.res;
-    let t1 = Instant::now();
-    let grid = match args.precision {
-        Precision::F32 => shade_grid::<f32>(program, &env, w, h, mask)?,
-        Precision::F64 => shade_grid::<f64>(program, &env, w, h, mask)?,
+    let (grid, load_time, shade_time, ops, stats) = match args.precision {
+        Precision::F64 => {
+            let optimized;
+            let p = if args.opt.no_opt {
+                program
+            } else {
+                optimized = opt::run(program, &spec).0;
+                &optimized
+            };
+            let load_time = t0.elapsed();
+            let t1 = Instant::now();
+            let grid = shade_grid::<f64>(p, &env, w, h, mask)?;
+            (grid, load_time, t1.elapsed(), p.op_count(), None)
+        }
+        Precision::F32 => {
+            let b: Box<dyn Backend> = match backend {
+                BackendArg::Interp => Box::new(InterpBackend),
+                _ => Box::new(JitBackend::with_options(JitOptions {
+                    log_fallback: !args.quiet,
+                    ..JitOptions::default()
+                })),
+            };
+            let material: Arc<dyn Material> = if args.opt.no_opt {
+                b.compile_program(program, std::time::Duration::ZERO)?
+            } else {
+                b.compile(program, &spec)?
+            };
+            let load_time = t0.elapsed();
+            let t1 = Instant::now();
+            let grid = shade_grid_with(
+                &*material,
+                &env,
+                w,
+                h,
+                mask,
+                backend == BackendArg::JitBatch,
+            );
+            let info = material.info();
+            let ops = info.stats.ops;
+            let which = match (backend, &info.fallback) {
+                (_, Some(_)) => "interp (fallback)",
+                (BackendArg::Interp, _) => "interp",
+                (BackendArg::Jit, _) => "jit",
+                (BackendArg::JitBatch, _) => "jit-batch",
+            };
+            (
+                grid,
+                load_time,
+                t1.elapsed(),
+                ops,
+                Some((which, info.stats)),
+            )
+        }
     };
-    let shade_time = t1.elapsed();
 
     // Output layout, as the interpreter lays it out.
     let mut offset = 0;
@@ -579,7 +687,7 @@ fn shade(args: ShadeArgs) -> Result<()> {
     if !args.quiet {
         let secs = shade_time.as_secs_f64();
         println!(
-            "shaded {w}x{h} = {n} fragments in {:.3} s ({:.2} M fragments/s, {} threads, {:?}); load+compile {:.1} ms; {} ops; {} non-finite values zeroed",
+            "shaded {w}x{h} = {n} fragments in {:.3} s ({:.2} M fragments/s, {} threads, {}, {}); load+compile {:.1} ms; {} ops; {} non-finite values zeroed",
             secs,
             n as f64 / secs / 1e6,
             rayon::current_num_threads(),
@@ -587,10 +695,14 @@ fn shade(args: ShadeArgs) -> Result<()> {
                 Precision::F32 => "f32",
                 Precision::F64 => "f64",
             },
+            stats.map_or("interp", |s| s.0),
             load_time.as_secs_f64() * 1e3,
-            program.op_count(),
+            ops,
             grid.nonfinite
         );
+        if let Some((_, s)) = stats {
+            println!("compile: {s}");
+        }
         for p in &args.output {
             println!("wrote {}", p.display());
         }
@@ -603,8 +715,8 @@ fn render(args: RenderArgs) -> Result<()> {
     use std::io::IsTerminal;
     let t0 = Instant::now();
     let kind = match args.backend {
-        BackendArg::Interp => BackendKind::Interp,
-        BackendArg::Jit => BackendKind::Jit,
+        RenderBackendArg::Interp => BackendKind::Interp,
+        RenderBackendArg::Jit => BackendKind::Jit,
     };
     let backend = r::backend(kind)?;
     let (exr_path, png_path) = match (&args.output, &args.png) {

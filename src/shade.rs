@@ -9,7 +9,9 @@
 use rayon::prelude::*;
 use shadenet_graph::ir::{Program, RAY_CAMERA};
 use shadenet_graph::ops::Real;
-use shadenet_runtime::{Fragment, Interpreter, ShadeCtx, ShadeEnv, ShadeOut, Transform};
+use shadenet_runtime::{
+    Fragment, FragmentX4, Interpreter, LANES, Material, ShadeCtx, ShadeEnv, ShadeOut, Transform,
+};
 
 /// The eye position of the shade camera.
 pub const EYE: [f64; 3] = [0.0, 0.0, 1.5];
@@ -113,4 +115,61 @@ pub fn shade_grid<F: Real>(
         values,
         nonfinite,
     })
+}
+
+/// Shades every pixel of a `w × h` grid with a compiled material on the rayon thread pool,
+/// with the components in `mask` active: one [`Material::shade`] call per fragment, or with
+/// `batch` one [`Material::shade_x4`] call per four fragments of a row.
+pub fn shade_grid_with(
+    material: &dyn Material,
+    env: &ShadeEnv,
+    w: u32,
+    h: u32,
+    mask: u32,
+    batch: bool,
+) -> Grid {
+    let stride = material.width();
+    let mut values = vec![0.0f64; (w * h) as usize * stride];
+    let nonfinite: u64 = values
+        .par_chunks_mut(w as usize * stride)
+        .enumerate()
+        .map(|(y, row)| {
+            let mut bad = 0u64;
+            let frags: Vec<Fragment> = (0..w).map(|x| grid_fragment(x, y as u32, w, h)).collect();
+            if batch {
+                let mut soa = vec![0.0f32; stride * LANES];
+                for (chunk, dst) in frags.chunks(LANES).zip(row.chunks_mut(stride * LANES)) {
+                    let packet = FragmentX4::gather(chunk);
+                    bad += material.shade_x4(env, mask, &packet, chunk.len(), &mut soa) as u64;
+                    for (lane, px) in dst.chunks_mut(stride).enumerate() {
+                        for (k, d) in px.iter_mut().enumerate() {
+                            *d = soa[k * LANES + lane] as f64;
+                        }
+                    }
+                }
+            } else {
+                let mut out = vec![0.0f32; stride];
+                for (f, dst) in frags.iter().zip(row.chunks_mut(stride)) {
+                    let ctx = ShadeCtx {
+                        frag: *f,
+                        env,
+                        mask,
+                        scene: None,
+                    };
+                    bad += material.shade(&ctx, &mut out) as u64;
+                    for (d, s) in dst.iter_mut().zip(&out) {
+                        *d = *s as f64;
+                    }
+                }
+            }
+            bad
+        })
+        .sum();
+    Grid {
+        width: w,
+        height: h,
+        stride,
+        values,
+        nonfinite,
+    }
 }

@@ -1,15 +1,21 @@
 //! shadenet-runtime: what runs a compiled material.
 //!
 //! This crate owns the shading context ABI ([`ctx`]), the intrinsics that need the scene
-//! (light samples: [`lights`], textures: [`texture`]) and the interpreter ([`interp`]), the reference every other
-//! back end is tested against. It depends on `shadenet-graph` for the IR and the op semantics
-//! and must not know about networks' file formats, Cranelift, wgpu or the tracer.
+//! (light samples: [`lights`], textures: [`texture`]), the interpreter ([`interp`]), the
+//! reference every other back end is tested against, and the back-end traits with the
+//! material cache ([`backend`]). It depends on `shadenet-graph` for the IR and the op
+//! semantics and must not know about networks' file formats, Cranelift, wgpu or the tracer.
 
+pub mod backend;
 pub mod ctx;
 pub mod interp;
 pub mod lights;
 pub mod texture;
 
+pub use backend::{
+    Backend, BackendError, CompileStats, FragmentX4, InterpBackend, InterpMaterial, LANES,
+    Material, MaterialCache, MaterialInfo, shade_batch,
+};
 pub use ctx::{Fragment, SceneServices, ShadeCtx, ShadeEnv, Transform};
 pub use interp::{Interpreter, OutputSlot, Scratch, ShadeOut};
 pub use lights::Light;

@@ -1,0 +1,327 @@
+//! The ABI between compiled code and Rust: the call context, the entry-point signatures and
+//! the helper functions compiled code calls.
+//!
+//! Every entry point takes a [`CallCtx`] (the environment, the material's textures and
+//! uniform block, the component mask and the light count). Helpers are `extern "C"` Rust
+//! functions registered as symbols of the JIT module; each calls the very function the
+//! interpreter calls (`shadenet_graph::ops`, `ops::noise`, `runtime::lights::sample`,
+//! `TextureSet` sampling, `runtime::interp::transform`'s matrices), so compiled code and
+//! the interpreter agree bit for bit on everything a helper computes.
+//!
+//! Two helper conventions:
+//! - **math**: `extern "C" fn(f32) -> f32` or `fn(f32, f32) -> f32` (sin, pow, …); the batch
+//!   entry calls them once per lane;
+//! - **memory**: `unsafe extern "C" fn(ctx, imm, args, out)`: the arguments are floats (ints
+//!   as their bits) in a stack slot, the results are written to another; `imm` is an
+//!   immediate (a texture or light index). Batch (`_x4`) versions take structure-of-arrays
+//!   slots, four lanes per component, and loop over the lanes in Rust.
+
+use shadenet_graph::ops::{self, noise};
+use shadenet_runtime::ctx::{Fragment, ShadeEnv};
+use shadenet_runtime::lights;
+use shadenet_runtime::texture::TextureSet;
+use shadenet_runtime::{FragmentX4, LANES};
+
+/// What every compiled entry point reads besides the fragment: `#[repr(C)]`, built by the
+/// material for each call (a few stores).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct CallCtx {
+    /// The shading environment (lights, transforms); read only by helpers.
+    pub env: *const ShadeEnv,
+    /// The material's textures; read only by the texture helper.
+    pub textures: *const TextureSet,
+    /// The material's uniform block: parameter values, then prelude values (one 32-bit
+    /// slot per component).
+    pub uniforms: *const u32,
+    /// Active render components.
+    pub mask: u32,
+    /// [`light_samples`]: the illuminance loop's trip count.
+    pub n_lights: u32,
+}
+
+/// Byte offset of a [`CallCtx`] field, for loads from compiled code.
+pub mod ctx_offset {
+    use super::CallCtx;
+    use std::mem::offset_of;
+    /// `env`.
+    pub const ENV: i32 = offset_of!(CallCtx, env) as i32;
+    /// `uniforms`.
+    pub const UNIFORMS: i32 = offset_of!(CallCtx, uniforms) as i32;
+    /// `mask`.
+    pub const MASK: i32 = offset_of!(CallCtx, mask) as i32;
+    /// `n_lights`.
+    pub const N_LIGHTS: i32 = offset_of!(CallCtx, n_lights) as i32;
+}
+
+/// The scalar entry: shades one fragment into `out` (the interpreter's output layout) and
+/// returns the non-finite floats the guard replaced.
+pub type ScalarFn = unsafe extern "C" fn(*const CallCtx, *const Fragment, *mut f32) -> u32;
+
+/// The batch entry: shades a packet of four fragments into `out` (structure of arrays:
+/// float `k` of lane `l` at `out[k * 4 + l]`); the last argument is the number of active
+/// lanes, the only ones whose non-finite floats are counted.
+pub type BatchFn = unsafe extern "C" fn(*const CallCtx, *const FragmentX4, *mut f32, u32) -> u32;
+
+/// The prelude entry: evaluates the prelude once and writes its values into the uniform
+/// block (the second argument; the same block `CallCtx::uniforms` points to).
+pub type PreludeFn = unsafe extern "C" fn(*const CallCtx, *mut u32);
+
+/// A memory-convention helper (see the module documentation).
+pub type MemHelper = unsafe extern "C" fn(*const CallCtx, u32, *const f32, *mut f32);
+
+// ---- math helpers: exactly the interpreter's f32 op semantics ----
+
+extern "C" fn sn_exp(x: f32) -> f32 {
+    x.exp()
+}
+extern "C" fn sn_log(x: f32) -> f32 {
+    ops::log(x)
+}
+extern "C" fn sn_sin(x: f32) -> f32 {
+    x.sin()
+}
+extern "C" fn sn_cos(x: f32) -> f32 {
+    x.cos()
+}
+extern "C" fn sn_tan(x: f32) -> f32 {
+    x.tan()
+}
+extern "C" fn sn_asin(x: f32) -> f32 {
+    ops::asin(x)
+}
+extern "C" fn sn_acos(x: f32) -> f32 {
+    ops::acos(x)
+}
+extern "C" fn sn_pow(a: f32, b: f32) -> f32 {
+    ops::pow(a, b)
+}
+extern "C" fn sn_atan2(a: f32, b: f32) -> f32 {
+    a.atan2(b)
+}
+
+/// A math helper: symbol name, arity (1 or 2) and address.
+pub struct MathHelper {
+    /// Symbol name.
+    pub name: &'static str,
+    /// 1 or 2 f32 arguments; one f32 result.
+    pub arity: usize,
+    /// The function.
+    pub ptr: *const u8,
+}
+
+/// The math helpers, by the op they implement.
+pub fn math_helper(name: &str) -> Option<MathHelper> {
+    let (arity, ptr): (usize, *const u8) = match name {
+        "sn_exp" => (1, sn_exp as *const u8),
+        "sn_log" => (1, sn_log as *const u8),
+        "sn_sin" => (1, sn_sin as *const u8),
+        "sn_cos" => (1, sn_cos as *const u8),
+        "sn_tan" => (1, sn_tan as *const u8),
+        "sn_asin" => (1, sn_asin as *const u8),
+        "sn_acos" => (1, sn_acos as *const u8),
+        "sn_pow" => (2, sn_pow as *const u8),
+        "sn_atan2" => (2, sn_atan2 as *const u8),
+        _ => return None,
+    };
+    Some(MathHelper {
+        name: MATH_NAMES.iter().find(|n| **n == name)?,
+        arity,
+        ptr,
+    })
+}
+
+/// Every math helper's symbol name.
+pub const MATH_NAMES: &[&str] = &[
+    "sn_exp", "sn_log", "sn_sin", "sn_cos", "sn_tan", "sn_asin", "sn_acos", "sn_pow", "sn_atan2",
+];
+
+// ---- memory helpers ----
+
+/// A scalar memory helper body: `(ctx, imm, args, out)` on slices.
+type Body = fn(&CallCtx, u32, &[f32], &mut [f32]);
+
+fn noise2(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = noise::noise2(a[0], a[1]);
+}
+fn noise3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = noise::noise3([a[0], a[1], a[2]]);
+}
+fn fbm3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = noise::fbm3([a[0], a[1], a[2]], a[3].to_bits() as i32, a[4], a[5]);
+}
+fn cellnoise3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = noise::cellnoise3([a[0], a[1], a[2]]);
+}
+fn rgb_to_hsv(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&ops::rgb_to_hsv([a[0], a[1], a[2]]));
+}
+fn hsv_to_rgb(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&ops::hsv_to_rgb([a[0], a[1], a[2]]));
+}
+fn texture(ctx: &CallCtx, imm: u32, a: &[f32], o: &mut [f32]) {
+    // SAFETY: the material keeps its texture set alive while its code runs.
+    let set = unsafe { &*ctx.textures };
+    let t = set.get(imm).map_or([0.0; 4], |t| t.sample([a[0], a[1]]));
+    o.copy_from_slice(&t);
+}
+/// Light sample number `imm` of the whole light list (lights in order, each contributing
+/// `lights::sample_count` samples), seen from `a[0..3]` with the fragment's seed in
+/// `a[3]`'s bits: `out[0..3]` = L, `out[3..6]` = Cl, `out[6]` = 1.0 if it gives a sample,
+/// else 0.0.
+fn light(ctx: &CallCtx, imm: u32, a: &[f32], o: &mut [f32]) {
+    // SAFETY: the caller's environment outlives the call.
+    let env = unsafe { &*ctx.env };
+    let mut rest = imm;
+    let mut found = None;
+    for (li, l) in env.lights.iter().enumerate() {
+        let n = lights::sample_count(l);
+        if rest < n {
+            found = lights::sample(l, li as u32, rest, [a[0], a[1], a[2]], a[3].to_bits());
+            break;
+        }
+        rest -= n;
+    }
+    match found {
+        Some(s) => {
+            o[..3].copy_from_slice(&s.l);
+            o[3..6].copy_from_slice(&s.cl);
+            o[6] = 1.0;
+        }
+        None => o[6] = 0.0,
+    }
+}
+
+/// The illuminance loop's trip count: every light's samples.
+pub fn light_samples(env: &ShadeEnv) -> u32 {
+    env.lights.iter().map(lights::sample_count).sum()
+}
+fn ambient(ctx: &CallCtx, _: u32, _: &[f32], o: &mut [f32]) {
+    // SAFETY: the caller's environment outlives the call.
+    let env = unsafe { &*ctx.env };
+    o.copy_from_slice(&lights::ambient::<f32>(&env.lights));
+}
+/// The environment's space matrices as f32, as `runtime::interp::transform` converts them:
+/// camera m, camera inverse, object m, object inverse (16 floats each, row-major).
+fn matrices(ctx: &CallCtx, _: u32, _: &[f32], o: &mut [f32]) {
+    // SAFETY: the caller's environment outlives the call.
+    let env = unsafe { &*ctx.env };
+    let ms = [env.camera.m, env.camera.inv, env.object.m, env.object.inv];
+    for (dst, m) in o.chunks_mut(16).zip(ms) {
+        for (d, x) in dst.iter_mut().zip(m) {
+            *d = x as f32;
+        }
+    }
+}
+
+/// A memory helper: symbol, argument and result counts (floats per lane), whether its
+/// results are the same for every lane (computed once in the batch entry), and the scalar
+/// and batch functions.
+pub struct MemHelperDesc {
+    /// Symbol of the scalar version (`_x4` is appended for the batch one).
+    pub name: &'static str,
+    /// Argument floats.
+    pub args: usize,
+    /// Result floats.
+    pub outs: usize,
+    /// Scalar version.
+    pub scalar: MemHelper,
+    /// Batch version.
+    pub batch: MemHelper,
+}
+
+unsafe fn call_scalar<const A: usize, const O: usize>(
+    f: Body,
+    ctx: *const CallCtx,
+    imm: u32,
+    args: *const f32,
+    out: *mut f32,
+) {
+    // SAFETY: compiled code passes `A` readable and `O` writable floats and a live context.
+    let (ctx, args, out) = unsafe {
+        (
+            &*ctx,
+            std::slice::from_raw_parts(args, A),
+            std::slice::from_raw_parts_mut(out, O),
+        )
+    };
+    f(ctx, imm, args, out);
+}
+
+unsafe fn call_batch<const A: usize, const O: usize>(
+    f: Body,
+    ctx: *const CallCtx,
+    imm: u32,
+    args: *const f32,
+    out: *mut f32,
+) {
+    // SAFETY: compiled code passes `A * 4` readable and `O * 4` writable floats and a live
+    // context.
+    let (ctx, args, out) = unsafe {
+        (
+            &*ctx,
+            std::slice::from_raw_parts(args, A * LANES),
+            std::slice::from_raw_parts_mut(out, O * LANES),
+        )
+    };
+    let mut a = [0.0f32; 64];
+    let mut o = [0.0f32; 64];
+    for lane in 0..LANES {
+        for k in 0..A {
+            a[k] = args[k * LANES + lane];
+        }
+        f(ctx, imm, &a[..A], &mut o[..O]);
+        for k in 0..O {
+            out[k * LANES + lane] = o[k];
+        }
+    }
+}
+
+macro_rules! mem_helpers {
+    ($($name:ident: $args:literal -> $outs:literal),* $(,)?) => {
+        mod mem {
+            use super::*;
+            $(
+                pub mod $name {
+                    use super::*;
+                    pub unsafe extern "C" fn scalar(c: *const CallCtx, i: u32, a: *const f32, o: *mut f32) {
+                        // SAFETY: forwarded from compiled code, see `call_scalar`.
+                        unsafe { call_scalar::<$args, $outs>(super::super::$name, c, i, a, o) }
+                    }
+                    pub unsafe extern "C" fn batch(c: *const CallCtx, i: u32, a: *const f32, o: *mut f32) {
+                        // SAFETY: forwarded from compiled code, see `call_batch`.
+                        unsafe { call_batch::<$args, $outs>(super::super::$name, c, i, a, o) }
+                    }
+                }
+            )*
+        }
+        /// Every memory helper.
+        pub const MEM_HELPERS: &[MemHelperDesc] = &[
+            $(MemHelperDesc {
+                name: concat!("sn_", stringify!($name)),
+                args: $args,
+                outs: $outs,
+                scalar: mem::$name::scalar,
+                batch: mem::$name::batch,
+            }),*
+        ];
+    };
+}
+
+mem_helpers! {
+    noise2: 2 -> 1,
+    noise3: 3 -> 1,
+    fbm3: 6 -> 1,
+    cellnoise3: 3 -> 1,
+    rgb_to_hsv: 3 -> 3,
+    hsv_to_rgb: 3 -> 3,
+    texture: 2 -> 4,
+    light: 4 -> 7,
+    ambient: 0 -> 3,
+    matrices: 0 -> 64,
+}
+
+/// The memory helper called `name` (`sn_noise3`, …).
+pub fn mem_helper(name: &str) -> Option<&'static MemHelperDesc> {
+    MEM_HELPERS.iter().find(|h| h.name == name)
+}

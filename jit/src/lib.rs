@@ -1,0 +1,524 @@
+//! shadenet-jit: the Cranelift back end (DESIGN §6).
+//!
+//! This crate owns the lowering of a specialized [`Program`] to CLIF ([`lower`]), the ABI
+//! between compiled code and Rust ([`abi`]: the call context, entry signatures and the
+//! helpers compiled code calls) and [`JitBackend`], which compiles a program into a
+//! [`JitMaterial`] with up to three native functions:
+//!
+//! - **prelude** (`fn(ctx, uniforms)`): evaluates the prelude once per material and stores
+//!   its values in the material's uniform block (after the parameter values);
+//! - **scalar** (`fn(ctx, *const Fragment, *mut f32) -> u32`): one fragment, for single hits
+//!   and recursive rays;
+//! - **batch** (`fn(ctx, *const FragmentX4, *mut f32, active) -> u32`): four fragments in
+//!   structure-of-arrays form with Cranelift's 128-bit vectors (`f32x4`), varying
+//!   conditionals as lane masks.
+//!
+//! Both shading entries write every output in the interpreter's layout through the same
+//! guard (non-finite → 0, counted) and return the count. Intrinsics that need the scene
+//! (light samples, ambient light, space matrices, textures) and the transcendental, noise and
+//! colour functions are calls of `extern "C"` helpers that run the interpreter's own Rust
+//! code; arithmetic is inline and bit-identical to `shadenet_graph::ops` (see [`lower`]).
+//!
+//! An op this back end cannot compile (today: a matrix44 value computed per fragment, which
+//! the IR allows but no node produces) makes [`JitBackend`] fall back to the interpreter for
+//! that material, saying once which op and why; it never panics on a valid program.
+//!
+//! It must not touch: the IR, the op semantics or the optimizer (`shadenet-graph`), the
+//! interpreter and the scene intrinsics (`shadenet-runtime`) — it calls them; it defines no
+//! numerics of its own beyond transcribing `ops` into CLIF.
+
+pub mod abi;
+pub mod lower;
+
+use abi::{BatchFn, CallCtx, PreludeFn, ScalarFn};
+use cranelift_codegen::ir::UserFuncName;
+use cranelift_codegen::isa::OwnedTargetIsa;
+use cranelift_codegen::settings::{self, Configurable};
+use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
+use cranelift_jit::{JITBuilder, JITModule};
+use cranelift_module::{Linkage, Module, default_libcall_names};
+use lower::{Helpers, Lowerer, Mode, UniformLayout, Unsupported};
+use shadenet_graph::ir::Program;
+use shadenet_graph::opt::{self, Specialization};
+use shadenet_graph::types::ConstValue;
+use shadenet_runtime::backend::{CompileStats, FragmentX4, LANES, Material, MaterialInfo};
+use shadenet_runtime::interp::OutputSlot;
+use shadenet_runtime::texture::TextureSet;
+use shadenet_runtime::{Backend, BackendError, InterpMaterial, ShadeCtx, ShadeEnv};
+use std::fmt::Write as _;
+use std::sync::{Arc, OnceLock};
+use std::time::{Duration, Instant};
+
+/// Cranelift's optimization level for a compile.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum OptLevel {
+    /// `none` when the specialization switches CSE off (then no value numbering happens
+    /// anywhere, Cranelift's e-graph included, so each IR op stays one machine op — what the
+    /// per-node benchmark measures), `speed` otherwise.
+    Auto,
+    /// No Cranelift mid-end optimization (instruction selection and register allocation
+    /// still run).
+    None,
+    /// Cranelift's e-graph optimizations (GVN, constant folding, LICM, alias analysis).
+    Speed,
+}
+
+/// What [`JitBackend`] compiles and how.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct JitOptions {
+    /// Compile the scalar entry (without it, [`Material::shade`] runs the batch entry on a
+    /// one-fragment packet).
+    pub scalar: bool,
+    /// Compile the batch entry (without it, [`Material::shade_x4`] runs the scalar entry per
+    /// lane).
+    pub batch: bool,
+    /// Cranelift's optimization level.
+    pub opt: OptLevel,
+    /// On an op the JIT cannot compile, return the interpreter for that material (true) or
+    /// the error (false).
+    pub fallback: bool,
+    /// Print one line on standard error when falling back.
+    pub log_fallback: bool,
+}
+
+impl Default for JitOptions {
+    fn default() -> Self {
+        JitOptions {
+            scalar: true,
+            batch: true,
+            opt: OptLevel::Auto,
+            fallback: true,
+            log_fallback: true,
+        }
+    }
+}
+
+/// The Cranelift back end.
+#[derive(Clone, Debug, Default)]
+pub struct JitBackend {
+    /// Options.
+    pub options: JitOptions,
+}
+
+impl JitBackend {
+    /// A back end with default options.
+    pub fn new() -> JitBackend {
+        JitBackend::default()
+    }
+
+    /// A back end with these options.
+    pub fn with_options(options: JitOptions) -> JitBackend {
+        JitBackend { options }
+    }
+
+    fn build(
+        &self,
+        program: &Program,
+        optimize: Duration,
+        speed: bool,
+    ) -> Result<Arc<dyn Material>, BackendError> {
+        let fail = |what: String| -> Result<Arc<dyn Material>, BackendError> {
+            if !self.options.fallback {
+                return Err(BackendError::Codegen {
+                    backend: "jit",
+                    material: program.name.clone(),
+                    message: what,
+                });
+            }
+            if self.options.log_fallback {
+                eprintln!("shadenet-jit: {what}; falling back to the interpreter");
+            }
+            Ok(Arc::new(
+                InterpMaterial::new(program, optimize)?.as_fallback(what),
+            ))
+        };
+        match compile(program, &self.options, optimize, speed, false) {
+            Ok((m, _)) => Ok(Arc::new(m)),
+            Err(Fail::Texture(e)) => Err(e.into()),
+            Err(Fail::Unsupported(u)) => {
+                if !self.options.fallback {
+                    return Err(BackendError::Unsupported {
+                        backend: "jit",
+                        material: program.name.clone(),
+                        op: u.op,
+                        reason: u.reason,
+                    });
+                }
+                fail(format!(
+                    "material `{}`: {} is not supported: {}",
+                    program.name, u.op, u.reason
+                ))
+            }
+            Err(Fail::Codegen(msg)) => fail(format!(
+                "material `{}`: code generation failed: {msg}",
+                program.name
+            )),
+        }
+    }
+}
+
+impl Backend for JitBackend {
+    fn name(&self) -> &'static str {
+        "jit"
+    }
+
+    fn compile_program(
+        &self,
+        program: &Program,
+        optimize: Duration,
+    ) -> Result<Arc<dyn Material>, BackendError> {
+        self.build(program, optimize, self.options.opt != OptLevel::None)
+    }
+
+    fn compile(
+        &self,
+        program: &Program,
+        spec: &Specialization,
+    ) -> Result<Arc<dyn Material>, BackendError> {
+        let t = Instant::now();
+        let (optimized, _) = opt::run(program, spec);
+        let speed = match self.options.opt {
+            OptLevel::Auto => spec.passes.cse,
+            OptLevel::None => false,
+            OptLevel::Speed => true,
+        };
+        self.build(&optimized, t.elapsed(), speed)
+    }
+}
+
+/// The CLIF text of every function compiled for `program` (prelude, scalar, batch), as
+/// Cranelift receives it (before its own optimizations). `speed` selects Cranelift's
+/// optimization level (it does not change the input CLIF).
+pub fn emit_clif(
+    program: &Program,
+    options: &JitOptions,
+    speed: bool,
+) -> Result<String, BackendError> {
+    match compile(program, options, Duration::ZERO, speed, true) {
+        Ok((_, text)) => Ok(text),
+        Err(Fail::Texture(e)) => Err(e.into()),
+        Err(Fail::Unsupported(u)) => Err(BackendError::Unsupported {
+            backend: "jit",
+            material: program.name.clone(),
+            op: u.op,
+            reason: u.reason,
+        }),
+        Err(Fail::Codegen(message)) => Err(BackendError::Codegen {
+            backend: "jit",
+            material: program.name.clone(),
+            message,
+        }),
+    }
+}
+
+enum Fail {
+    Texture(shadenet_runtime::TextureError),
+    Unsupported(Unsupported),
+    Codegen(String),
+}
+
+/// The host ISA at one optimization level, built once per process.
+fn isa(speed: bool) -> Result<OwnedTargetIsa, String> {
+    static ISAS: [OnceLock<Result<OwnedTargetIsa, String>>; 2] = [OnceLock::new(), OnceLock::new()];
+    ISAS[speed as usize]
+        .get_or_init(|| {
+            let mut fb = settings::builder();
+            let set = |fb: &mut settings::Builder, k: &str, v: &str| {
+                fb.set(k, v)
+                    .map_err(|e| format!("cranelift setting {k}: {e}"))
+            };
+            set(&mut fb, "opt_level", if speed { "speed" } else { "none" })?;
+            set(&mut fb, "is_pic", "false")?;
+            set(&mut fb, "use_colocated_libcalls", "false")?;
+            set(
+                &mut fb,
+                "enable_verifier",
+                if cfg!(debug_assertions) {
+                    "true"
+                } else {
+                    "false"
+                },
+            )?;
+            let builder = cranelift_native::builder()
+                .map_err(|e| format!("this host is not supported by Cranelift: {e}"))?;
+            builder
+                .finish(settings::Flags::new(fb))
+                .map_err(|e| format!("cannot build the host ISA: {e}"))
+        })
+        .clone()
+}
+
+/// A JIT module kept alive for its code and freed with the material.
+struct Code(Option<JITModule>);
+
+// SAFETY: after `finalize_definitions` the module is never used again except to free its
+// memory in `Drop`, which takes `&mut self`; the code it owns is immutable and safe to run
+// from any thread.
+unsafe impl Send for Code {}
+// SAFETY: as above: no `&self` method of `Code` touches the module.
+unsafe impl Sync for Code {}
+
+impl Drop for Code {
+    fn drop(&mut self) {
+        if let Some(m) = self.0.take() {
+            // SAFETY: the material owning this code is being dropped: no thread can call
+            // its functions any more.
+            unsafe { m.free_memory() };
+        }
+    }
+}
+
+/// A program compiled by [`JitBackend`].
+pub struct JitMaterial {
+    scalar: Option<ScalarFn>,
+    batch: Option<BatchFn>,
+    uniforms: Box<[u32]>,
+    textures: Box<TextureSet>,
+    layout: Vec<OutputSlot>,
+    width: usize,
+    info: MaterialInfo,
+    // Last: dropped after everything that points into it.
+    _code: Code,
+}
+
+impl JitMaterial {
+    fn call_ctx(&self, env: &ShadeEnv, mask: u32) -> CallCtx {
+        CallCtx {
+            env,
+            textures: &*self.textures,
+            uniforms: self.uniforms.as_ptr(),
+            mask,
+            n_lights: abi::light_samples(env),
+        }
+    }
+}
+
+impl Material for JitMaterial {
+    fn layout(&self) -> &[OutputSlot] {
+        &self.layout
+    }
+
+    fn width(&self) -> usize {
+        self.width
+    }
+
+    fn shade(&self, ctx: &ShadeCtx, out: &mut [f32]) -> u32 {
+        assert!(out.len() >= self.width, "output buffer too small");
+        let cc = self.call_ctx(ctx.env, ctx.mask);
+        match (self.scalar, self.batch) {
+            // SAFETY: the function was compiled for this material's layout; `out` holds
+            // `width` floats; the context's pointers live for the call.
+            (Some(f), _) => unsafe { f(&cc, &ctx.frag, out.as_mut_ptr()) },
+            (None, Some(f)) => {
+                let packet = FragmentX4::gather(std::slice::from_ref(&ctx.frag));
+                let mut soa = vec![0.0f32; self.width * LANES];
+                // SAFETY: as above, with `width * 4` floats.
+                let bad = unsafe { f(&cc, &packet, soa.as_mut_ptr(), 1) };
+                for (k, o) in out[..self.width].iter_mut().enumerate() {
+                    *o = soa[k * LANES];
+                }
+                bad
+            }
+            (None, None) => 0,
+        }
+    }
+
+    fn shade_x4(
+        &self,
+        env: &ShadeEnv,
+        mask: u32,
+        frags: &FragmentX4,
+        active: usize,
+        out: &mut [f32],
+    ) -> u32 {
+        assert!(out.len() >= self.width * LANES, "output buffer too small");
+        let cc = self.call_ctx(env, mask);
+        match (self.batch, self.scalar) {
+            // SAFETY: the function was compiled for this material's layout; `out` holds
+            // `width * 4` floats; the context's pointers live for the call.
+            (Some(f), _) => unsafe { f(&cc, frags, out.as_mut_ptr(), active.min(LANES) as u32) },
+            (None, Some(f)) => {
+                let mut one = vec![0.0f32; self.width];
+                let mut bad = 0;
+                for lane in 0..LANES {
+                    let frag = frags.lane(lane);
+                    // SAFETY: as above, with `width` floats.
+                    let b = unsafe { f(&cc, &frag, one.as_mut_ptr()) };
+                    if lane < active {
+                        bad += b;
+                    }
+                    for (k, x) in one.iter().enumerate() {
+                        out[k * LANES + lane] = *x;
+                    }
+                }
+                bad
+            }
+            (None, None) => 0,
+        }
+    }
+
+    fn info(&self) -> &MaterialInfo {
+        &self.info
+    }
+}
+
+/// The interpreter's output layout of a program.
+fn output_layout(p: &Program) -> (Vec<OutputSlot>, usize) {
+    let mut slots = Vec::new();
+    let mut width = 0;
+    for o in &p.outputs {
+        let ty = p.ty(o.value);
+        slots.push(OutputSlot {
+            name: o.name.clone(),
+            component: o.component,
+            ty,
+            offset: width,
+        });
+        width += ty.width().max(1);
+    }
+    (slots, width)
+}
+
+/// A parameter's default as uniform slots (floats rounded to f32, as the interpreter does).
+fn const_bits(c: &ConstValue) -> Vec<u32> {
+    let f = |x: &f64| (*x as f32).to_bits();
+    match c {
+        ConstValue::Bool(b) => vec![*b as u32],
+        ConstValue::Int(i) => vec![*i as u32],
+        ConstValue::String(_) => vec![0],
+        ConstValue::Float(x) => vec![f(x)],
+        ConstValue::Vec2(v) => v.iter().map(f).collect(),
+        ConstValue::Vec3(v) | ConstValue::Color(v) => v.iter().map(f).collect(),
+        ConstValue::Matrix44(m) => m.iter().map(f).collect(),
+    }
+}
+
+fn compile(
+    program: &Program,
+    options: &JitOptions,
+    optimize: Duration,
+    speed: bool,
+    want_clif: bool,
+) -> Result<(JitMaterial, String), Fail> {
+    let textures = TextureSet::load(&program.textures).map_err(Fail::Texture)?;
+    let isa = isa(speed).map_err(Fail::Codegen)?;
+    let cg = |e: cranelift_module::ModuleError| Fail::Codegen(format!("{e:?}"));
+    let mut builder = JITBuilder::with_isa(isa, default_libcall_names());
+    builder.symbols(Helpers::symbols());
+    let mut module = JITModule::new(builder);
+    let helpers = Helpers::declare(&mut module).map_err(Fail::Codegen)?;
+    let layout = UniformLayout::new(program);
+    let mut text = String::new();
+    if want_clif {
+        let _ = writeln!(text, "; helper functions (u0:N = symbol):");
+        for (id, decl) in module.declarations().get_functions() {
+            let _ = writeln!(text, ";   u0:{} = {}", id.as_u32(), decl.linkage_name(id));
+        }
+    }
+    let mut stats = CompileStats {
+        optimize,
+        ops: program.op_count(),
+        ..CompileStats::default()
+    };
+    let mut modes = Vec::new();
+    if !program.prelude.body.is_empty() {
+        modes.push((Mode::Prelude, "prelude"));
+    }
+    if options.scalar {
+        modes.push((Mode::Scalar, "scalar"));
+    }
+    if options.batch {
+        modes.push((Mode::Batch, "batch"));
+    }
+    let mut ids = Vec::new();
+    let mut fbc = FunctionBuilderContext::new();
+    let mut ctx = module.make_context();
+    for (mode, name) in &modes {
+        let t = Instant::now();
+        let sig = lower::signature(&module, *mode);
+        let id = module
+            .declare_function(name, Linkage::Local, &sig)
+            .map_err(cg)?;
+        ctx.func.signature = sig;
+        ctx.func.name = UserFuncName::user(0, id.as_u32());
+        {
+            let fb = FunctionBuilder::new(&mut ctx.func, &mut fbc);
+            Lowerer::new(program, *mode, fb, &mut module, &helpers, &layout)
+                .finish()
+                .map_err(Fail::Unsupported)?;
+        }
+        stats.lower += t.elapsed();
+        let f = &ctx.func;
+        stats.ir_insts += f
+            .layout
+            .blocks()
+            .map(|b| f.layout.block_insts(b).count())
+            .sum::<usize>();
+        if want_clif {
+            let _ = writeln!(text, "; {name} entry of material `{}`", program.name);
+            let _ = writeln!(text, "{}", ctx.func.display());
+        }
+        let t = Instant::now();
+        module.define_function(id, &mut ctx).map_err(cg)?;
+        stats.codegen += t.elapsed();
+        stats.code_bytes += ctx.compiled_code().map_or(0, |c| c.code_buffer().len());
+        module.clear_context(&mut ctx);
+        ids.push((*mode, id));
+    }
+    let t = Instant::now();
+    module.finalize_definitions().map_err(cg)?;
+    stats.link = t.elapsed();
+
+    let mut uniforms = vec![0u32; layout.size].into_boxed_slice();
+    for (d, &slot) in program.params.iter().zip(&layout.params) {
+        for (k, bits) in const_bits(&d.default).into_iter().enumerate() {
+            uniforms[slot + k] = bits;
+        }
+    }
+    let (mut scalar, mut batch, mut prelude) = (None, None, None);
+    for (mode, id) in ids {
+        let ptr = module.get_finalized_function(id);
+        // SAFETY: each function was compiled with the signature of its mode (see
+        // `lower::signature`), which these types transcribe.
+        unsafe {
+            match mode {
+                Mode::Scalar => scalar = Some(std::mem::transmute::<*const u8, ScalarFn>(ptr)),
+                Mode::Batch => batch = Some(std::mem::transmute::<*const u8, BatchFn>(ptr)),
+                Mode::Prelude => prelude = Some(std::mem::transmute::<*const u8, PreludeFn>(ptr)),
+            }
+        }
+    }
+    let textures = Box::new(textures);
+    if let Some(f) = prelude {
+        let env = ShadeEnv::default();
+        let up = uniforms.as_mut_ptr();
+        let cc = CallCtx {
+            env: &env,
+            textures: &*textures,
+            uniforms: up,
+            mask: u32::MAX,
+            n_lights: 0,
+        };
+        // SAFETY: the prelude reads parameters and writes prelude slots of this block, both
+        // inside it (the layout sized it); it reads neither fragment nor environment.
+        unsafe { f(&cc, up) };
+    }
+    let (slots, width) = output_layout(program);
+    Ok((
+        JitMaterial {
+            scalar,
+            batch,
+            uniforms,
+            textures,
+            layout: slots,
+            width,
+            info: MaterialInfo {
+                backend: "jit",
+                fallback: None,
+                stats,
+            },
+            _code: Code(Some(module)),
+        },
+        text,
+    ))
+}

@@ -1,0 +1,497 @@
+//! Back ends (DESIGN §6): the [`Backend`] and [`Material`] traits every back end implements,
+//! the interpreter back end ([`InterpBackend`]), 4-wide structure-of-arrays fragment packets
+//! ([`FragmentX4`]) and the material cache ([`MaterialCache`]).
+//!
+//! A back end turns a program into a [`Material`]: something that shades one fragment
+//! ([`Material::shade`]) or a packet of four ([`Material::shade_x4`]) and writes every
+//! program output, flattened to floats in the layout [`Material::layout`] gives (the
+//! interpreter's [`OutputSlot`]s), through the output guard (a non-finite float becomes 0 and
+//! is counted). Materials are `Send + Sync`: one compiled material is called from every
+//! rayon thread at once, with no shared mutable state on the hot path.
+//!
+//! [`Backend::compile`] takes the *linked, unoptimized* program and the [`Specialization`]
+//! and runs the optimizer ([`opt::run`]) itself, so that a compiled material is a function of
+//! `(program, specialization)` — the [`MaterialCache`] key. A caller that has already
+//! optimized (or wants no optimization at all, as the parity tests do) calls
+//! [`Backend::compile_program`] with the program to run as it is.
+
+use crate::ctx::{Fragment, ShadeCtx, ShadeEnv};
+use crate::interp::{Interpreter, OutputSlot, Scratch, ShadeOut};
+use crate::texture::TextureError;
+use shadenet_graph::ir::Program;
+use shadenet_graph::opt::{self, Specialization};
+use std::cell::RefCell;
+use std::collections::HashMap;
+use std::fmt;
+use std::hash::{Hash, Hasher};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// Lanes of a batch packet: Cranelift's 128-bit vectors hold four f32 (DESIGN §10: F32X4
+/// works on x86-64, F32X8 does not).
+pub const LANES: usize = 4;
+
+/// Four fragments, structure of arrays: every stream component as four consecutive lanes, so
+/// a compiled batch function reads a component of all four fragments with one 128-bit load.
+/// `#[repr(C)]` and 16-byte aligned; its field order follows [`Fragment`].
+#[repr(C, align(16))]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FragmentX4 {
+    /// Shading position, per component.
+    pub p: [[f32; LANES]; 3],
+    /// Shading normal.
+    pub n: [[f32; LANES]; 3],
+    /// Geometric normal.
+    pub ng: [[f32; LANES]; 3],
+    /// Incident direction.
+    pub i: [[f32; LANES]; 3],
+    /// Surface parameterization.
+    pub uv: [[f32; LANES]; 2],
+    /// ∂P/∂u.
+    pub dpdu: [[f32; LANES]; 3],
+    /// ∂P/∂v.
+    pub dpdv: [[f32; LANES]; 3],
+    /// ∂P/∂x.
+    pub dpdx: [[f32; LANES]; 3],
+    /// ∂P/∂y.
+    pub dpdy: [[f32; LANES]; 3],
+    /// Shutter time.
+    pub time: [f32; LANES],
+    /// Ray type bit.
+    pub ray_type: [i32; LANES],
+    /// Ray depth.
+    pub ray_depth: [i32; LANES],
+    /// Sampler seed.
+    pub seed: [u32; LANES],
+}
+
+impl FragmentX4 {
+    /// Packs one to four fragments; missing lanes repeat the last fragment (so that padding
+    /// lanes compute something harmless). Panics on an empty slice.
+    pub fn gather(frags: &[Fragment]) -> FragmentX4 {
+        let mut x = FragmentX4::default();
+        let last = frags.len().min(LANES) - 1;
+        for lane in 0..LANES {
+            x.set_lane(lane, &frags[lane.min(last)]);
+        }
+        x
+    }
+
+    /// Writes fragment `f` into lane `lane`.
+    pub fn set_lane(&mut self, lane: usize, f: &Fragment) {
+        let put3 = |dst: &mut [[f32; LANES]; 3], v: [f32; 3]| {
+            for c in 0..3 {
+                dst[c][lane] = v[c];
+            }
+        };
+        put3(&mut self.p, f.p);
+        put3(&mut self.n, f.n);
+        put3(&mut self.ng, f.ng);
+        put3(&mut self.i, f.i);
+        self.uv[0][lane] = f.uv[0];
+        self.uv[1][lane] = f.uv[1];
+        put3(&mut self.dpdu, f.dpdu);
+        put3(&mut self.dpdv, f.dpdv);
+        put3(&mut self.dpdx, f.dpdx);
+        put3(&mut self.dpdy, f.dpdy);
+        self.time[lane] = f.time;
+        self.ray_type[lane] = f.ray_type;
+        self.ray_depth[lane] = f.ray_depth;
+        self.seed[lane] = f.seed;
+    }
+
+    /// The fragment in lane `lane`.
+    pub fn lane(&self, lane: usize) -> Fragment {
+        let get3 = |v: &[[f32; LANES]; 3]| [v[0][lane], v[1][lane], v[2][lane]];
+        Fragment {
+            p: get3(&self.p),
+            n: get3(&self.n),
+            ng: get3(&self.ng),
+            i: get3(&self.i),
+            uv: [self.uv[0][lane], self.uv[1][lane]],
+            dpdu: get3(&self.dpdu),
+            dpdv: get3(&self.dpdv),
+            dpdx: get3(&self.dpdx),
+            dpdy: get3(&self.dpdy),
+            time: self.time[lane],
+            ray_type: self.ray_type[lane],
+            ray_depth: self.ray_depth[lane],
+            seed: self.seed[lane],
+        }
+    }
+}
+
+/// Where the time of one compile went, and how big the result is (zero where a back end has
+/// no such phase: the interpreter neither lowers nor generates code).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CompileStats {
+    /// Specialization and optimization ([`opt::run`]).
+    pub optimize: Duration,
+    /// Lowering the IR to the back end's own IR (CLIF for the JIT).
+    pub lower: Duration,
+    /// Code generation (Cranelift: optimization, instruction selection, register
+    /// allocation, emission).
+    pub codegen: Duration,
+    /// Linking: resolving symbols and making the code executable.
+    pub link: Duration,
+    /// Machine code size in bytes, all entry points together.
+    pub code_bytes: usize,
+    /// Instructions of the back end's IR (CLIF), all entry points together.
+    pub ir_insts: usize,
+    /// Ops of the program compiled.
+    pub ops: usize,
+}
+
+impl CompileStats {
+    /// Total preprocessing time after linking the network: optimize + lower + codegen + link.
+    pub fn total(&self) -> Duration {
+        self.optimize + self.lower + self.codegen + self.link
+    }
+}
+
+impl fmt::Display for CompileStats {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let ms = |d: Duration| d.as_secs_f64() * 1e3;
+        write!(
+            f,
+            "{} ops; optimize {:.3} ms, lower {:.3} ms, codegen {:.3} ms, link {:.3} ms \
+             (total {:.3} ms); {} IR instructions, {} bytes of code",
+            self.ops,
+            ms(self.optimize),
+            ms(self.lower),
+            ms(self.codegen),
+            ms(self.link),
+            ms(self.total()),
+            self.ir_insts,
+            self.code_bytes
+        )
+    }
+}
+
+/// What a compiled material is and how it was made.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MaterialInfo {
+    /// The back end that runs it (`interp`, `jit`, …).
+    pub backend: &'static str,
+    /// Set when the requested back end could not compile the program and this material is
+    /// the interpreter standing in for it: which op and why.
+    pub fallback: Option<String>,
+    /// Compile statistics.
+    pub stats: CompileStats,
+}
+
+/// A compiled material: shades fragments and writes every program output, guarded.
+pub trait Material: Send + Sync {
+    /// Where each output's floats are in a fragment's output (the interpreter's layout).
+    fn layout(&self) -> &[OutputSlot];
+
+    /// Floats per fragment in an output (sum of the slots' widths).
+    fn width(&self) -> usize;
+
+    /// Shades one fragment into `out[..width()]`; returns how many non-finite floats the
+    /// guard replaced with 0. `out` must hold at least [`Material::width`] floats.
+    fn shade(&self, ctx: &ShadeCtx, out: &mut [f32]) -> u32;
+
+    /// Shades the first `active` (1..=4) lanes of a packet, every lane with the same
+    /// environment and component mask. `out` holds `width() * 4` floats, structure of
+    /// arrays: float `k` of lane `l` is `out[k * 4 + l]` (inactive lanes get values too,
+    /// computed from the padding fragment). Returns the non-finite floats replaced in the
+    /// active lanes.
+    fn shade_x4(
+        &self,
+        env: &ShadeEnv,
+        mask: u32,
+        frags: &FragmentX4,
+        active: usize,
+        out: &mut [f32],
+    ) -> u32;
+
+    /// Which back end runs it, whether it is a fallback, and compile statistics.
+    fn info(&self) -> &MaterialInfo;
+}
+
+/// Shades any number of fragments through [`Material::shade_x4`], four at a time: `out`
+/// receives `width()` floats per fragment, fragment after fragment (array of structures).
+/// Returns the non-finite floats replaced.
+pub fn shade_batch(
+    material: &dyn Material,
+    env: &ShadeEnv,
+    mask: u32,
+    frags: &[Fragment],
+    out: &mut [f32],
+) -> u64 {
+    let w = material.width();
+    let mut soa = vec![0.0f32; w * LANES];
+    let mut bad = 0u64;
+    for (chunk, dst) in frags.chunks(LANES).zip(out.chunks_mut(w * LANES)) {
+        let packet = FragmentX4::gather(chunk);
+        bad += material.shade_x4(env, mask, &packet, chunk.len(), &mut soa) as u64;
+        for (lane, px) in dst.chunks_mut(w).enumerate() {
+            for (k, d) in px.iter_mut().enumerate() {
+                *d = soa[k * LANES + lane];
+            }
+        }
+    }
+    bad
+}
+
+/// Why a back end could not compile a program.
+#[derive(Debug, thiserror::Error)]
+pub enum BackendError {
+    /// A texture the program reads could not be loaded.
+    #[error(transparent)]
+    Texture(#[from] TextureError),
+    /// The back end does not implement an op the program uses (a JIT falls back to the
+    /// interpreter on this error).
+    #[error("material `{material}`: {op} is not supported by the {backend} back end: {reason}")]
+    Unsupported {
+        /// The back end.
+        backend: &'static str,
+        /// The material.
+        material: String,
+        /// The op, as the IR text writes it, with its value number.
+        op: String,
+        /// Why.
+        reason: String,
+    },
+    /// Code generation failed (a back-end bug: the message names the material and phase).
+    #[error("material `{material}`: {backend} code generation failed: {message}")]
+    Codegen {
+        /// The back end.
+        backend: &'static str,
+        /// The material.
+        material: String,
+        /// What went wrong.
+        message: String,
+    },
+}
+
+/// A back end: compiles programs into [`Material`]s.
+pub trait Backend: Send + Sync {
+    /// The back end's name (`interp`, `jit`, `jit-batch`, …).
+    fn name(&self) -> &'static str;
+
+    /// Compiles `program` as it is (already specialized and optimized, or deliberately not);
+    /// `optimize` is the time already spent optimizing it, recorded in the statistics.
+    fn compile_program(
+        &self,
+        program: &Program,
+        optimize: Duration,
+    ) -> Result<Arc<dyn Material>, BackendError>;
+
+    /// Specializes and optimizes a linked program for `spec` ([`opt::run`]), then compiles
+    /// it.
+    fn compile(
+        &self,
+        program: &Program,
+        spec: &Specialization,
+    ) -> Result<Arc<dyn Material>, BackendError> {
+        let t = Instant::now();
+        let (optimized, _report) = opt::run(program, spec);
+        self.compile_program(&optimized, t.elapsed())
+    }
+}
+
+/// The interpreter as a back end: runs any valid program, in f32.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct InterpBackend;
+
+impl Backend for InterpBackend {
+    fn name(&self) -> &'static str {
+        "interp"
+    }
+
+    fn compile_program(
+        &self,
+        program: &Program,
+        optimize: Duration,
+    ) -> Result<Arc<dyn Material>, BackendError> {
+        Ok(Arc::new(InterpMaterial::new(program, optimize)?))
+    }
+}
+
+/// A program run by the f32 interpreter, as a [`Material`].
+#[derive(Debug)]
+pub struct InterpMaterial {
+    interp: Interpreter<f32>,
+    width: usize,
+    info: MaterialInfo,
+}
+
+type InterpState = (Scratch<f32>, ShadeOut<f32>);
+
+thread_local! {
+    /// Per-thread interpreter registers, reused across calls.
+    static SCRATCH: RefCell<InterpState> = RefCell::new((
+        Scratch::default(),
+        ShadeOut { values: Vec::new(), nonfinite: 0 },
+    ));
+}
+
+impl InterpMaterial {
+    /// Prepares `program` for the interpreter (loads its textures).
+    pub fn new(program: &Program, optimize: Duration) -> Result<InterpMaterial, TextureError> {
+        let interp = Interpreter::<f32>::new(program)?;
+        let width = interp.slots().iter().map(|s| s.ty.width().max(1)).sum();
+        Ok(InterpMaterial {
+            interp,
+            width,
+            info: MaterialInfo {
+                backend: "interp",
+                fallback: None,
+                stats: CompileStats {
+                    optimize,
+                    ops: program.op_count(),
+                    ..CompileStats::default()
+                },
+            },
+        })
+    }
+
+    /// The same material, marked as standing in for another back end that could not
+    /// compile the program (`why` says which op and why).
+    pub fn as_fallback(mut self, why: String) -> InterpMaterial {
+        self.info.fallback = Some(why);
+        self
+    }
+
+    fn with_state<R>(&self, f: impl FnOnce(&mut InterpState) -> R) -> R {
+        SCRATCH.with(|s| match s.try_borrow_mut() {
+            Ok(mut state) => f(&mut state),
+            // Re-entered (a shader shading from inside a shader): use fresh registers.
+            Err(_) => f(&mut (
+                Scratch::default(),
+                ShadeOut {
+                    values: Vec::new(),
+                    nonfinite: 0,
+                },
+            )),
+        })
+    }
+}
+
+impl Material for InterpMaterial {
+    fn layout(&self) -> &[OutputSlot] {
+        self.interp.slots()
+    }
+
+    fn width(&self) -> usize {
+        self.width
+    }
+
+    fn shade(&self, ctx: &ShadeCtx, out: &mut [f32]) -> u32 {
+        self.with_state(|(scratch, o)| {
+            self.interp.shade_with(ctx, scratch, o);
+            out[..self.width].copy_from_slice(&o.values);
+            o.nonfinite
+        })
+    }
+
+    fn shade_x4(
+        &self,
+        env: &ShadeEnv,
+        mask: u32,
+        frags: &FragmentX4,
+        active: usize,
+        out: &mut [f32],
+    ) -> u32 {
+        self.with_state(|(scratch, o)| {
+            let mut bad = 0;
+            for lane in 0..LANES {
+                let ctx = ShadeCtx {
+                    frag: frags.lane(lane),
+                    env,
+                    mask,
+                    scene: None,
+                };
+                self.interp.shade_with(&ctx, scratch, o);
+                for (k, v) in o.values.iter().enumerate() {
+                    out[k * LANES + lane] = *v;
+                }
+                if lane < active {
+                    bad += o.nonfinite;
+                }
+            }
+            bad
+        })
+    }
+
+    fn info(&self) -> &MaterialInfo {
+        &self.info
+    }
+}
+
+/// Compiled materials by `(back end, program, specialization)`: a material is compiled once
+/// and shared (`Arc`) by every caller after that.
+///
+/// The program part of the key is a 64-bit hash of its IR text form (which prints every
+/// op, output, parameter, component and texture); the text itself is kept and compared on a
+/// hit, so a hash collision compiles again instead of returning the wrong material.
+#[derive(Default)]
+pub struct MaterialCache {
+    entries: Mutex<HashMap<CacheKey, Vec<CacheEntry>>>,
+}
+
+type CacheKey = (&'static str, u64, Specialization);
+/// A cached material with the program text it was compiled from.
+type CacheEntry = (String, Arc<dyn Material>);
+
+impl MaterialCache {
+    /// An empty cache.
+    pub fn new() -> MaterialCache {
+        MaterialCache::default()
+    }
+
+    /// The hash of a program used as its cache key.
+    pub fn program_hash(program: &Program) -> u64 {
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        program.to_string().hash(&mut h);
+        h.finish()
+    }
+
+    /// The material for `(backend, program, spec)`: the cached one, or a new compile
+    /// (`Backend::compile`) that is then cached. Compiles run outside the lock, so two
+    /// threads asking for the same new material may both compile it; one result is kept.
+    pub fn get_or_compile(
+        &self,
+        backend: &dyn Backend,
+        program: &Program,
+        spec: &Specialization,
+    ) -> Result<Arc<dyn Material>, BackendError> {
+        let text = program.to_string();
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        text.hash(&mut h);
+        let key = (backend.name(), h.finish(), spec.clone());
+        if let Some(m) = self.lookup(&key, &text) {
+            return Ok(m);
+        }
+        let m = backend.compile(program, spec)?;
+        let mut entries = self.entries.lock().unwrap_or_else(|e| e.into_inner());
+        let list = entries.entry(key).or_default();
+        if let Some((_, old)) = list.iter().find(|(t, _)| *t == text) {
+            return Ok(old.clone());
+        }
+        list.push((text, m.clone()));
+        Ok(m)
+    }
+
+    fn lookup(&self, key: &CacheKey, text: &str) -> Option<Arc<dyn Material>> {
+        let entries = self.entries.lock().unwrap_or_else(|e| e.into_inner());
+        entries
+            .get(key)?
+            .iter()
+            .find(|(t, _)| t == text)
+            .map(|(_, m)| m.clone())
+    }
+
+    /// Number of materials cached.
+    pub fn len(&self) -> usize {
+        let entries = self.entries.lock().unwrap_or_else(|e| e.into_inner());
+        entries.values().map(Vec::len).sum()
+    }
+
+    /// True when nothing is cached.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}

@@ -1,0 +1,1032 @@
+//! The parity suite: every back end against the interpreter (DESIGN §6).
+//!
+//! One table of back ends ([`backends`]) runs through everything here: a table of every IR
+//! op on every type it is defined on ([`every_op_on_every_type`], generated from the op
+//! typing rules, so a new op joins by itself) over ordinary and hard inputs (0, -0,
+//! denormals, ±inf, NaN, huge, tiny, grazing vectors, integer extremes), the regions and
+//! scene intrinsics, every example network under several specializations, and random
+//! programs ([`random_programs`]; the property generator of the other branch plugs into
+//! [`check_program`]). A new back end joins the whole suite with one line in [`backends`].
+//!
+//! Parity is checked bit for bit on the output floats and on the non-finite counts. Every
+//! row says whether it is exact arithmetic (`+ - * /`, sqrt, comparisons, selects,
+//! min/max, floor/fract, …) or involves transcendental or intrinsic functions; a back end
+//! states an ulp bound for each class. The JIT calls the interpreter's own Rust functions
+//! for the latter, so both of its bounds are 0.
+
+use shadenet_graph::ir::{BinOp, Intrinsic, Program, Space, UnOp, XformKind, parse};
+use shadenet_graph::nodes::{LightDesc, LightKind};
+use shadenet_graph::ops;
+use shadenet_graph::opt::{self, Passes, Specialization};
+use shadenet_graph::types::Type;
+use shadenet_jit::{JitBackend, JitOptions, OptLevel};
+use shadenet_runtime::{
+    Backend, Fragment, InterpBackend, Material, MaterialCache, ShadeCtx, ShadeEnv, Transform,
+    shade_batch,
+};
+use std::sync::Arc;
+use std::time::Duration;
+
+/// How a back end is driven: one fragment per call, or four-wide packets.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Drive {
+    Scalar,
+    Batch,
+}
+
+/// The largest difference a back end may show, in ulps, per class of row.
+#[derive(Clone, Copy, Debug)]
+struct Ulps {
+    /// Exact IEEE arithmetic, comparisons, selects, rounding ops, control flow.
+    exact: u32,
+    /// Transcendentals, noise, colour conversions, textures, light samples.
+    transcendental: u32,
+}
+
+/// The JIT calls the interpreter's Rust functions for transcendentals: bit-identical.
+const BIT_IDENTICAL: Ulps = Ulps {
+    exact: 0,
+    transcendental: 0,
+};
+
+struct UnderTest {
+    name: &'static str,
+    backend: Box<dyn Backend>,
+    drive: Drive,
+    ulps: Ulps,
+}
+
+fn jit(opt: OptLevel) -> JitBackend {
+    // No silent fallback: an op the JIT cannot compile fails the suite.
+    JitBackend::with_options(JitOptions {
+        opt,
+        fallback: false,
+        ..JitOptions::default()
+    })
+}
+
+/// Every back end under test. A new back end joins the whole suite with one line here.
+fn backends() -> Vec<UnderTest> {
+    let ut = |name, backend: JitBackend, drive| UnderTest {
+        name,
+        backend: Box::new(backend),
+        drive,
+        ulps: BIT_IDENTICAL,
+    };
+    vec![
+        ut("jit-scalar", jit(OptLevel::None), Drive::Scalar),
+        ut("jit-batch", jit(OptLevel::None), Drive::Batch),
+        ut("jit-scalar-opt", jit(OptLevel::Speed), Drive::Scalar),
+        ut("jit-batch-opt", jit(OptLevel::Speed), Drive::Batch),
+    ]
+}
+
+/// The class of a row: which ulp bound applies.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Class {
+    Exact,
+    Transcendental,
+}
+
+/// Shades every fragment; returns the outputs (fragment after fragment) and the non-finite
+/// count.
+fn shade_all(
+    m: &dyn Material,
+    drive: Drive,
+    env: &ShadeEnv,
+    mask: u32,
+    frags: &[Fragment],
+) -> (Vec<f32>, u64) {
+    let w = m.width();
+    let mut out = vec![f32::NAN; w * frags.len()];
+    match drive {
+        Drive::Scalar => {
+            let mut bad = 0;
+            for (f, o) in frags.iter().zip(out.chunks_mut(w)) {
+                let ctx = ShadeCtx {
+                    frag: *f,
+                    env,
+                    mask,
+                    scene: None,
+                };
+                bad += m.shade(&ctx, o) as u64;
+            }
+            (out, bad)
+        }
+        Drive::Batch => {
+            let bad = shade_batch(m, env, mask, frags, &mut out);
+            (out, bad)
+        }
+    }
+}
+
+/// Distance in ulps between two floats (0 for equal bits; ±0 are 1 apart for exact rows).
+fn ulps(a: f32, b: f32) -> u64 {
+    if a.to_bits() == b.to_bits() {
+        return 0;
+    }
+    let key = |x: f32| {
+        let b = x.to_bits() as i64;
+        if b & 0x8000_0000 != 0 {
+            -(b & 0x7fff_ffff)
+        } else {
+            b
+        }
+    };
+    (key(a) - key(b)).unsigned_abs().max(1)
+}
+
+/// Compiles `program` as it is with every back end and checks each against the
+/// interpreter on `frags`. Panics with the first difference.
+fn check_program(
+    what: &str,
+    program: &Program,
+    env: &ShadeEnv,
+    mask: u32,
+    frags: &[Fragment],
+    class: Class,
+) {
+    shadenet_graph::ir::validate(program).unwrap_or_else(|e| panic!("{what}: {e}\n{program}"));
+    let reference = InterpBackend
+        .compile_program(program, Duration::ZERO)
+        .unwrap_or_else(|e| panic!("{what}: interp: {e}"));
+    let (want, want_bad) = shade_all(&*reference, Drive::Scalar, env, mask, frags);
+    for ut in backends() {
+        let m = ut
+            .backend
+            .compile_program(program, Duration::ZERO)
+            .unwrap_or_else(|e| panic!("{what}: {}: {e}\n{program}", ut.name));
+        assert_eq!(
+            m.layout(),
+            reference.layout(),
+            "{what}: {}: layout",
+            ut.name
+        );
+        let (got, got_bad) = shade_all(&*m, ut.drive, env, mask, frags);
+        let bound = match class {
+            Class::Exact => ut.ulps.exact,
+            Class::Transcendental => ut.ulps.transcendental,
+        } as u64;
+        let w = m.width();
+        for (i, (g, x)) in got.iter().zip(&want).enumerate() {
+            let d = ulps(*g, *x);
+            if d > bound {
+                let f = &frags[i / w.max(1)];
+                panic!(
+                    "{what}: {} differs from the interpreter at fragment {} output float {}: \
+                     got {g:?} ({:#010x}), want {x:?} ({:#010x}), {d} ulps > {bound}\n\
+                     fragment: {f:?}\n{program}",
+                    ut.name,
+                    i / w.max(1),
+                    i % w.max(1),
+                    g.to_bits(),
+                    x.to_bits()
+                );
+            }
+        }
+        if bound == 0 {
+            assert_eq!(got_bad, want_bad, "{what}: {}: non-finite count", ut.name);
+        }
+    }
+}
+
+// ---- inputs ----
+
+/// Ordinary and hard floats.
+const HARD: &[f32] = &[
+    0.0,
+    -0.0,
+    1.0,
+    -1.0,
+    0.5,
+    -2.5,
+    3.0,
+    0.1,
+    1.5,
+    100.25,
+    -7.75,
+    std::f32::consts::PI,
+    1e-45,             // smallest denormal
+    -3e-41,            // a negative denormal
+    f32::MIN_POSITIVE, // smallest normal
+    1e-30,             // tiny
+    1e30,              // huge
+    -1e30,
+    f32::MAX,
+    f32::MIN,
+    f32::INFINITY,
+    f32::NEG_INFINITY,
+    f32::NAN,
+    1e-7,       // grazing
+    0.99999994, // just below 1
+    1.0000001,  // just above 1
+    16777216.0, // 2^24
+    -16777217.0,
+];
+
+/// Ordinary and extreme ints.
+const INTS: &[i32] = &[0, 1, -1, 2, -2, 7, -7, 31, 100, -100, i32::MAX, i32::MIN];
+
+/// Fragments covering every pair of hard floats in (P.x, P.y), every pair of ints in
+/// (raydepth, raytype), hard vectors in P, N, I, uv, and a few grazing configurations; the
+/// count is not a multiple of 4, so the batch entry's padding is exercised.
+fn hard_fragments() -> Vec<Fragment> {
+    let h = HARD;
+    let n = h.len();
+    let mut v = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            let k = |o: usize| h[(i * 7 + j * 3 + o) % n];
+            v.push(Fragment {
+                p: [h[i], h[j], k(1)],
+                n: [h[j], k(2), h[i]],
+                ng: [k(3), h[i], h[j]],
+                i: [k(4), h[j], h[i]],
+                uv: [h[i], h[j]],
+                dpdu: [k(5), k(6), k(7)],
+                dpdv: [h[j], h[i], k(8)],
+                dpdx: [k(9), h[j], k(10)],
+                dpdy: [h[i], k(11), k(12)],
+                time: k(13),
+                ray_type: INTS[j % INTS.len()],
+                ray_depth: INTS[i % INTS.len()],
+                seed: (i * n + j) as u32,
+            });
+        }
+    }
+    // Grazing: N almost perpendicular to I and to the light directions.
+    for (pp, nn, ii) in [
+        ([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, -1e-7]),
+        ([0.3, -0.2, 0.0], [1e-7, 0.0, 1.0], [0.0, 1.0, 0.0]),
+        ([1.0, 1.0, 2.0], [0.0, 1.0, 1e-30], [0.0, -1.0, 1e-38]),
+    ] {
+        v.push(Fragment {
+            p: pp,
+            n: nn,
+            ng: nn,
+            i: ii,
+            uv: [0.5, 0.25],
+            ray_type: 1,
+            ..Fragment::default()
+        });
+    }
+    assert_ne!(v.len() % 4, 0);
+    v
+}
+
+fn env() -> ShadeEnv {
+    let light = |name: &str, kind, power| LightDesc {
+        name: name.into(),
+        kind,
+        power,
+    };
+    let lights = [
+        light(
+            "key",
+            LightKind::Point {
+                position: [1.0, 1.0, 2.0],
+            },
+            [20.0, 18.0, 15.0],
+        ),
+        light("fill", LightKind::Ambient, [0.1, 0.2, 0.3]),
+        light(
+            "sun",
+            LightKind::Distant {
+                direction: [0.3, -0.5, -0.8],
+            },
+            [1.5, 1.5, 1.2],
+        ),
+        light(
+            "spot",
+            LightKind::Spot {
+                position: [0.0, 0.0, 3.0],
+                direction: [0.0, 0.0, -1.0],
+                cone_angle: 0.8,
+                penumbra_angle: 0.1,
+                dropoff: 2.0,
+            },
+            [30.0, 30.0, 30.0],
+        ),
+    ];
+    let mut env = ShadeEnv::with_lights(&lights);
+    env.camera = Transform::look_at([0.5, 0.2, 1.5], [0.0; 3], [0.0, 1.0, 0.0]).expect("camera");
+    env.object = Transform::new([
+        2.0, 0.0, 0.0, 0.5, //
+        0.0, 0.5, 0.1, -1.0, //
+        0.0, 0.0, 1.0, 0.25, //
+        0.0, 0.0, 0.0, 1.0,
+    ])
+    .expect("object");
+    env
+}
+
+/// The inputs every op row reads, as IR text: two values of each type, all varying.
+const INPUTS: &str = "
+  %p = stream P : vec3
+  %n = stream N : vec3
+  %a = extract %p, 0 : float
+  %b = extract %p, 1 : float
+  %c = extract %p, 2 : float
+  %uv = stream uv : vec2
+  %ba = construct %b, %a : vec2
+  %pc = construct %a, %b, %c : color
+  %nx = extract %n, 0 : float
+  %ny = extract %n, 1 : float
+  %nz = extract %n, 2 : float
+  %nc = construct %nx, %ny, %nz : color
+  %k = stream raydepth : int
+  %m = stream raytype : int
+  %q = lt %a, %b : bool
+  %r = gt %k, %m : bool
+";
+
+/// The two inputs of a type, by label.
+fn inputs(ty: Type) -> Option<(&'static str, &'static str)> {
+    Some(match ty {
+        Type::Float => ("%a", "%b"),
+        Type::Vec2 => ("%uv", "%ba"),
+        Type::Vec3 => ("%p", "%n"),
+        Type::Color => ("%pc", "%nc"),
+        Type::Int => ("%k", "%m"),
+        Type::Bool => ("%q", "%r"),
+        Type::Matrix44 | Type::String => return None,
+    })
+}
+
+const TYPES: [Type; 6] = [
+    Type::Float,
+    Type::Vec2,
+    Type::Vec3,
+    Type::Color,
+    Type::Int,
+    Type::Bool,
+];
+
+fn program(body: &str) -> Program {
+    let text = format!("program \"row\" {{\n{INPUTS}\n{body}\n  output r %x\n}}\n");
+    parse(&text).unwrap_or_else(|e| panic!("{e}\n{text}"))
+}
+
+fn transcendental_un(op: UnOp) -> bool {
+    use UnOp::*;
+    matches!(op, Exp | Log | Sin | Cos | Tan | Asin | Acos)
+}
+
+fn transcendental_bin(op: BinOp) -> bool {
+    matches!(op, BinOp::Pow | BinOp::Atan2)
+}
+
+/// One row of the op table: a name, the program, its class.
+type Row = (String, Program, Class);
+
+/// Every unary and binary op on every type it is defined on, every conversion, select,
+/// construct/extract/splat, every intrinsic, every transform, matrix products.
+fn op_table() -> Vec<Row> {
+    let mut rows: Vec<Row> = Vec::new();
+    for &op in UnOp::ALL {
+        for ty in TYPES {
+            if let Some(rt) = ops::unary_type(op, ty) {
+                let (x, _) = inputs(ty).unwrap();
+                let body = format!("  %x = {} {x} : {}", op.name(), rt.name());
+                let class = if transcendental_un(op) {
+                    Class::Transcendental
+                } else {
+                    Class::Exact
+                };
+                rows.push((
+                    format!("{} {}", op.name(), ty.name()),
+                    program(&body),
+                    class,
+                ));
+            }
+        }
+    }
+    for &op in BinOp::ALL {
+        for ty in TYPES {
+            if let Some(rt) = ops::binary_type(op, ty, ty) {
+                let (x, y) = inputs(ty).unwrap();
+                let class = if transcendental_bin(op) {
+                    Class::Transcendental
+                } else {
+                    Class::Exact
+                };
+                // Both operand orders, and each operand against itself.
+                for (u, v) in [(x, y), (y, x), (x, x)] {
+                    let body = format!("  %x = {} {u}, {v} : {}", op.name(), rt.name());
+                    rows.push((
+                        format!("{} {} ({u}, {v})", op.name(), ty.name()),
+                        program(&body),
+                        class,
+                    ));
+                }
+            }
+        }
+    }
+    // Matrix products: a constant matrix and a parameter matrix (uniform).
+    let mat =
+        "(2.0, -1.0, 0.5, 3.0, 0.0, 1e-30, -0.0, 1e30, 1.5, 2.5, -3.5, 0.25, 0.0, 0.0, 0.0, 1.0)";
+    for op in ["mulpoint", "mulvector"] {
+        let body = format!("  %mm = const {mat} : matrix44\n  %x = {op} %mm, %p : vec3");
+        rows.push((format!("{op} const"), program(&body), Class::Exact));
+        let text = format!(
+            "program \"row\" {{\n  param \"m\" matrix44 = {mat}\n{INPUTS}\n  %mm = param 0 : matrix44\n  %x = {op} %mm, %p : vec3\n  output r %x\n}}\n"
+        );
+        rows.push((format!("{op} param"), parse(&text).unwrap(), Class::Exact));
+    }
+    for ty in TYPES {
+        let (x, y) = inputs(ty).unwrap();
+        for c in ["%q", "%r"] {
+            let body = format!("  %x = select {c}, {x}, {y} : {}", ty.name());
+            rows.push((
+                format!("select {} {c}", ty.name()),
+                program(&body),
+                Class::Exact,
+            ));
+        }
+        for to in [Type::Bool, Type::Int, Type::Float] {
+            if ops::convert_ok(ty, to) {
+                let body = format!("  %x = convert {x} : {}", to.name());
+                rows.push((
+                    format!("convert {} → {}", ty.name(), to.name()),
+                    program(&body),
+                    Class::Exact,
+                ));
+            }
+        }
+        if ty.is_vector() {
+            for i in 0..ty.width() {
+                let body = format!("  %x = extract {x}, {i} : float");
+                rows.push((
+                    format!("extract {} {i}", ty.name()),
+                    program(&body),
+                    Class::Exact,
+                ));
+            }
+            let body = format!("  %x = splat %b : {}", ty.name());
+            rows.push((format!("splat {}", ty.name()), program(&body), Class::Exact));
+        }
+    }
+    for &i in Intrinsic::ALL {
+        let args = match i {
+            Intrinsic::Noise2 => "%uv",
+            Intrinsic::Noise3 | Intrinsic::CellNoise3 => "%p",
+            Intrinsic::Fbm3 => "%n, %k, %a, %b",
+            Intrinsic::RgbToHsv | Intrinsic::HsvToRgb => "%pc",
+        };
+        let rt = match i {
+            Intrinsic::RgbToHsv | Intrinsic::HsvToRgb => Type::Color,
+            _ => Type::Float,
+        };
+        let body = format!("  %x = call {} {args} : {}", i.name(), rt.name());
+        rows.push((i.name().to_string(), program(&body), Class::Transcendental));
+    }
+    for kind in XformKind::ALL {
+        for from in Space::ALL {
+            for to in Space::ALL {
+                let body = format!(
+                    "  %x = transform {} {} -> {} %n : vec3",
+                    kind.name(),
+                    from.name(),
+                    to.name()
+                );
+                rows.push((
+                    format!("transform {} {} → {}", kind.name(), from.name(), to.name()),
+                    program(&body),
+                    Class::Exact,
+                ));
+            }
+        }
+    }
+    rows
+}
+
+#[test]
+fn every_op_on_every_type() {
+    let frags = hard_fragments();
+    let env = env();
+    let rows = op_table();
+    assert!(rows.len() > 150, "{} rows", rows.len());
+    for (name, p, class) in &rows {
+        check_program(name, p, &env, u32::MAX, &frags, *class);
+    }
+}
+
+/// Regions and scene intrinsics: conditionals whose lanes diverge (and agree), nested, inside
+/// the light loop and around it; light samples, ambient light, component masks, parameters
+/// (class compilation), the prelude, textures.
+#[test]
+fn regions_and_scene_intrinsics() {
+    let frags = hard_fragments();
+    let env = env();
+    let rows: &[(&str, &str)] = &[
+        (
+            "if diverging",
+            "  %x0 = if %q {\n    %t = mul %a, %b : float\n    yield %t\n  } else {\n    %e = sqrt %b : float\n    yield %e\n  }\n  %x = proj %x0, 0 : float",
+        ),
+        (
+            "if uniform",
+            "  %u = const true : bool\n  %x0 = if %u {\n    %t = div %a, %b : float\n    yield %t, %q\n  } else {\n    %e = floor %b : float\n    yield %e, %r\n  }\n  %x1 = proj %x0, 0 : float\n  %x2 = proj %x0, 1 : bool\n  %x3 = convert %x2 : float\n  %x = add %x1, %x3 : float",
+        ),
+        (
+            "if nested",
+            "  %x0 = if %q {\n    %i0 = if %r {\n      %t = sin %a : float\n      %tv = splat %t : vec3\n      yield %tv, %k\n    } else {\n      %t2 = add %p, %n : vec3\n      yield %t2, %m\n    }\n    %y0 = proj %i0, 0 : vec3\n    %y1 = proj %i0, 1 : int\n    yield %y0, %y1\n  } else {\n    %e = normalize %n : vec3\n    %ei = div %k, %m : int\n    yield %e, %ei\n  }\n  %x1 = proj %x0, 0 : vec3\n  %x2 = proj %x0, 1 : int\n  %x3 = convert %x2 : float\n  %x4 = splat %x3 : vec3\n  %x = add %x1, %x4 : vec3",
+        ),
+        (
+            "illuminance",
+            "  %l0 = illuminance %p {\n    %L = light.L : vec3\n    %C = light.Cl : color\n    %d = dot %n, %L : float\n    %z = const 0.0 : float\n    %mx = max %d, %z : float\n    %s = splat %mx : color\n    %y = mul %C, %s : color\n    yield %y, %d\n  }\n  %l1 = proj %l0, 0 : color\n  %l2 = proj %l0, 1 : float\n  %amb = ambient : color\n  %s2 = splat %l2 : color\n  %x3 = add %l1, %amb : color\n  %x = add %x3, %s2 : color",
+        ),
+        (
+            "if inside illuminance, illuminance inside if",
+            "  %x0 = if %r {\n    %l0 = illuminance %n {\n      %L = light.L : vec3\n      %C = light.Cl : color\n      %d = dot %p, %L : float\n      %z = const 0.0 : float\n      %g = gt %d, %z : bool\n      %i0 = if %g {\n        %w = pow %d, %b : float\n        %ws = splat %w : color\n        %y = mul %C, %ws : color\n        yield %y\n      } else {\n        %y2 = const (0.0, -0.0, 1.0) : color\n        yield %y2\n      }\n      %yy = proj %i0, 0 : color\n      yield %yy\n    }\n    %l1 = proj %l0, 0 : color\n    yield %l1\n  } else {\n    yield %nc\n  }\n  %x = proj %x0, 0 : color",
+        ),
+    ];
+    for (name, body) in rows {
+        let p = program(body);
+        check_program(name, &p, &env, u32::MAX, &frags, Class::Transcendental);
+    }
+    // Without lights, the loop runs zero times; with only an ambient light, it skips it.
+    let p = program(rows[3].1);
+    for lights in [Vec::new(), vec![env.lights[1].desc.clone()]] {
+        let e = ShadeEnv {
+            lights: lights
+                .iter()
+                .map(shadenet_runtime::Light::from_desc)
+                .collect(),
+            ..env.clone()
+        };
+        check_program(
+            "illuminance, no direct light",
+            &p,
+            &e,
+            u32::MAX,
+            &frags,
+            Class::Exact,
+        );
+    }
+    // Component masks, parameters (class compilation) and the prelude.
+    let text = r#"program "uniforms" {
+  components diffuse specular
+  param "k" float = 2.5
+  param "c" color = (0.25, -0.0, 1e-40)
+  param "on" bool = true
+  param "n" int = -3
+  prelude {
+    %k = param 0 : float
+    %c3 = const 3.0 : float
+    %kk = mul %k, %c3 : float
+    %ks = splat %kk : color
+    %cc = param 1 : color
+    %pre = add %ks, %cc : color
+    %on = param 2 : bool
+    %ni = param 3 : int
+  }
+  %p = stream P : vec3
+  %a = extract %p, 0 : float
+  %ac = splat %a : color
+  %d = component_enabled diffuse : bool
+  %s = component_enabled specular : bool
+  %x0 = select %d, %pre, %ac : color
+  %x1 = select %s, %ac, %x0 : color
+  %x2 = select %on, %x1, %x0 : color
+  %nf = convert %ni : float
+  %x3 = mul %nf, %a : float
+  output out[diffuse] %x1
+  output out[specular] %x2
+  output extra %x3
+  output flag %on
+  output count %ni
+}
+"#;
+    let p = parse(text).unwrap();
+    for mask in [u32::MAX, 0, 1, 2] {
+        check_program("uniforms", &p, &env, mask, &frags, Class::Exact);
+    }
+}
+
+#[test]
+fn textures() {
+    let dir = std::env::temp_dir().join(format!("shadenet-backends-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("t.png");
+    let px: Vec<u8> = vec![
+        255, 0, 0, 255, 0, 255, 0, 255, 30, 60, 90, 128, //
+        0, 0, 255, 255, 255, 255, 255, 0, 10, 20, 30, 40,
+    ];
+    image::save_buffer(&path, &px, 3, 2, image::ExtendedColorType::Rgba8).unwrap();
+    let text = format!(
+        "program \"tex\" {{\n  texture {:?}\n  %uv = stream uv : vec2\n  %t = texture #0 %uv : color\n  %a = texture.alpha #0 %uv : float\n  output c %t\n  output a %a\n}}\n",
+        path.to_string_lossy()
+    );
+    let p = parse(&text).unwrap_or_else(|e| panic!("{e}\n{text}"));
+    check_program(
+        "texture",
+        &p,
+        &env(),
+        u32::MAX,
+        &hard_fragments(),
+        Class::Transcendental,
+    );
+}
+
+fn examples() -> Vec<std::path::PathBuf> {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/networks");
+    let mut v: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "json"))
+        .collect();
+    v.sort();
+    v
+}
+
+/// Every example network, optimized (default, and with CSE off), unoptimized and with one
+/// component active, over a grid whose size is not a multiple of 4.
+#[test]
+fn every_example_network() {
+    let (w, h) = (23, 17);
+    let frags: Vec<Fragment> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| shadenet::shade::grid_fragment(x, y, w, h)))
+        .collect();
+    for path in examples() {
+        let c = shadenet::load_network(&path).unwrap();
+        let mut lights = c.lights.clone();
+        if lights.is_empty() {
+            lights.push(LightDesc {
+                name: "key".into(),
+                kind: LightKind::Point {
+                    position: [1.0, 1.0, 2.0],
+                },
+                power: [20.0; 3],
+            });
+        }
+        let env = shadenet::shade::grid_env(&lights);
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        let no_cse = Specialization {
+            passes: Passes {
+                cse: false,
+                ..Passes::default()
+            },
+            ..Specialization::default()
+        };
+        let class_compile = Specialization {
+            bake: false,
+            ..Specialization::default()
+        };
+        let first = Specialization {
+            components: 1,
+            ..Specialization::default()
+        };
+        for (label, spec) in [
+            ("default", Specialization::default()),
+            ("no cse", no_cse),
+            ("class", class_compile),
+            ("first component", first),
+        ] {
+            let (p, _) = opt::run(&c.program, &spec);
+            let what = format!("{name} ({label})");
+            check_program(
+                &what,
+                &p,
+                &env,
+                spec.components,
+                &frags,
+                Class::Transcendental,
+            );
+        }
+        check_program(
+            &format!("{name} (unoptimized)"),
+            &c.program,
+            &env,
+            u32::MAX,
+            &frags,
+            Class::Transcendental,
+        );
+    }
+}
+
+// ---- random programs ----
+
+/// A small deterministic generator (xorshift).
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n as u64) as usize
+    }
+    fn pick<'a, T>(&mut self, xs: &'a [T]) -> &'a T {
+        &xs[self.below(xs.len())]
+    }
+}
+
+/// Builds a random valid program as IR text: float, vec3 and bool values from the streams
+/// and constants, arithmetic, transcendentals, selects, conditionals (possibly nested) and
+/// light loops. The property generator of the partial-evaluation branch produces networks;
+/// its programs go through [`check_program`] the same way.
+struct Gen {
+    rng: Rng,
+    next: usize,
+    text: String,
+}
+
+impl Gen {
+    fn label(&mut self) -> String {
+        self.next += 1;
+        format!("%g{}", self.next)
+    }
+
+    fn line(&mut self, indent: usize, s: String) {
+        self.text.push_str(&" ".repeat(indent * 2 + 2));
+        self.text.push_str(&s);
+        self.text.push('\n');
+    }
+
+    /// Emits `n` values into the current block; `pools` are (floats, vec3s, bools) visible.
+    fn block(
+        &mut self,
+        indent: usize,
+        n: usize,
+        pools: &mut (Vec<String>, Vec<String>, Vec<String>),
+        depth: usize,
+        in_light: bool,
+    ) {
+        for _ in 0..n {
+            let choice = self.rng.below(if depth < 2 { 14 } else { 12 });
+            let x = self.label();
+            match choice {
+                0 => {
+                    let c = *self.rng.pick(HARD);
+                    self.line(indent, format!("{x} = const {} : float", lit(c)));
+                    pools.0.push(x);
+                }
+                1..=3 => {
+                    let op = *self.rng.pick(&[
+                        "add", "sub", "mul", "div", "min", "max", "mod", "pow", "atan2",
+                    ]);
+                    let a = self.rng.pick(&pools.0).clone();
+                    let b = self.rng.pick(&pools.0).clone();
+                    self.line(indent, format!("{x} = {op} {a}, {b} : float"));
+                    pools.0.push(x);
+                }
+                4 => {
+                    let op = *self.rng.pick(&[
+                        "neg", "abs", "floor", "fract", "sqrt", "sin", "exp", "log", "acos", "ceil",
+                    ]);
+                    let a = self.rng.pick(&pools.0).clone();
+                    self.line(indent, format!("{x} = {op} {a} : float"));
+                    pools.0.push(x);
+                }
+                5 => {
+                    let op = *self.rng.pick(&["add", "sub", "mul", "div", "cross", "min"]);
+                    let a = self.rng.pick(&pools.1).clone();
+                    let b = self.rng.pick(&pools.1).clone();
+                    self.line(indent, format!("{x} = {op} {a}, {b} : vec3"));
+                    pools.1.push(x);
+                }
+                6 => {
+                    let op = *self.rng.pick(&["dot", "distance"]);
+                    let a = self.rng.pick(&pools.1).clone();
+                    let b = self.rng.pick(&pools.1).clone();
+                    self.line(indent, format!("{x} = {op} {a}, {b} : float"));
+                    pools.0.push(x);
+                }
+                7 => {
+                    let op = *self.rng.pick(&["normalize", "floor", "neg"]);
+                    let a = self.rng.pick(&pools.1).clone();
+                    self.line(indent, format!("{x} = {op} {a} : vec3"));
+                    pools.1.push(x);
+                }
+                8 => {
+                    let a = self.rng.pick(&pools.0).clone();
+                    let b = self.rng.pick(&pools.0).clone();
+                    let c = self.rng.pick(&pools.0).clone();
+                    self.line(indent, format!("{x} = construct {a}, {b}, {c} : vec3"));
+                    pools.1.push(x);
+                }
+                9 => {
+                    let op = *self.rng.pick(&["lt", "le", "gt", "ge", "eq", "ne"]);
+                    let a = self.rng.pick(&pools.0).clone();
+                    let b = self.rng.pick(&pools.0).clone();
+                    self.line(indent, format!("{x} = {op} {a}, {b} : bool"));
+                    pools.2.push(x);
+                }
+                10 => {
+                    let c = self.rng.pick(&pools.2).clone();
+                    let a = self.rng.pick(&pools.1).clone();
+                    let b = self.rng.pick(&pools.1).clone();
+                    self.line(indent, format!("{x} = select {c}, {a}, {b} : vec3"));
+                    pools.1.push(x);
+                }
+                11 => {
+                    let a = self.rng.pick(&pools.1).clone();
+                    let i = self.rng.below(3);
+                    self.line(indent, format!("{x} = extract {a}, {i} : float"));
+                    pools.0.push(x);
+                }
+                12 => {
+                    // A conditional yielding a float and a vec3.
+                    let c = self.rng.pick(&pools.2).clone();
+                    self.line(indent, format!("{x} = if {c} {{"));
+                    for arm in 0..2 {
+                        let mut inner = pools.clone();
+                        let len = 1 + self.rng.below(5);
+                        self.block(indent + 1, len, &mut inner, depth + 1, in_light);
+                        let f = self.rng.pick(&inner.0).clone();
+                        let v = self.rng.pick(&inner.1).clone();
+                        self.line(indent + 1, format!("yield {f}, {v}"));
+                        if arm == 0 {
+                            self.line(indent, "} else {".into());
+                        }
+                    }
+                    self.line(indent, "}".into());
+                    let f = self.label();
+                    let v = self.label();
+                    self.line(indent, format!("{f} = proj {x}, 0 : float"));
+                    self.line(indent, format!("{v} = proj {x}, 1 : vec3"));
+                    pools.0.push(f);
+                    pools.1.push(v);
+                }
+                _ => {
+                    // A light loop (not nested in another).
+                    if in_light {
+                        self.line(indent, format!("{x} = const 0.5 : float"));
+                        pools.0.push(x);
+                        continue;
+                    }
+                    let pt = self.rng.pick(&pools.1).clone();
+                    self.line(indent, format!("{x} = illuminance {pt} {{"));
+                    let mut inner = pools.clone();
+                    let (l, cl) = (self.label(), self.label());
+                    self.line(indent + 1, format!("{l} = light.L : vec3"));
+                    self.line(indent + 1, format!("{cl} = light.Cl : color"));
+                    let clv = self.label();
+                    self.line(indent + 1, format!("{clv} = extract {cl}, 0 : float"));
+                    inner.1.push(l);
+                    inner.0.push(clv);
+                    let len = 1 + self.rng.below(4);
+                    self.block(indent + 1, len, &mut inner, depth + 1, true);
+                    let f = self.rng.pick(&inner.0).clone();
+                    let v = self.rng.pick(&inner.1).clone();
+                    self.line(indent + 1, format!("yield {f}, {v}"));
+                    self.line(indent, "}".into());
+                    let (f2, v2) = (self.label(), self.label());
+                    self.line(indent, format!("{f2} = proj {x}, 0 : float"));
+                    self.line(indent, format!("{v2} = proj {x}, 1 : vec3"));
+                    pools.0.push(f2);
+                    pools.1.push(v2);
+                }
+            }
+        }
+    }
+}
+
+/// A float literal of the IR text.
+fn lit(x: f32) -> String {
+    if x.is_nan() {
+        "nan".into()
+    } else if x.is_infinite() {
+        if x > 0.0 { "inf".into() } else { "-inf".into() }
+    } else {
+        format!("{:?}", x as f64)
+    }
+}
+
+/// A random program from `seed`.
+fn random_program(seed: u64) -> Program {
+    let mut g = Gen {
+        rng: Rng(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1),
+        next: 0,
+        text: String::new(),
+    };
+    let mut pools = (
+        vec!["%a".to_string(), "%b".into(), "%c".into()],
+        vec!["%p".to_string(), "%n".into()],
+        vec!["%q".to_string(), "%r".into()],
+    );
+    let len = 8 + g.rng.below(24);
+    g.block(0, len, &mut pools, 0, false);
+    let f = g.rng.pick(&pools.0).clone();
+    let v = g.rng.pick(&pools.1).clone();
+    let text = format!(
+        "program \"random{seed}\" {{\n{INPUTS}\n{}  output f {f}\n  output v {v}\n}}\n",
+        g.text
+    );
+    parse(&text).unwrap_or_else(|e| panic!("seed {seed}: {e}\n{text}"))
+}
+
+#[test]
+fn random_programs() {
+    let frags: Vec<Fragment> = hard_fragments().into_iter().step_by(7).collect();
+    let env = env();
+    for seed in 1..=60 {
+        let p = random_program(seed);
+        check_program(
+            &format!("random program {seed}"),
+            &p,
+            &env,
+            u32::MAX,
+            &frags,
+            Class::Transcendental,
+        );
+    }
+}
+
+// ---- the back-end contract ----
+
+/// A matrix computed per fragment is valid IR the JIT does not compile: it falls back to the
+/// interpreter for that material, says which op and why, and gives the interpreter's
+/// results; with fallback off it is an error, never a panic.
+#[test]
+fn unsupported_op_falls_back_to_the_interpreter() {
+    let text = "program \"mat\" {\n  %p = stream P : vec3\n  %a = extract %p, 0 : float\n  %z = const 0.0 : float\n  %q = lt %a, %z : bool\n  %m1 = const (1.0, 0.0, 0.0, 0.5, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0) : matrix44\n  %m2 = const (2.0, 0.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 1.0) : matrix44\n  %m = select %q, %m1, %m2 : matrix44\n  %x = mulpoint %m, %p : vec3\n  output r %x\n}\n";
+    let p = parse(text).unwrap();
+    shadenet_graph::ir::validate(&p).unwrap();
+    let quiet = JitBackend::with_options(JitOptions {
+        log_fallback: false,
+        ..JitOptions::default()
+    });
+    let m = quiet.compile_program(&p, Duration::ZERO).unwrap();
+    let why = m.info().fallback.clone().expect("a fallback");
+    assert_eq!(m.info().backend, "interp");
+    assert!(why.contains("select") && why.contains("matrix44"), "{why}");
+    let frags = hard_fragments();
+    let env = env();
+    let reference = InterpBackend.compile_program(&p, Duration::ZERO).unwrap();
+    let (a, _) = shade_all(&*m, Drive::Batch, &env, u32::MAX, &frags);
+    let (b, _) = shade_all(&*reference, Drive::Scalar, &env, u32::MAX, &frags);
+    assert_eq!(
+        a.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+        b.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+    );
+    let strict = jit(OptLevel::Auto);
+    let err = strict
+        .compile_program(&p, Duration::ZERO)
+        .err()
+        .expect("an error")
+        .to_string();
+    assert!(
+        err.contains("select") && err.contains("not supported"),
+        "{err}"
+    );
+}
+
+/// One compiled material shaded from every rayon thread at once gives the results of one
+/// thread.
+#[test]
+fn compiled_materials_are_shared_across_threads() {
+    use rayon::prelude::*;
+    let c = shadenet::load_network(&examples()[0]).unwrap();
+    let (p, _) = opt::run(&c.program, &Specialization::default());
+    let m: Arc<dyn Material> = jit(OptLevel::Auto)
+        .compile_program(&p, Duration::ZERO)
+        .unwrap();
+    let env = shadenet::shade::grid_env(&c.lights);
+    let frags: Vec<Fragment> = (0..64)
+        .flat_map(|y| (0..64).map(move |x| shadenet::shade::grid_fragment(x, y, 64, 64)))
+        .collect();
+    let (serial, _) = shade_all(&*m, Drive::Batch, &env, u32::MAX, &frags);
+    let w = m.width();
+    let mut parallel = vec![0.0f32; serial.len()];
+    parallel
+        .par_chunks_mut(w * 16)
+        .zip(frags.par_chunks(16))
+        .for_each(|(out, fs)| {
+            if fs[0].p[0] < 0.0 {
+                shade_batch(&*m, &env, u32::MAX, fs, out);
+            } else {
+                for (f, o) in fs.iter().zip(out.chunks_mut(w)) {
+                    m.shade(&ShadeCtx::new(*f, &env), o);
+                }
+            }
+        });
+    assert_eq!(serial, parallel);
+}
+
+#[test]
+fn the_cache_compiles_each_material_once() {
+    let c = shadenet::load_network(&examples()[0]).unwrap();
+    let cache = MaterialCache::new();
+    let backend = jit(OptLevel::Auto);
+    let spec = Specialization::default();
+    let a = cache.get_or_compile(&backend, &c.program, &spec).unwrap();
+    let b = cache.get_or_compile(&backend, &c.program, &spec).unwrap();
+    assert!(Arc::ptr_eq(&a, &b));
+    let other = Specialization {
+        components: 1,
+        ..spec.clone()
+    };
+    let d = cache.get_or_compile(&backend, &c.program, &other).unwrap();
+    assert!(!Arc::ptr_eq(&a, &d));
+    let e = cache
+        .get_or_compile(&InterpBackend, &c.program, &spec)
+        .unwrap();
+    assert!(!Arc::ptr_eq(&a, &e));
+    assert_eq!(cache.len(), 3);
+    let stats = a.info().stats;
+    assert!(stats.code_bytes > 0 && stats.ir_insts > 0, "{stats}");
+}

@@ -1,0 +1,120 @@
+//! `shadenet shade --backend` and `shadenet compile --emit clif / --stats` with the JIT.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn shadenet(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_shadenet"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run shadenet");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("shadenet-cli-jit-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+/// Every back end writes the same EXR, bit for bit (odd width: the batch entry pads).
+#[test]
+fn every_backend_writes_the_same_image() {
+    let mut files = Vec::new();
+    for backend in ["interp", "jit", "jit-batch"] {
+        let exr = tmp(&format!("marble-{backend}.exr"));
+        let (code, out, err) = shadenet(&[
+            "shade",
+            "examples/networks/marble.json",
+            "-o",
+            exr.to_str().unwrap(),
+            "--res",
+            "37x21",
+            "--backend",
+            backend,
+        ]);
+        assert_eq!(code, 0, "{out}\n{err}");
+        assert!(out.contains(&format!("f32, {backend})")), "{out}");
+        assert!(out.contains("compile:"), "{out}");
+        files.push(std::fs::read(&exr).unwrap());
+    }
+    assert!(files[0] == files[1] && files[1] == files[2]);
+}
+
+#[test]
+fn the_default_backend_is_the_jit_and_f64_is_the_interpreter() {
+    let png = tmp("default.png");
+    let (code, out, err) = shadenet(&[
+        "shade",
+        "examples/networks/cells.json",
+        "-o",
+        png.to_str().unwrap(),
+        "--res",
+        "16x16",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("f32, jit)"), "{out}");
+    let (code, out, err) = shadenet(&[
+        "shade",
+        "examples/networks/cells.json",
+        "-o",
+        png.to_str().unwrap(),
+        "--res",
+        "16x16",
+        "--precision",
+        "f64",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("f64, interp)"), "{out}");
+    let (code, _, err) = shadenet(&[
+        "shade",
+        "examples/networks/cells.json",
+        "-o",
+        png.to_str().unwrap(),
+        "--precision",
+        "f64",
+        "--backend",
+        "jit-batch",
+    ]);
+    assert_eq!(code, 1);
+    assert!(err.contains("f64") && err.contains("interpreter"), "{err}");
+}
+
+#[test]
+fn compile_emits_clif_and_jit_statistics() {
+    let (code, out, err) =
+        shadenet(&["compile", "examples/networks/marble.json", "--emit", "clif"]);
+    assert_eq!(code, 0, "{err}");
+    for want in [
+        "; scalar entry of material `marble`",
+        "; batch entry of material `marble`",
+        "sn_fbm3",
+        "f32x4",
+        "function u0:",
+    ] {
+        assert!(out.contains(want), "missing {want:?} in\n{out}");
+    }
+    let (code, out, err) = shadenet(&["compile", "examples/networks/marble.json", "--stats"]);
+    assert_eq!(code, 0, "{err}");
+    let line = out
+        .lines()
+        .find(|l| l.starts_with("jit: "))
+        .expect("a jit line");
+    for want in [
+        "lower",
+        "codegen",
+        "link",
+        "bytes of code",
+        "IR instructions",
+    ] {
+        assert!(line.contains(want), "{line}");
+    }
+    let (code, _, err) = shadenet(&["compile", "examples/networks/marble.json", "--emit", "asm"]);
+    assert_eq!(code, 1);
+    assert!(err.contains("clif"), "{err}");
+}
