@@ -225,7 +225,7 @@ struct ShadeArgs {
 enum RenderBackendArg {
     /// The interpreter.
     Interp,
-    /// The Cranelift JIT (not available yet).
+    /// The Cranelift JIT (scalar entry, one call per hit).
     Jit,
 }
 
@@ -241,7 +241,7 @@ struct RenderArgs {
     #[arg(long)]
     png: Option<PathBuf>,
     /// Back end that runs the materials.
-    #[arg(long, value_enum, default_value_t = RenderBackendArg::Interp)]
+    #[arg(long, value_enum, default_value_t = RenderBackendArg::Jit)]
     backend: RenderBackendArg,
     /// Samples per pixel (overrides the scene).
     #[arg(long)]

@@ -14,9 +14,10 @@ use shadenet_graph::network::Network;
 use shadenet_graph::{NodeLibrary, link, lower};
 use shadenet_tracer::passes::PassDef;
 use shadenet_tracer::scene::{self, MaterialRef, MaterialSource, Scene, SceneError};
-use shadenet_tracer::shader::{InterpBackend, ShaderBackend};
+use shadenet_tracer::shader::{InterpBackend, RuntimeBackend, ShaderBackend};
 use shadenet_tracer::{RenderError, Renderer};
 use std::path::{Component, Path, PathBuf};
+use std::sync::Arc;
 
 /// The embedded default scene's path (as it is named in messages).
 pub const DEFAULT_SCENE_PATH: &str = "examples/scenes/default.toml";
@@ -249,11 +250,9 @@ pub fn compile_material(
 pub fn backend(kind: BackendKind) -> Result<Box<dyn ShaderBackend>, SetupError> {
     match kind {
         BackendKind::Interp => Ok(Box::new(InterpBackend)),
-        BackendKind::Jit => Err(SetupError::Backend(
-            "the JIT back end is not available yet (it is being built on its own branch); \
-             use --backend interp"
-                .into(),
-        )),
+        BackendKind::Jit => Ok(Box::new(RuntimeBackend(Arc::new(
+            shadenet_jit::JitBackend::new(),
+        )))),
     }
 }
 
@@ -278,6 +277,15 @@ pub fn prepare(
 /// prepares the renderer with the interpreter: the whole setup in one call, for tests and
 /// embedding.
 pub fn setup(path: Option<&Path>, opts: &RenderOptions) -> Result<Renderer, SetupError> {
+    setup_with(path, opts, &InterpBackend)
+}
+
+/// [`setup`] with a chosen back end (see [`backend`]).
+pub fn setup_with(
+    path: Option<&Path>,
+    opts: &RenderOptions,
+    backend: &dyn ShaderBackend,
+) -> Result<Renderer, SetupError> {
     let (mut scene, files, dir) = match path {
         Some(p) => (
             scene::load(p)?,
@@ -291,5 +299,5 @@ pub fn setup(path: Option<&Path>, opts: &RenderOptions) -> Result<Renderer, Setu
         ),
     };
     apply_options(&mut scene, opts)?;
-    Ok(prepare(scene, files, &dir, &InterpBackend)?.0)
+    Ok(prepare(scene, files, &dir, backend)?.0)
 }

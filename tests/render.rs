@@ -248,14 +248,33 @@ fn default_render_writes_exr_layers_and_png() {
     assert_eq!(img.dimensions(), (32, 18));
 }
 
+/// The JIT and the interpreter render the same image, bit for bit, on a scene with every
+/// kind of shading service (mirror, glass, area-light shadows).
 #[test]
-fn jit_backend_is_not_available_yet() {
-    let (code, _, err) = shadenet(&["render", "--backend", "jit", "-q"]);
-    assert_eq!(code, 1);
-    assert!(
-        err.contains("JIT") && err.contains("not available yet"),
-        "{err}"
-    );
+fn jit_and_interpreter_renders_are_identical() {
+    let opts = RenderOptions {
+        spp: Some(1),
+        res: Some((24, 24)),
+        passes: None,
+    };
+    let path = example("cornell_glass.toml");
+    let run = |kind| {
+        let b = shadenet::render::backend(kind).unwrap();
+        let r = shadenet::render::setup_with(Some(&path), &opts, b.as_ref()).unwrap();
+        r.render(&|_, _| {}).0
+    };
+    let a = run(shadenet::render::BackendKind::Interp);
+    let j = run(shadenet::render::BackendKind::Jit);
+    assert_eq!(a.layers.len(), j.layers.len());
+    for (la, lj) in a.layers.iter().zip(&j.layers) {
+        let differing = la
+            .data
+            .iter()
+            .zip(&lj.data)
+            .filter(|(x, y)| x.to_bits() != y.to_bits())
+            .count();
+        assert_eq!(differing, 0, "layer {}: {differing} values differ", la.name);
+    }
 }
 
 /// Bad scenes fail with a message naming the key or the path, exit 1, and leave an existing

@@ -2,14 +2,14 @@
 //!
 //! The tracer specializes programs itself (one per distinct component mask the ray-match
 //! rules produce) and hands each specialized program to a [`ShaderBackend`], getting back a
-//! [`Shader`] it calls per hit from every rayon thread. Today the only back end is the
-//! interpreter ([`InterpBackend`]); the runtime's `Backend`/`Material` traits (being built
-//! with the JIT) will replace these two traits, and this file is the one place that changes.
+//! [`Shader`] it calls per hit from every rayon thread (and recursively, from inside a
+//! shader's `trace`). [`RuntimeBackend`] adapts any `shadenet_runtime::Backend` (the
+//! interpreter, the JIT) to it; [`InterpBackend`] is the interpreter, the reference.
 
 use shadenet_graph::ir::Program;
-use shadenet_runtime::{Interpreter, Scratch, ShadeCtx, ShadeOut};
-use std::cell::RefCell;
+use shadenet_runtime::{Backend, Material, ShadeCtx, ShadeOut};
 use std::sync::Arc;
+use std::time::Duration;
 
 /// A compiled material: shades one fragment, writing every output (each component part
 /// separately) into `out`, laid out as the interpreter lays out the program's outputs.
@@ -27,25 +27,37 @@ pub trait ShaderBackend: Send + Sync {
     fn compile(&self, program: &Program) -> Result<Arc<dyn Shader>, String>;
 }
 
+/// Any runtime back end as a shader back end. The runtime's materials are re-entrant (the
+/// interpreter takes fresh registers when re-entered, compiled code keeps its state on the
+/// stack), so recursive shading needs nothing more here.
+pub struct RuntimeBackend(pub Arc<dyn Backend>);
+
+struct MaterialShader(Arc<dyn Material>);
+
+impl Shader for MaterialShader {
+    fn shade(&self, ctx: &ShadeCtx, out: &mut ShadeOut<f32>) {
+        out.values.resize(self.0.width(), 0.0);
+        out.nonfinite = self.0.shade(ctx, &mut out.values);
+    }
+}
+
+impl ShaderBackend for RuntimeBackend {
+    fn name(&self) -> &str {
+        self.0.name()
+    }
+
+    fn compile(&self, program: &Program) -> Result<Arc<dyn Shader>, String> {
+        let m = self
+            .0
+            .compile_program(program, Duration::ZERO)
+            .map_err(|e| e.to_string())?;
+        Ok(Arc::new(MaterialShader(m)))
+    }
+}
+
 /// The interpreter in f32, the reference back end.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct InterpBackend;
-
-struct InterpShader(Interpreter<f32>);
-
-thread_local! {
-    /// Free interpreter scratch buffers of this thread: a recursive shading call takes its
-    /// own, so nested calls never share one.
-    static SCRATCH: RefCell<Vec<Scratch<f32>>> = const { RefCell::new(Vec::new()) };
-}
-
-impl Shader for InterpShader {
-    fn shade(&self, ctx: &ShadeCtx, out: &mut ShadeOut<f32>) {
-        let mut scratch = SCRATCH.with(|s| s.borrow_mut().pop()).unwrap_or_default();
-        self.0.shade_with(ctx, &mut scratch, out);
-        SCRATCH.with(|s| s.borrow_mut().push(scratch));
-    }
-}
 
 impl ShaderBackend for InterpBackend {
     fn name(&self) -> &str {
@@ -53,7 +65,6 @@ impl ShaderBackend for InterpBackend {
     }
 
     fn compile(&self, program: &Program) -> Result<Arc<dyn Shader>, String> {
-        let interp = Interpreter::<f32>::new(program).map_err(|e| e.to_string())?;
-        Ok(Arc::new(InterpShader(interp)))
+        RuntimeBackend(Arc::new(shadenet_runtime::InterpBackend)).compile(program)
     }
 }
