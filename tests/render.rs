@@ -282,6 +282,9 @@ fn default_render_writes_exr_layers_and_png() {
         "diffuse.R",
         "specular.G",
         "indirect.B",
+        "reflection.R",
+        "refraction.G",
+        "shadow.B",
         "normal.X",
         "depth.Z",
         "occlusion.Y",
@@ -410,7 +413,7 @@ type = "quad"
 /// caught by the output guard, light in the reflection, refraction and shadow passes.
 #[test]
 fn scenes_with_mirrors_and_glass_render() {
-    for scene in ["cornell_glass.toml", "showcase.toml"] {
+    for scene in ["cornell_glass.toml", "showcase.toml", "default.toml"] {
         let opts = RenderOptions {
             spp: Some(1),
             res: Some((32, 24)),
