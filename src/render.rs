@@ -29,10 +29,6 @@ const EMBEDDED: &[(&str, &str)] = &[
         include_str!("../examples/scenes/default.toml"),
     ),
     (
-        "examples/scenes/materials/matte.json",
-        include_str!("../examples/scenes/materials/matte.json"),
-    ),
-    (
         "examples/scenes/materials/plastic.json",
         include_str!("../examples/scenes/materials/plastic.json"),
     ),
@@ -51,6 +47,18 @@ const EMBEDDED: &[(&str, &str)] = &[
     (
         "examples/networks/marble.json",
         include_str!("../examples/networks/marble.json"),
+    ),
+    (
+        "examples/scenes/materials/bumpy.json",
+        include_str!("../examples/scenes/materials/bumpy.json"),
+    ),
+    (
+        "examples/scenes/materials/mirror.json",
+        include_str!("../examples/scenes/materials/mirror.json"),
+    ),
+    (
+        "examples/scenes/materials/glass.json",
+        include_str!("../examples/scenes/materials/glass.json"),
     ),
 ];
 

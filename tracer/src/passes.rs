@@ -8,10 +8,9 @@
 //!   surface's `outShadow`): it fills its pass and stays out of the beauty.
 //! - An **override pass** replaces the surface shader at camera hits with a built-in
 //!   program: `normal` (world-space shading normal), `depth` (camera-space distance along
-//!   the view axis), `uv` (surface parameters) — each built with `graph::ir::Builder` and
-//!   run by the same back end as the materials — or `occlusion` (ambient occlusion of the
-//!   geometry, computed by the tracer's own occlusion service until the IR has an occlusion
-//!   op to build it from).
+//!   the view axis), `uv` (surface parameters) or `occlusion` (the IR's `occlusion` op
+//!   around the shading normal, asking the tracer's occlusion service) — each built with
+//!   `graph::ir::Builder` and run by the same back end as the materials.
 //! - **Ray-match rules** say what hits of a ray type at a depth compute: a list of
 //!   components (the material is specialized to exactly that mask) or an override shader.
 //!   The first matching rule wins; no match means every component. The default makes "the
@@ -81,9 +80,16 @@ impl OverrideKind {
         }
     }
 
-    /// The built-in program, or `None` for [`OverrideKind::Occlusion`] (computed by the
-    /// tracer). Its one output, `value`, has as many floats as [`OverrideKind::channels`].
-    pub fn program(self) -> Option<Program> {
+    /// The built-in program. Its one output, `value`, has as many floats as
+    /// [`OverrideKind::channels`]. [`OverrideKind::Occlusion`] is the `occlusion` op around
+    /// the shading normal `N` with `occlusion_samples` rays reaching `occlusion_distance`
+    /// (the scene's settings, as constants); the other kinds ignore them. Fails only if
+    /// the builder rejects an op (an internal error).
+    pub fn program(
+        self,
+        occlusion_samples: u32,
+        occlusion_distance: f32,
+    ) -> Result<Program, String> {
         let mut b = Builder::new(&format!("override:{}", self.name()));
         let v = match self {
             OverrideKind::Normal => b.stream(Stream::N),
@@ -93,11 +99,15 @@ impl OverrideKind {
                 b.unary(UnOp::Neg, z)
             }
             OverrideKind::Uv => b.stream(Stream::Uv),
-            OverrideKind::Occlusion => return None,
+            OverrideKind::Occlusion => {
+                let n = b.stream(Stream::N);
+                let samples = b.int(occlusion_samples.min(i32::MAX as u32) as i32);
+                let reach = b.float(f64::from(occlusion_distance));
+                b.occlusion(n, samples, reach)
+            }
         };
         b.output("value", None, v);
-        // The builder only fails on an ill-typed op, which these few ops are not.
-        b.finish().ok()
+        b.finish()
     }
 }
 

@@ -192,7 +192,7 @@ pub struct Renderer {
     envs: Vec<ShadeEnv>,
     /// `shaders[material][action]`.
     shaders: Vec<Vec<Specialized>>,
-    overrides: Vec<(OverrideKind, Option<Specialized>)>,
+    overrides: Vec<(OverrideKind, Specialized)>,
     /// `table[ray type][depth]` (depth clamped to the last entry).
     table: Vec<Vec<Action>>,
     /// Whether any shader reads ray differentials (then camera rays carry them).
@@ -374,23 +374,17 @@ impl Renderer {
         kinds.dedup();
         let mut overrides = Vec::new();
         for kind in kinds {
-            let sp = match kind.program() {
-                Some(p) => {
-                    let needs = opt::needs::analyze(&p);
-                    let sp = Specialized::new(
-                        &p,
-                        u32::MAX,
-                        &needs,
-                        backend,
-                        &components,
-                        &format!("override:{}", kind.name()),
-                    )?;
-                    differentials |= sp.differentials;
-                    stats.shaders += 1;
-                    Some(sp)
-                }
-                None => None,
-            };
+            let name = format!("override:{}", kind.name());
+            let p = kind
+                .program(s.occlusion_samples, s.occlusion_distance)
+                .map_err(|message| RenderError::Compile {
+                    material: name.clone(),
+                    message,
+                })?;
+            let needs = opt::needs::analyze(&p);
+            let sp = Specialized::new(&p, u32::MAX, &needs, backend, &components, &name)?;
+            differentials |= sp.differentials;
+            stats.shaders += 1;
             overrides.push((kind, sp));
         }
         stats.compile_time = t.elapsed();
@@ -690,7 +684,9 @@ impl Renderer {
         &row[(depth as usize).min(row.len() - 1)]
     }
 
-    /// The value of an override shader at a hit (up to 3 floats).
+    /// The value of an override shader at a hit: its channels (up to 3 floats), a
+    /// one-channel value (depth, occlusion) repeated in all three so that an override rule
+    /// shows it as grey in the beauty.
     fn override_value(
         &self,
         kind: OverrideKind,
@@ -699,31 +695,16 @@ impl Renderer {
         out: &mut ShadeOut<f32>,
         stats: &TileStats,
     ) -> [f32; 3] {
-        if kind == OverrideKind::Occlusion {
-            let services = self.services(ray, prep, stats);
-            let s = &self.scene.settings;
-            let n = prep.n_facing;
-            let a = services.occlusion(
-                prep.surface.p.to_array(),
-                n.to_array(),
-                s.occlusion_samples,
-                s.occlusion_distance,
-                ray.seed,
-            );
-            return [a; 3];
-        }
-        let Some(sp) = self
-            .overrides
-            .iter()
-            .find(|(k, _)| *k == kind)
-            .and_then(|(_, s)| s.as_ref())
-        else {
+        let Some((_, sp)) = self.overrides.iter().find(|(k, _)| *k == kind) else {
             return [0.0; 3];
         };
         self.shade(sp, ray, prep, out, stats);
         let mut v = [0.0f32; 3];
         for (d, s) in v.iter_mut().zip(&out.values) {
             *d = *s;
+        }
+        if kind.channels().len() == 1 {
+            v = [v[0]; 3];
         }
         v
     }
@@ -762,7 +743,7 @@ impl Renderer {
     fn override_needs_uv(&self, kind: OverrideKind) -> bool {
         self.overrides
             .iter()
-            .any(|(k, s)| *k == kind && s.as_ref().is_some_and(|s| s.uv_tangents))
+            .any(|(k, s)| *k == kind && s.uv_tangents)
     }
 
     /// The surface at a hit (uv and tangents only with `uv_tangents`), with facing normals
@@ -1438,6 +1419,17 @@ scale = 10
         let (_, film) = render_one(&text, lambert([0.5; 3]));
         let b = film.layer("beauty").unwrap();
         assert_eq!([b.at(12, 0), b.at(12, 1), b.at(12, 2)], [0.0, 0.0, 1.0]);
+        // A one-channel override (occlusion: 1 over the open plane; depth: 2) shows grey.
+        for (kind, v) in [("occlusion", 1.0), ("depth", 2.0)] {
+            let (_, film) = render_one(
+                &text.replace("\"normal\"", &format!("\"{kind}\"")),
+                lambert([0.5; 3]),
+            );
+            let b = film.layer("beauty").unwrap();
+            for c in 0..3 {
+                assert!((b.at(12, c) - v).abs() < 1e-5, "{kind}: {}", b.at(12, c));
+            }
+        }
     }
 
     #[test]
@@ -1502,6 +1494,91 @@ scale = 10
         );
         assert!((l("uv").at(12, 0) - 0.5).abs() < 1e-6 && (l("uv").at(12, 1) - 0.5).abs() < 1e-6);
         assert_eq!(l("occlusion").at(12, 0), 1.0, "nothing above the plane");
+    }
+
+    /// The occlusion override is a built program around the IR's `occlusion` op, compiled
+    /// and run by the back end like the other overrides; at every camera hit its value is,
+    /// bit for bit, what the tracer's occlusion service answers when asked directly with the
+    /// hit's point, facing normal and seed and the scene's settings (what the pass computed
+    /// before it was a program).
+    #[test]
+    fn the_occlusion_pass_is_a_program_asking_the_occlusion_service() {
+        use shadenet_graph::ir::Op;
+        let p = OverrideKind::Occlusion.program(32, 0.8).unwrap();
+        let ops: Vec<&Op> = p.exprs.iter().map(|e| &e.op).collect();
+        assert!(ops.iter().any(|o| matches!(o, Op::Occlusion { .. })), "{p}");
+        let text = r#"
+[camera]
+position = [0, 2.5, 3]
+look_at = [0, 0.2, 0]
+resolution = [12, 12]
+
+[render]
+passes = ["occlusion"]
+occlusion_samples = 32
+occlusion_distance = 0.8
+
+[materials.m]
+json = '{"nodes": [], "outputs": {}}'
+
+[meshes.q]
+type = "quad"
+
+[meshes.cube]
+type = "box"
+
+[[instances]]
+mesh = "q"
+material = "m"
+rotate = [-90, 0, 0]
+scale = 3
+
+[[instances]]
+mesh = "cube"
+material = "m"
+translate = [0, 0.4, 0]
+scale = 0.4
+"#;
+        let (r, film) = render_one(text, lambert([0.5; 3]));
+        assert_eq!(r.stats.shaders, 2, "the material and the occlusion program");
+        let occ = film.layer("occlusion").unwrap();
+        let stats = TileStats::default();
+        let (mut partial, mut hits) = (0, 0);
+        for y in 0..12u32 {
+            for x in 0..12u32 {
+                let i = (y * 12 + x) as usize;
+                let cam = r.camera.ray(x as f32 + 0.5, y as f32 + 0.5, false);
+                let state = RayState {
+                    o: cam.o,
+                    d: cam.d,
+                    ray: RayMatch::Camera,
+                    depth: 0,
+                    seed: hash3(x, y, 0),
+                    diffs: None,
+                };
+                let Found::Surface(hit) = r.intersect(cam.o, cam.d) else {
+                    assert_eq!(occ.at(i, 0), 0.0, "a miss has no occlusion");
+                    continue;
+                };
+                let prep = r.prepare(&state, &hit, false);
+                let want = r.services(&state, &prep, &stats).occlusion(
+                    prep.surface.p.to_array(),
+                    prep.n_facing.to_array(),
+                    32,
+                    0.8,
+                    state.seed,
+                );
+                assert_eq!(occ.at(i, 0).to_bits(), want.to_bits(), "pixel ({x}, {y})");
+                hits += 1;
+                if want > 0.0 && want < 1.0 {
+                    partial += 1;
+                }
+            }
+        }
+        assert!(
+            hits >= 100 && partial >= 10,
+            "{hits} hits, {partial} partly occluded"
+        );
     }
 
     /// A component the first output lacks comes from another output (as a surface's
