@@ -6,6 +6,7 @@
 //! batch entry (one call per packet of four) and the native reference (the same trees
 //! written out as Rust by `build.rs` and compiled by rustc with optimizations: the ceiling).
 //!
+//! The workloads are `shadenet::bench::workloads` (shared with `shadenet bench`, no copy).
 //! The fragments lie on the face z = 1 of the box [1, 2]³, which fills the frame:
 //! `P = (1 + u, 1 + v, 1)`. Products of numbers ≥ 1 never become denormal (they overflow to
 //! +inf, which the guard zeroes and counts), so the timings measure per-node work, not the
@@ -17,7 +18,11 @@
 //! criterion.
 
 use criterion::{Criterion, criterion_group};
-use shadenet::graph::opt::{Passes, Specialization};
+use shadenet::bench::workloads::{
+    self, packets, shade_packets, shade_scalar, tree_fragments, tree_program, tree_spec,
+};
+use shadenet::graph::ir::Space;
+use shadenet::graph::opt::Specialization;
 use shadenet::graph::{NodeLibrary, compile_json};
 use shadenet::runtime::{
     Backend, Fragment, FragmentX4, InterpBackend, LANES, Material, ShadeCtx, ShadeEnv,
@@ -27,38 +32,15 @@ use std::hint::black_box;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-#[cfg(target_arch = "x86_64")]
-mod native {
-    include!(concat!(env!("OUT_DIR"), "/larsson_native.rs"));
-}
-
-const W: u32 = 640;
-const H: u32 = 480;
+const W: u32 = shadenet::bench::workloads::B1_SIZE.0;
+const H: u32 = shadenet::bench::workloads::B1_SIZE.1;
 
 fn fragments() -> Vec<Fragment> {
-    let mut v = Vec::with_capacity((W * H) as usize);
-    for y in 0..H {
-        for x in 0..W {
-            let mut f = shadenet::shade::grid_fragment(x, y, W, H);
-            f.p = [1.0 + f.uv[0], 1.0 + f.uv[1], 1.0];
-            v.push(f);
-        }
-    }
-    v
-}
-
-fn packets(frags: &[Fragment]) -> Vec<FragmentX4> {
-    frags.chunks(LANES).map(FragmentX4::gather).collect()
+    tree_fragments(W, H)
 }
 
 fn spec() -> Specialization {
-    Specialization {
-        passes: Passes {
-            cse: false,
-            ..Passes::default()
-        },
-        ..Specialization::default()
-    }
+    tree_spec(false)
 }
 
 struct Level {
@@ -68,49 +50,19 @@ struct Level {
 }
 
 fn prepare(level: u32) -> Level {
-    let net = shadenet::trees::multiplication_tree(level, "world");
-    let c = compile_json(&net, &NodeLibrary::standard()).expect("tree links");
-    let interp = InterpBackend.compile(&c.program, &spec()).expect("interp");
-    let jit = JitBackend::new().compile(&c.program, &spec()).expect("jit");
+    let program = tree_program(level, Space::World);
+    let interp = InterpBackend.compile(&program, &spec()).expect("interp");
+    let jit = JitBackend::new().compile(&program, &spec()).expect("jit");
     assert!(jit.info().fallback.is_none());
     Level { level, interp, jit }
 }
 
-fn shade_scalar(m: &dyn Material, env: &ShadeEnv, frags: &[Fragment], out: &mut [f32]) -> u64 {
-    let mut bad = 0;
-    for f in frags {
-        let ctx = ShadeCtx {
-            frag: *f,
-            env,
-            mask: u32::MAX,
-            scene: None,
-        };
-        bad += m.shade(&ctx, out) as u64;
-    }
-    bad
-}
-
 fn shade_batch(m: &dyn Material, env: &ShadeEnv, packets: &[FragmentX4], out: &mut [f32]) -> u64 {
-    let mut bad = 0;
-    for p in packets {
-        bad += m.shade_x4(env, u32::MAX, p, LANES, out) as u64;
-    }
-    bad
+    shade_packets(m, env, packets, out)
 }
 
-#[cfg(target_arch = "x86_64")]
 fn shade_native(level: u32, packets: &[FragmentX4], out: &mut [f32]) -> u64 {
-    let f = native::TREES[level as usize - 1];
-    let mut bad = 0;
-    for p in packets {
-        bad += f(p, out, LANES) as u64;
-    }
-    bad
-}
-
-#[cfg(not(target_arch = "x86_64"))]
-fn shade_native(_: u32, _: &[FragmentX4], _: &mut [f32]) -> u64 {
-    0
+    workloads::shade_native(level, packets, out).unwrap_or(0)
 }
 
 /// The best of at least `reps` runs of `f` (at least one), in seconds; fast runs repeat
@@ -133,7 +85,9 @@ fn best(reps: usize, mut f: impl FnMut() -> u64) -> (f64, u64) {
 /// Preprocessing of one level: link (parse + link + lower), then optimize + JIT; the best
 /// of `reps` runs, with the JIT's phases of that run.
 fn preprocess(level: u32, reps: usize) -> (Duration, Duration, shadenet::runtime::CompileStats) {
-    let net = shadenet::trees::multiplication_tree(level, "world");
+    let net = shadenet::generate::mult_tree(level, Space::World)
+        .expect("levels")
+        .to_string();
     let lib = NodeLibrary::standard();
     let mut best: Option<(Duration, Duration, shadenet::runtime::CompileStats)> = None;
     for _ in 0..reps {
@@ -253,7 +207,9 @@ fn b1(c: &mut Criterion) {
     let mut g = c.benchmark_group("b4_preprocess");
     g.sample_size(20);
     let lib = NodeLibrary::standard();
-    let net = shadenet::trees::multiplication_tree(10, "world");
+    let net = shadenet::generate::mult_tree(10, Space::World)
+        .expect("levels")
+        .to_string();
     g.bench_function("level10", |b| {
         b.iter(|| {
             let c = compile_json(&net, &lib).expect("tree links");

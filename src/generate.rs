@@ -79,3 +79,20 @@ pub fn mult_tree(levels: u32, space: Space) -> Result<Value, GenError> {
         "outputs": outputs,
     }))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_tree_links_with_the_thesis_node_counts() {
+        for level in 1..=4 {
+            let net = mult_tree(level, Space::World).unwrap().to_string();
+            assert_eq!(net.matches("\"multiply\"").count(), (1 << level) - 1);
+            assert_eq!(net.matches("\"samplerInfo\"").count(), 1 << level);
+            let c = shadenet_graph::compile_json(&net, &shadenet_graph::NodeLibrary::standard())
+                .unwrap();
+            shadenet_graph::ir::validate(&c.program).unwrap();
+        }
+    }
+}

@@ -6,15 +6,15 @@
 //! op semantics), [`runtime`] (shading context, lights, interpreter, back-end traits),
 //! [`jit`] (the Cranelift back end) and [`tracer`] (scenes, BVH, passes, film); [`shade`]
 //! shades a network over a grid without a renderer, [`render`] links a scene's materials and
-//! hands them to the tracer, [`output`] writes PNG and EXR images and [`generate`] builds
-//! networks for benchmarks (the multiplication tree). It owns the `shadenet` CLI and must not
+//! hands them to the tracer, [`output`] writes PNG and EXR images, [`generate`] builds
+//! networks for benchmarks (the multiplication tree) and [`bench`] is `shadenet bench`. It owns the `shadenet` CLI and must not
 //! add shading semantics of its own.
 
+pub mod bench;
 pub mod generate;
 pub mod output;
 pub mod render;
 pub mod shade;
-pub mod trees;
 
 pub use shadenet_graph as graph;
 pub use shadenet_jit as jit;

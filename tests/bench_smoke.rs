@@ -1,0 +1,45 @@
+//! `shadenet bench --quick` at a tiny size: every suite runs, every row has its columns, the
+//! CSV parses with one field per column and the SVG is well-formed enough to render.
+
+use shadenet::bench::{self, BenchOptions, report};
+
+#[test]
+fn quick_bench_runs_every_suite_at_a_tiny_size() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let opts = BenchOptions {
+        quick: true,
+        size: Some((16, 12)),
+        levels: Some(vec![1, 4]),
+        scenes: root.join("examples/scenes"),
+        ..BenchOptions::default()
+    };
+    let results = bench::run(&opts, |_| {});
+    let names: Vec<_> = results.iter().map(|r| r.name).collect();
+    assert_eq!(names, ["B1", "B2", "B3", "B4", "B5"]);
+    for r in &results {
+        assert!(!r.rows.is_empty(), "{} has rows", r.name);
+        let csv = report::csv(&r.rows);
+        let mut lines = csv.lines();
+        let head = lines.next().unwrap();
+        assert_eq!(head.split("\",\"").count(), report::COLUMNS.len());
+        for l in lines {
+            assert_eq!(l.split("\",\"").count(), report::COLUMNS.len(), "{l}");
+        }
+        let svg = report::svg(r.name, &r.rows);
+        assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+    }
+    // The native reference is there, rustc-compiled, and agrees with the interpreter.
+    let b1 = &results[0].rows;
+    let native = b1
+        .iter()
+        .find(|r| r.backend == "native (rustc)" && r.case == "L4 world shade");
+    if cfg!(target_arch = "x86_64") {
+        let e = native.expect("a native row").error.unwrap();
+        assert_eq!(e.differing, 0);
+    }
+    let dir = std::env::temp_dir().join(format!("shadenet-bench-smoke-{}", std::process::id()));
+    let md = bench::write(&dir, &results, &opts, 0.0).unwrap();
+    assert!(md.contains("Larsson 2005"));
+    assert!(dir.join("b1.csv").exists() && dir.join("b5.svg").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
