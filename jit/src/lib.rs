@@ -15,9 +15,11 @@
 //!
 //! Both shading entries write every output in the interpreter's layout through the same
 //! guard (non-finite → 0, counted) and return the count. Intrinsics that need the scene
-//! (light samples, ambient light, space matrices, textures) and the transcendental, noise and
-//! colour functions are calls of `extern "C"` helpers that run the interpreter's own Rust
-//! code; arithmetic is inline and bit-identical to `shadenet_graph::ops` (see [`lower`]).
+//! (light samples, ambient light, space matrices, textures, traced rays, ambient occlusion,
+//! light visibility) and the transcendental, noise and colour functions are calls of
+//! `extern "C"` helpers that run the interpreter's own Rust code; arithmetic is inline and
+//! bit-identical to `shadenet_graph::ops` (see [`lower`]). Only the scalar entry sees the
+//! renderer's scene (`ShadeCtx::scene`); the batch entry shades as without one.
 //!
 //! An op this back end cannot compile (today: a matrix44 value computed per fragment, which
 //! the IR allows but no node produces) makes [`JitBackend`] fall back to the interpreter for
