@@ -39,9 +39,11 @@ pub struct CallCtx {
     pub mask: u32,
     /// [`light_samples`]: the illuminance loop's trip count.
     pub n_lights: u32,
-    /// The renderer's services ([`shadenet_runtime::ShadeCtx::scene`] of the scalar call),
-    /// or null (batch calls and the prelude: no scene); read only by the scene helpers
-    /// (`sn_trace`, `sn_occlusion`, `sn_visible`) through [`CallCtx::scene`].
+    /// The renderer's services: the [`shadenet_runtime::ShadeCtx::scene`] field of a
+    /// `Material::shade` call (whichever entry runs it: a material built without a scalar
+    /// entry shades one lane of the batch entry), or null (`shade_x4` calls and the prelude:
+    /// no scene); read only by the scene helpers (`sn_trace`, `sn_occlusion`, `sn_visible`)
+    /// through [`CallCtx::scene`].
     pub scene: *const SceneRef,
 }
 
