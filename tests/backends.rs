@@ -15,14 +15,15 @@
 //! for the latter, so both of its bounds are 0.
 
 use shadenet_graph::ir::{BinOp, Intrinsic, Program, Space, UnOp, XformKind, parse};
-use shadenet_graph::nodes::{LightDesc, LightKind};
+use shadenet_graph::lower::{Literal, lower_single};
+use shadenet_graph::nodes::{LightDesc, LightKind, NodeLibrary};
 use shadenet_graph::ops;
 use shadenet_graph::opt::{self, Passes, Specialization};
-use shadenet_graph::types::Type;
+use shadenet_graph::types::{ConstValue, Type};
 use shadenet_jit::{JitBackend, JitOptions, OptLevel};
 use shadenet_runtime::{
-    Backend, Fragment, InterpBackend, Material, MaterialCache, ShadeCtx, ShadeEnv, Transform,
-    shade_batch,
+    Backend, Fragment, InterpBackend, Material, MaterialCache, SceneServices, ShadeCtx, ShadeEnv,
+    Transform, shade_batch,
 };
 use std::sync::Arc;
 use std::time::Duration;
@@ -1029,4 +1030,291 @@ fn the_cache_compiles_each_material_once() {
     assert_eq!(cache.len(), 3);
     let stats = a.info().stats;
     assert!(stats.code_bytes > 0 && stats.ir_insts > 0, "{stats}");
+}
+
+// ---- scene services: trace, occlusion, light visibility ----
+
+/// A scene whose every answer is a hash of all its arguments' bits (so any argument the
+/// compiled code passes differently shows), with out-of-range and NaN occlusion answers;
+/// it counts its calls.
+#[derive(Default)]
+struct HashScene {
+    calls: std::sync::atomic::AtomicUsize,
+}
+
+impl HashScene {
+    fn hash(&self, xs: impl IntoIterator<Item = u32>) -> u64 {
+        self.calls
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let mut h = 0xcbf2_9ce4_8422_2325u64;
+        for x in xs {
+            h = (h ^ x as u64).wrapping_mul(0x0100_0000_01b3);
+        }
+        h ^ (h >> 29)
+    }
+
+    fn calls(&self) -> usize {
+        self.calls.load(std::sync::atomic::Ordering::Relaxed)
+    }
+}
+
+fn unit(h: u64, k: u32) -> f32 {
+    ((h >> (k * 16)) & 0xffff) as f32 / 65536.0
+}
+
+fn bits(v: [f32; 3]) -> [u32; 3] {
+    v.map(f32::to_bits)
+}
+
+impl SceneServices for HashScene {
+    fn trace(&self, origin: [f32; 3], dir: [f32; 3], ray_type: i32, depth: i32) -> [f32; 3] {
+        let h = self.hash(
+            bits(origin)
+                .into_iter()
+                .chain(bits(dir))
+                .chain([ray_type as u32, depth as u32]),
+        );
+        [2.0 * unit(h, 0), 2.0 * unit(h, 1), 2.0 * unit(h, 2)]
+    }
+    fn occluded(&self, from: [f32; 3], to: [f32; 3]) -> bool {
+        self.hash(bits(from).into_iter().chain(bits(to))) & 1 == 1
+    }
+    fn occlusion(&self, p: [f32; 3], n: [f32; 3], samples: u32, max: f32, seed: u32) -> f32 {
+        let h = self.hash(
+            bits(p)
+                .into_iter()
+                .chain(bits(n))
+                .chain([samples, max.to_bits(), seed]),
+        );
+        match h % 8 {
+            0 => f32::NAN,
+            1 => -0.5,
+            2 => 1.5,
+            _ => unit(h, 1),
+        }
+    }
+}
+
+/// Shades every fragment through the scalar entry with `scene`.
+fn shade_with_scene(
+    m: &dyn Material,
+    env: &ShadeEnv,
+    frags: &[Fragment],
+    scene: Option<&dyn SceneServices>,
+) -> (Vec<f32>, u64) {
+    let w = m.width();
+    let mut out = vec![f32::NAN; w * frags.len()];
+    let mut bad = 0;
+    for (f, o) in frags.iter().zip(out.chunks_mut(w)) {
+        let ctx = ShadeCtx {
+            frag: *f,
+            env,
+            mask: u32::MAX,
+            scene,
+        };
+        bad += m.shade(&ctx, o) as u64;
+    }
+    (out, bad)
+}
+
+/// Every back end against the interpreter with a scene: the scalar entry with the scene
+/// (bit for bit), the batch entry (no scene) against the interpreter without one. Returns
+/// whether the scene changed the interpreter's results.
+fn check_scene(what: &str, program: &Program, env: &ShadeEnv, frags: &[Fragment]) -> bool {
+    shadenet_graph::ir::validate(program).unwrap_or_else(|e| panic!("{what}: {e}\n{program}"));
+    let scene = HashScene::default();
+    let reference = InterpBackend
+        .compile_program(program, Duration::ZERO)
+        .unwrap();
+    let with = shade_with_scene(&*reference, env, frags, Some(&scene));
+    let without = shade_with_scene(&*reference, env, frags, None);
+    assert!(scene.calls() > 0, "{what}: the scene was never asked");
+    for ut in backends() {
+        let m = ut
+            .backend
+            .compile_program(program, Duration::ZERO)
+            .unwrap_or_else(|e| panic!("{what}: {}: {e}", ut.name));
+        let (got, want) = match ut.drive {
+            Drive::Scalar => (shade_with_scene(&*m, env, frags, Some(&scene)), &with),
+            Drive::Batch => {
+                let mut out = vec![f32::NAN; m.width() * frags.len()];
+                let bad = shade_batch(&*m, env, u32::MAX, frags, &mut out);
+                ((out, bad), &without)
+            }
+        };
+        let w = m.width();
+        for (i, (g, x)) in got.0.iter().zip(&want.0).enumerate() {
+            assert!(
+                g.to_bits() == x.to_bits(),
+                "{what}: {} differs from the interpreter at fragment {} output float {}: \
+                 got {g:?}, want {x:?}\nfragment: {:?}",
+                ut.name,
+                i / w,
+                i % w,
+                frags[i / w]
+            );
+        }
+        assert_eq!(got.1, want.1, "{what}: {}: non-finite count", ut.name);
+    }
+    with.0
+        .iter()
+        .zip(&without.0)
+        .any(|(a, b)| a.to_bits() != b.to_bits())
+}
+
+fn surface(name: &str, inputs: &[(&str, ConstValue)]) -> Program {
+    let inputs: Vec<(&str, Literal)> = inputs
+        .iter()
+        .map(|(k, v)| (*k, Literal::Const(v.clone())))
+        .collect();
+    lower_single(&NodeLibrary::standard(), name, Type::Float, &inputs).unwrap()
+}
+
+/// Fragments on the z = 0 plane seen from outside and from inside (where a dense medium
+/// reflects totally past its critical angle) at many angles, grazing ones included, plus
+/// the hard fragments.
+fn scene_fragments() -> Vec<Fragment> {
+    let mut v = Vec::new();
+    for k in 0..24 {
+        let a = k as f32 / 24.0 * std::f32::consts::FRAC_PI_2;
+        for inside in [false, true] {
+            let z = if inside { a.cos() } else { -a.cos() };
+            v.push(Fragment {
+                p: [0.1 * k as f32 - 1.0, 0.05 * k as f32, 0.0],
+                n: [0.0, 0.0, if inside { -1.0 } else { 1.0 }],
+                ng: [0.0, 0.0, 1.0],
+                i: [a.sin(), 0.0, z],
+                uv: [0.5, 0.5],
+                dpdu: [1.0, 0.0, 0.0],
+                dpdv: [0.0, 1.0, 0.0],
+                ray_type: shadenet_graph::ir::RAY_CAMERA,
+                ray_depth: k % 3,
+                seed: 1000 + k as u32,
+                ..Fragment::default()
+            });
+        }
+    }
+    v.extend(hard_fragments());
+    v
+}
+
+fn scene_env() -> ShadeEnv {
+    let mut env = env();
+    let more = [
+        LightDesc {
+            name: "quad".into(),
+            kind: LightKind::Quad {
+                corner: [-1.0, -1.0, 2.0],
+                edge_u: [0.0, 2.0, 0.0],
+                edge_v: [2.0, 0.0, 0.0],
+                samples: 5,
+            },
+            power: [1.5; 3],
+        },
+        LightDesc {
+            name: "sky".into(),
+            kind: LightKind::Environment { samples: 3 },
+            power: [0.2, 0.3, 0.5],
+        },
+    ];
+    env.lights
+        .extend(more.iter().map(shadenet_runtime::Light::from_desc));
+    env
+}
+
+/// Mirror, glass (with total internal reflection), shadowed lights and ambient occlusion
+/// networks, and IR exercising the ops directly: the JIT's scalar entry equals the
+/// interpreter with a scene, its batch entry the interpreter without one, bit for bit.
+#[test]
+fn scene_services_match_the_interpreter() {
+    let frags = scene_fragments();
+    let env = scene_env();
+    let color = |r, g, b| ConstValue::Color([r, g, b]);
+    let programs = [
+        (
+            "mirror",
+            surface("phong", &[("reflectivity", ConstValue::Float(1.0))]),
+        ),
+        (
+            "glass",
+            surface(
+                "phong",
+                &[
+                    ("reflectivity", ConstValue::Float(0.2)),
+                    ("refractions", ConstValue::Bool(true)),
+                    ("transparency", color(1.0, 1.0, 1.0)),
+                    ("refractiveIndex", ConstValue::Float(1.5)),
+                ],
+            ),
+        ),
+        (
+            "lambert",
+            surface("lambert", &[("color", color(0.9, 0.6, 0.3))]),
+        ),
+        ("blinn", surface("blinn", &[])),
+        (
+            "ambient occlusion",
+            surface(
+                "ambientOcclusion",
+                &[
+                    ("bright", color(1.0, 0.5, 0.0)),
+                    ("dark", color(0.0, 0.0, 1.0)),
+                    ("maxDistance", ConstValue::Float(2.0)),
+                ],
+            ),
+        ),
+        (
+            "ops",
+            parse(
+                r#"program "ops" {
+  %p = stream P : vec3
+  %n = stream N : vec3
+  %i = stream I : vec3
+  %k = stream raydepth : int
+  %x = extract %p, 0 : float
+  %t = trace reflection %i : color
+  %u = trace diffuse %n : color
+  %o = occlusion %n, %k, %x : float
+  %l = illuminance %p {
+    %v = light.visible : float
+    %c = light.Cl : color
+    %b = gt %v, %x : bool
+    %r = if %b {
+      %w0 = light.visible : float
+      %w = splat %w0 : color
+      %s = mul %c, %w : color
+      yield %s
+    } else {
+      yield %c
+    }
+    %s1 = proj %r, 0 : color
+    yield %v, %s1
+  }
+  %vis = proj %l, 0 : float
+  %cl = proj %l, 1 : color
+  %m = illuminance %n {
+    %c2 = light.Cl : color
+    yield %c2
+  }
+  %cl2 = proj %m, 0 : color
+  output t %t
+  output u %u
+  output o %o
+  output vis %vis
+  output cl %cl
+  output cl2 %cl2
+}
+"#,
+            )
+            .unwrap(),
+        ),
+    ];
+    for (name, p) in &programs {
+        assert!(
+            check_scene(&format!("{name} (unoptimized)"), p, &env, &frags),
+            "{name}: the scene changes nothing"
+        );
+        let (o, _) = opt::run(p, &Specialization::default());
+        check_scene(&format!("{name} (optimized)"), &o, &env, &frags);
+    }
 }

@@ -17,7 +17,8 @@
 //!   slots, four lanes per component, and loop over the lanes in Rust.
 
 use shadenet_graph::ops::{self, noise};
-use shadenet_runtime::ctx::{Fragment, ShadeEnv};
+use shadenet_runtime::ctx::{Fragment, SceneServices, ShadeEnv};
+use shadenet_runtime::interp;
 use shadenet_runtime::lights;
 use shadenet_runtime::texture::TextureSet;
 use shadenet_runtime::{FragmentX4, LANES};
@@ -38,6 +39,28 @@ pub struct CallCtx {
     pub mask: u32,
     /// [`light_samples`]: the illuminance loop's trip count.
     pub n_lights: u32,
+    /// The renderer's services: the [`shadenet_runtime::ShadeCtx::scene`] field of a
+    /// `Material::shade` call (whichever entry runs it: a material built without a scalar
+    /// entry shades one lane of the batch entry), or null (`shade_x4` calls and the prelude:
+    /// no scene); read only by the scene helpers (`sn_trace`, `sn_occlusion`, `sn_visible`)
+    /// through [`CallCtx::scene`].
+    pub scene: *const SceneRef,
+}
+
+/// The pointee of [`CallCtx::scene`]: the shading context's `scene` field (its real lifetime
+/// is the call's).
+pub type SceneRef = Option<&'static dyn SceneServices>;
+
+impl CallCtx {
+    /// The scene this call may ask, if any.
+    pub fn scene(&self) -> Option<&dyn SceneServices> {
+        if self.scene.is_null() {
+            return None;
+        }
+        // SAFETY: a non-null `scene` points at the `ShadeCtx::scene` of the running call,
+        // which outlives it.
+        unsafe { *self.scene }
+    }
 }
 
 /// Byte offset of a [`CallCtx`] field, for loads from compiled code.
@@ -168,7 +191,7 @@ fn texture(ctx: &CallCtx, imm: u32, a: &[f32], o: &mut [f32]) {
 /// Light sample number `imm` of the whole light list (lights in order, each contributing
 /// `lights::sample_count` samples), seen from `a[0..3]` with the fragment's seed in
 /// `a[3]`'s bits: `out[0..3]` = L, `out[3..6]` = Cl, `out[6]` = 1.0 if it gives a sample,
-/// else 0.0.
+/// else 0.0, `out[7..10]` = the sample's `to` point (for `sn_visible`).
 fn light(ctx: &CallCtx, imm: u32, a: &[f32], o: &mut [f32]) {
     // SAFETY: the caller's environment outlives the call.
     let env = unsafe { &*ctx.env };
@@ -187,9 +210,38 @@ fn light(ctx: &CallCtx, imm: u32, a: &[f32], o: &mut [f32]) {
             o[..3].copy_from_slice(&s.l);
             o[3..6].copy_from_slice(&s.cl);
             o[6] = 1.0;
+            o[7..10].copy_from_slice(&s.to);
         }
         None => o[6] = 0.0,
     }
+}
+
+/// `trace`: the direction in `a[0..3]`, the fragment's `P` in `a[3..6]`, its ray depth in
+/// `a[6]`'s bits, the ray type in `imm`; `out[0..3]` = the radiance
+/// (`runtime::interp::trace_radiance`: black without a scene).
+fn trace(ctx: &CallCtx, imm: u32, a: &[f32], o: &mut [f32]) {
+    let dir = [a[0], a[1], a[2]];
+    let p = [a[3], a[4], a[5]];
+    let depth = a[6].to_bits() as i32;
+    let c = interp::trace_radiance(ctx.scene(), p, dir, imm as i32, depth);
+    o.copy_from_slice(&c);
+}
+/// `occlusion`: `n` in `a[0..3]`, the sample count in `a[3]`'s bits, the maximum distance
+/// in `a[4]`, the fragment's `P` in `a[5..8]` and seed in `a[8]`'s bits; `out[0]` =
+/// `runtime::interp::occlusion_value` (1 without a scene).
+fn occlusion(ctx: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    let n = [a[0], a[1], a[2]];
+    let p = [a[5], a[6], a[7]];
+    let samples = a[3].to_bits() as i32;
+    let seed = a[8].to_bits();
+    o[0] = interp::occlusion_value(ctx.scene(), p, n, samples, a[4], seed);
+}
+/// `light.visible`: the light loop's point in `a[0..3]`, the sample's `to` in `a[3..6]`;
+/// `out[0]` = 1.0 if nothing blocks the segment (`runtime::interp::sample_visible`: always
+/// without a scene), else 0.0.
+fn visible(ctx: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    let open = interp::sample_visible(ctx.scene(), [a[0], a[1], a[2]], [a[3], a[4], a[5]]);
+    o[0] = if open { 1.0 } else { 0.0 };
 }
 
 /// The illuminance loop's trip count: every light's samples.
@@ -316,7 +368,10 @@ mem_helpers! {
     rgb_to_hsv: 3 -> 3,
     hsv_to_rgb: 3 -> 3,
     texture: 2 -> 4,
-    light: 4 -> 7,
+    light: 4 -> 10,
+    trace: 7 -> 3,
+    occlusion: 9 -> 1,
+    visible: 6 -> 1,
     ambient: 0 -> 3,
     matrices: 0 -> 64,
 }

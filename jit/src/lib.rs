@@ -15,9 +15,11 @@
 //!
 //! Both shading entries write every output in the interpreter's layout through the same
 //! guard (non-finite → 0, counted) and return the count. Intrinsics that need the scene
-//! (light samples, ambient light, space matrices, textures) and the transcendental, noise and
-//! colour functions are calls of `extern "C"` helpers that run the interpreter's own Rust
-//! code; arithmetic is inline and bit-identical to `shadenet_graph::ops` (see [`lower`]).
+//! (light samples, ambient light, space matrices, textures, traced rays, ambient occlusion,
+//! light visibility) and the transcendental, noise and colour functions are calls of
+//! `extern "C"` helpers that run the interpreter's own Rust code; arithmetic is inline and
+//! bit-identical to `shadenet_graph::ops` (see [`lower`]). Only the scalar entry sees the
+//! renderer's scene (`ShadeCtx::scene`); the batch entry shades as without one.
 //!
 //! An op this back end cannot compile (today: a matrix44 value computed per fragment, which
 //! the IR allows but no node produces) makes [`JitBackend`] fall back to the interpreter for
@@ -44,7 +46,7 @@ use shadenet_graph::types::ConstValue;
 use shadenet_runtime::backend::{CompileStats, FragmentX4, LANES, Material, MaterialInfo};
 use shadenet_runtime::interp::OutputSlot;
 use shadenet_runtime::texture::TextureSet;
-use shadenet_runtime::{Backend, BackendError, InterpMaterial, ShadeCtx, ShadeEnv};
+use shadenet_runtime::{Backend, BackendError, InterpMaterial, SceneServices, ShadeCtx, ShadeEnv};
 use std::fmt::Write as _;
 use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
@@ -282,13 +284,23 @@ pub struct JitMaterial {
 }
 
 impl JitMaterial {
-    fn call_ctx(&self, env: &ShadeEnv, mask: u32) -> CallCtx {
+    /// The call context; `scene` is the shading context's `scene` field (scalar calls) or
+    /// `None` (batch calls: no scene).
+    fn call_ctx(
+        &self,
+        env: &ShadeEnv,
+        mask: u32,
+        scene: Option<&Option<&dyn SceneServices>>,
+    ) -> CallCtx {
         CallCtx {
             env,
             textures: &*self.textures,
             uniforms: self.uniforms.as_ptr(),
             mask,
             n_lights: abi::light_samples(env),
+            scene: scene.map_or(std::ptr::null(), |s| {
+                (s as *const Option<&dyn SceneServices>).cast::<abi::SceneRef>()
+            }),
         }
     }
 }
@@ -304,7 +316,7 @@ impl Material for JitMaterial {
 
     fn shade(&self, ctx: &ShadeCtx, out: &mut [f32]) -> u32 {
         assert!(out.len() >= self.width, "output buffer too small");
-        let cc = self.call_ctx(ctx.env, ctx.mask);
+        let cc = self.call_ctx(ctx.env, ctx.mask, Some(&ctx.scene));
         match (self.scalar, self.batch) {
             // SAFETY: the function was compiled for this material's layout; `out` holds
             // `width` floats; the context's pointers live for the call.
@@ -332,7 +344,7 @@ impl Material for JitMaterial {
         out: &mut [f32],
     ) -> u32 {
         assert!(out.len() >= self.width * LANES, "output buffer too small");
-        let cc = self.call_ctx(env, mask);
+        let cc = self.call_ctx(env, mask, None);
         match (self.batch, self.scalar) {
             // SAFETY: the function was compiled for this material's layout; `out` holds
             // `width * 4` floats; the context's pointers live for the call.
@@ -498,6 +510,7 @@ fn compile(
             uniforms: up,
             mask: u32::MAX,
             n_lights: 0,
+            scene: std::ptr::null(),
         };
         // SAFETY: the prelude reads parameters and writes prelude slots of this block, both
         // inside it (the layout sized it); it reads neither fragment nor environment.

@@ -200,8 +200,10 @@ pub fn signature(module: &JITModule, mode: Mode) -> Signature {
     sig
 }
 
-const SCRATCH_ARGS: u32 = 128;
-const SCRATCH_BYTES: u32 = 256;
+/// The helper-call slot: up to 12 argument floats, then up to 12 result floats (16 bytes
+/// each in batch mode).
+const SCRATCH_ARGS: u32 = 12 * 16;
+const SCRATCH_BYTES: u32 = 2 * SCRATCH_ARGS;
 
 /// Builds one function.
 pub struct Lowerer<'a, 'b> {
@@ -223,8 +225,9 @@ pub struct Lowerer<'a, 'b> {
     scratch: Option<StackSlot>,
     mats: Option<StackSlot>,
     ambient: Option<StackSlot>,
-    /// Current light samples (innermost last): L and Cl components.
-    lights: Vec<(Vec<V>, Vec<V>)>,
+    /// Current light samples (innermost last): L and Cl components and visibility (1.0 or
+    /// 0.0).
+    lights: Vec<(Vec<V>, Vec<V>, V)>,
     /// Batch: lanes active in the current arm (`None`: all).
     active: Option<V>,
     /// Loads of immutable memory (fragment, uniforms, environment) already emitted, per
@@ -528,26 +531,38 @@ impl<'a, 'b> Lowerer<'a, 'b> {
                 let slot = self.layout.params[*i as usize];
                 Ok(self.load_uniform(slot, ty))
             }
-            Op::Stream(s) => {
-                let (field, n) = stream_field(*s);
-                let mut out = Vec::new();
-                for c in 0..n {
-                    let x = self.cached(LoadKey::Stream(*s, c), |me| {
-                        if me.batch() {
-                            let ty = me.clif_ty(k);
-                            me.b.ins()
-                                .load(ty, flags().with_aligned(), me.frag, field.1 + 16 * c)
-                        } else {
-                            let ty = if k == Kind::F { F32 } else { I32 };
-                            me.b.ins().load(ty, flags(), me.frag, field.0 + 4 * c)
-                        }
-                    });
-                    out.push(x);
-                }
-                Ok(out)
-            }
+            Op::Stream(s) => Ok(self.stream_of(*s, k)),
             _ => Err(self.unsupported(v, "not rematerializable")),
         }
+    }
+
+    /// The components of a float or int stream (P, ray depth …), loaded once per scope.
+    fn stream(&mut self, s: Stream) -> Vec<V> {
+        let k = if matches!(s, Stream::RayType | Stream::RayDepth) {
+            Kind::I
+        } else {
+            Kind::F
+        };
+        self.stream_of(s, k)
+    }
+
+    fn stream_of(&mut self, s: Stream, k: Kind) -> Vec<V> {
+        let (field, n) = stream_field(s);
+        let mut out = Vec::new();
+        for c in 0..n {
+            let x = self.cached(LoadKey::Stream(s, c), |me| {
+                if me.batch() {
+                    let ty = me.clif_ty(k);
+                    me.b.ins()
+                        .load(ty, flags().with_aligned(), me.frag, field.1 + 16 * c)
+                } else {
+                    let ty = if k == Kind::F { F32 } else { I32 };
+                    me.b.ins().load(ty, flags(), me.frag, field.0 + 4 * c)
+                }
+            });
+            out.push(x);
+        }
+        out
     }
 
     fn load_uniform(&mut self, slot: usize, ty: Type) -> Vec<V> {
@@ -680,12 +695,16 @@ impl<'a, 'b> Lowerer<'a, 'b> {
                 Ok(if *alpha { vec![t[3]] } else { t[..3].to_vec() })
             }
             Op::LightL | Op::LightCl => match self.lights.last() {
-                Some((l, cl)) => Ok(if matches!(p.op(v), Op::LightL) {
+                Some((l, cl, _)) => Ok(if matches!(p.op(v), Op::LightL) {
                     l.clone()
                 } else {
                     cl.clone()
                 }),
                 None => Ok(vec![self.fconst(0.0); 3]),
+            },
+            Op::LightVisible => match self.lights.last() {
+                Some((_, _, vis)) => Ok(vec![*vis]),
+                None => Ok(vec![self.fconst(1.0)]),
             },
             Op::Ambient => {
                 let ss = self
@@ -725,10 +744,26 @@ impl<'a, 'b> Lowerer<'a, 'b> {
                 self.regions.insert(v.index(), res);
                 Ok(Vec::new())
             }
-            Op::Trace { .. } | Op::Occlusion { .. } | Op::LightVisible => Err(self.unsupported(
-                v,
-                "scene services (trace, occlusion, light visibility) are not compiled yet",
-            )),
+            Op::Trace { dir, ray_type } => {
+                let mut args = self.get(*dir)?;
+                args.extend(self.stream(Stream::P));
+                args.extend(self.stream(Stream::RayDepth));
+                let imm = self.b.ins().iconst(I32, *ray_type as i64);
+                Ok(self.call_mem("sn_trace", imm, &args, 3))
+            }
+            Op::Occlusion {
+                n,
+                samples,
+                max_distance,
+            } => {
+                let mut args = self.get(*n)?;
+                args.push(self.get(*samples)?[0]);
+                args.push(self.get(*max_distance)?[0]);
+                args.extend(self.stream(Stream::P));
+                args.push(self.seed());
+                let imm = self.b.ins().iconst(I32, 0);
+                Ok(self.call_mem("sn_occlusion", imm, &args, 1))
+            }
         }
     }
 
@@ -897,16 +932,10 @@ impl<'a, 'b> Lowerer<'a, 'b> {
 
         self.b.switch_to_block(sample);
         // The fragment's sampler seed rides along as the bits of a fourth float.
-        let seed = if self.batch() {
-            let off = offset_of!(FragmentX4, seed) as i32;
-            self.b.ins().load(F32X4, flags(), self.frag, off)
-        } else {
-            let off = offset_of!(Fragment, seed) as i32;
-            self.b.ins().load(F32, flags(), self.frag, off)
-        };
+        let seed = self.seed();
         let mut args = pt.clone();
         args.push(seed);
-        let out = self.call_mem("sn_light", i, &args, 7);
+        let out = self.call_mem("sn_light", i, &args, 10);
         // Whether the light gives a sample is the same for every lane: read lane 0.
         let flag = if self.batch() {
             self.b.ins().extractlane(out[6], 0)
@@ -918,7 +947,23 @@ impl<'a, 'b> Lowerer<'a, 'b> {
         self.b.ins().brif(ok, body_blk, &[], next, &[]);
 
         self.b.switch_to_block(body_blk);
-        self.lights.push((out[0..3].to_vec(), out[3..6].to_vec()));
+        // Shadow test, as the interpreter: only for a body that reads `light.visible`. The
+        // scene's answers are pure, so asking again for the same sample (another light loop
+        // at the same point) gives the interpreter's memoized answer.
+        let mut reads_visible = false;
+        self.p.walk(body, &mut |x| {
+            reads_visible |= *self.p.op(x) == Op::LightVisible
+        });
+        let vis = if reads_visible {
+            let mut args = pt.clone();
+            args.extend_from_slice(&out[7..10]);
+            let imm = self.b.ins().iconst(I32, 0);
+            self.call_mem("sn_visible", imm, &args, 1)[0]
+        } else {
+            self.fconst(1.0)
+        };
+        self.lights
+            .push((out[0..3].to_vec(), out[3..6].to_vec(), vis));
         self.push_scope();
         self.block(body)?;
         let ys = self.yields(body)?;
@@ -943,6 +988,17 @@ impl<'a, 'b> Lowerer<'a, 'b> {
         self.b.switch_to_block(exit);
         let res: Vec<V> = sums.iter().map(|(var, _)| self.b.use_var(*var)).collect();
         Ok(Self::regroup(&ks, &res))
+    }
+
+    /// The fragment's sampler seed as the bits of a float (a vector of them in batch mode).
+    fn seed(&mut self) -> V {
+        if self.batch() {
+            let off = offset_of!(FragmentX4, seed) as i32;
+            self.b.ins().load(F32X4, flags(), self.frag, off)
+        } else {
+            let off = offset_of!(Fragment, seed) as i32;
+            self.b.ins().load(F32, flags(), self.frag, off)
+        }
     }
 
     // ---- helper calls ----

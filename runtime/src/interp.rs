@@ -398,34 +398,76 @@ fn visible<F: Real>(
         1 => true,
         2 => false,
         _ => {
-            let from = p.map(|x| x.to_f64() as f32);
-            let to = sample.to.map(|x| x.to_f64() as f32);
-            let open = !scene.occluded(from, to);
+            let open = sample_visible(Some(scene), p, sample.to);
             s.visibility[number] = if open { 1 } else { 2 };
             open
         }
     }
 }
 
+/// Whether the segment from `p` to a light sample's `to` is open: the scene's
+/// [`SceneServices::occluded`] answer, negated, with the points rounded to f32; always true
+/// without a scene. Shared by every CPU back end.
+pub fn sample_visible<F: Real>(scene: Option<&dyn SceneServices>, p: [F; 3], to: [F; 3]) -> bool {
+    let Some(scene) = scene else {
+        return true;
+    };
+    let from = p.map(|x| x.to_f64() as f32);
+    let to = to.map(|x| x.to_f64() as f32);
+    !scene.occluded(from, to)
+}
+
 /// The `trace` op: radiance along `normalize(dir)` from the fragment's `P` (black without a
 /// scene, or for a zero or non-finite direction).
 pub fn trace<F: Real>(ctx: &ShadeCtx, dir: [F; 3], ray_type: i32) -> [F; 3] {
-    let Some(scene) = ctx.scene else {
+    trace_radiance(ctx.scene, ctx.frag.p, dir, ray_type, ctx.frag.ray_depth)
+}
+
+/// [`trace`] from its parts: the scene, the fragment's `p` and `ray_depth` (the ray goes out
+/// at `ray_depth + 1`, wrapping). Shared by every CPU back end.
+pub fn trace_radiance<F: Real>(
+    scene: Option<&dyn SceneServices>,
+    p: [f32; 3],
+    dir: [F; 3],
+    ray_type: i32,
+    ray_depth: i32,
+) -> [F; 3] {
+    let Some(scene) = scene else {
         return [F::ZERO; 3];
     };
     let d = ops::normalize(dir).map(|x| x.to_f64() as f32);
     if d.iter().any(|x| !x.is_finite()) || d.iter().all(|x| *x == 0.0) {
         return [F::ZERO; 3];
     }
-    let depth = ctx.frag.ray_depth.wrapping_add(1);
-    let c = scene.trace(ctx.frag.p, d, ray_type, depth);
+    let depth = ray_depth.wrapping_add(1);
+    let c = scene.trace(p, d, ray_type, depth);
     c.map(|x| F::from_f64(x as f64))
 }
 
 /// The `occlusion` op: the scene's ambient occlusion at the fragment's `P` around `n`, in
 /// [0, 1] (1 where nothing can be asked: see the module documentation).
 pub fn occlusion<F: Real>(ctx: &ShadeCtx, n: [F; 3], samples: i32, max_distance: F) -> F {
-    let Some(scene) = ctx.scene else {
+    occlusion_value(
+        ctx.scene,
+        ctx.frag.p,
+        n,
+        samples,
+        max_distance,
+        ctx.frag.seed,
+    )
+}
+
+/// [`occlusion`] from its parts: the scene, the fragment's `p` and `seed`. Shared by every
+/// CPU back end.
+pub fn occlusion_value<F: Real>(
+    scene: Option<&dyn SceneServices>,
+    p: [f32; 3],
+    n: [F; 3],
+    samples: i32,
+    max_distance: F,
+    seed: u32,
+) -> F {
+    let Some(scene) = scene else {
         return F::ONE;
     };
     let n = ops::normalize(n).map(|x| x.to_f64() as f32);
@@ -435,7 +477,7 @@ pub fn occlusion<F: Real>(ctx: &ShadeCtx, n: [F; 3], samples: i32, max_distance:
         return F::ONE;
     }
     let samples = samples.max(1) as u32;
-    let o = scene.occlusion(ctx.frag.p, n, samples, max_distance, ctx.frag.seed);
+    let o = scene.occlusion(p, n, samples, max_distance, seed);
     if o.is_nan() {
         F::ONE
     } else {
