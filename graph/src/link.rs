@@ -891,7 +891,10 @@ pub fn link(net: &Network, lib: &NodeLibrary) -> Result<Linked, LinkErrors> {
     let mut state = vec![0u8; flat.len()]; // 0 new, 1 on stack, 2 done
     let mut order: Vec<usize> = Vec::new();
     let mut cyclic = false;
-    for root in 0..flat.len() {
+    // Roots are visited last node first: a network usually lists its outputs' nodes last,
+    // so the post-order is depth-first from the outputs, which keeps few values live at
+    // once (a breadth-first order of a big tree spills registers in compiled code).
+    for root in (0..flat.len()).rev() {
         if state[root] != 0 {
             continue;
         }
