@@ -889,6 +889,17 @@ fn bench(args: BenchArgs) -> Result<()> {
     {
         anyhow::bail!("--levels: levels are 1 to 10 (the native reference's range)");
     }
+    let wants_scenes = args
+        .suite
+        .iter()
+        .any(|s| matches!(s.to_lowercase().as_str(), "b3" | "b5"));
+    if wants_scenes && !args.scenes.join("cornell.toml").is_file() {
+        anyhow::bail!(
+            "--scenes: {} holds no example scenes (B3 and B5 render examples/scenes/*.toml): \
+             run from the repository root or pass --scenes DIR",
+            args.scenes.display()
+        );
+    }
     let opts = BenchOptions {
         quick: args.quick,
         suites: args.suite.clone(),

@@ -268,12 +268,15 @@ pub fn svg(title: &str, rows: &[Row]) -> String {
     let plot = width - left - 90.0;
     let top = 40.0;
     let height = top + rows.len() as f64 * (bar + 4.0) + 40.0;
-    let lo = rows
-        .iter()
-        .map(|r| r.time.min)
-        .fold(f64::INFINITY, f64::min)
-        .max(1e-7);
-    let hi = rows.iter().map(|r| r.time.max).fold(lo * 10.0, f64::max);
+    // Only finite, positive times set the axis (an empty suite still gets a valid one).
+    let times = || {
+        rows.iter()
+            .flat_map(|r| [r.time.min, r.time.max])
+            .filter(|t| t.is_finite() && *t > 0.0)
+    };
+    let lo = times().fold(f64::INFINITY, f64::min);
+    let lo = if lo.is_finite() { lo.max(1e-7) } else { 1e-3 };
+    let hi = times().fold(lo * 10.0, f64::max);
     let (l0, l1) = (lo.log10().floor(), hi.log10().ceil());
     let x = |t: f64| left + (t.max(lo).log10() - l0) / (l1 - l0) * plot;
     let mut s = String::new();
