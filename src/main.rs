@@ -642,14 +642,12 @@ fn shade(args: ShadeArgs) -> Result<()> {
         }
     };
 
-    // Output layout, as the interpreter lays it out.
-    let mut offset = 0;
-    let mut slots = Vec::new();
-    for o in &program.outputs {
-        let ty = program.ty(o.value);
-        slots.push((o.name.clone(), o.component, ty, offset));
-        offset += ty.width().max(1);
-    }
+    // The output layout every back end writes.
+    let slots: Vec<_> = shadenet::runtime::output_layout(program)
+        .0
+        .into_iter()
+        .map(|s| (s.name, s.component, s.ty, s.offset))
+        .collect();
     let n = (w * h) as usize;
     let channel = |pred: &dyn Fn(&str, Option<u8>) -> bool, c: usize| -> Vec<f32> {
         let mut out = vec![0.0f32; n];

@@ -1,20 +1,9 @@
 //! `shadenet shade --backend` and `shadenet compile --emit clif / --stats` with the JIT.
 
-use std::path::PathBuf;
-use std::process::Command;
+mod common;
+use common::shadenet;
 
-fn shadenet(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_shadenet"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("run shadenet");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+use std::path::PathBuf;
 
 fn tmp(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("shadenet-cli-jit-{}", std::process::id()));

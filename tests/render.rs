@@ -4,24 +4,13 @@
 //! EXR's layers, and bad scenes that fail clearly without touching existing files. Renders
 //! are tiny so the suite stays fast in debug builds.
 
+mod common;
+use common::shadenet;
+
 use shadenet::render::{RenderOptions, setup};
 use shadenet::tracer::camera::Camera;
 use shadenet::tracer::{Film, RenderStats};
 use std::path::{Path, PathBuf};
-use std::process::Command;
-
-fn shadenet(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_shadenet"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("run shadenet");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 fn tmp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("shadenet-render-{}-{name}", std::process::id()));

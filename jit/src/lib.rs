@@ -44,7 +44,7 @@ use shadenet_graph::ir::Program;
 use shadenet_graph::opt::{self, Specialization};
 use shadenet_graph::types::ConstValue;
 use shadenet_runtime::backend::{CompileStats, FragmentX4, LANES, Material, MaterialInfo};
-use shadenet_runtime::interp::OutputSlot;
+use shadenet_runtime::interp::{OutputSlot, output_layout};
 use shadenet_runtime::texture::TextureSet;
 use shadenet_runtime::{Backend, BackendError, InterpMaterial, SceneServices, ShadeCtx, ShadeEnv};
 use std::fmt::Write as _;
@@ -372,23 +372,6 @@ impl Material for JitMaterial {
     fn info(&self) -> &MaterialInfo {
         &self.info
     }
-}
-
-/// The interpreter's output layout of a program.
-fn output_layout(p: &Program) -> (Vec<OutputSlot>, usize) {
-    let mut slots = Vec::new();
-    let mut width = 0;
-    for o in &p.outputs {
-        let ty = p.ty(o.value);
-        slots.push(OutputSlot {
-            name: o.name.clone(),
-            component: o.component,
-            ty,
-            offset: width,
-        });
-        width += ty.width().max(1);
-    }
-    (slots, width)
 }
 
 /// A parameter's default as uniform slots (floats rounded to f32, as the interpreter does).

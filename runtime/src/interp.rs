@@ -77,6 +77,24 @@ pub struct Interpreter<F: Real> {
     reads_visible: Vec<bool>,
 }
 
+/// Where every output of `program` lies in a fragment's output floats, and how many floats
+/// that is: the layout every back end writes (bools and ints take one float each).
+pub fn output_layout(program: &Program) -> (Vec<OutputSlot>, usize) {
+    let mut slots = Vec::new();
+    let mut width = 0;
+    for o in &program.outputs {
+        let ty = program.ty(o.value);
+        slots.push(OutputSlot {
+            name: o.name.clone(),
+            component: o.component,
+            ty,
+            offset: width,
+        });
+        width += ty.width().max(1);
+    }
+    (slots, width)
+}
+
 /// Reusable per-thread storage for [`Interpreter::shade_with`].
 #[derive(Clone, Debug)]
 pub struct Scratch<F> {
@@ -128,18 +146,7 @@ impl<F: Real> Interpreter<F> {
                 _ => None,
             })
             .collect();
-        let mut slots = Vec::new();
-        let mut width = 0;
-        for o in &program.outputs {
-            let ty = program.ty(o.value);
-            slots.push(OutputSlot {
-                name: o.name.clone(),
-                component: o.component,
-                ty,
-                offset: width,
-            });
-            width += ty.width().max(1);
-        }
+        let (slots, width) = output_layout(program);
         let mut projs = vec![Vec::new(); program.exprs.len()];
         for (i, e) in program.exprs.iter().enumerate() {
             if let Op::Proj(r, k) = &e.op

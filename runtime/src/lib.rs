@@ -17,6 +17,6 @@ pub use backend::{
     Material, MaterialCache, MaterialInfo, shade_batch,
 };
 pub use ctx::{Fragment, SceneServices, ShadeCtx, ShadeEnv, Transform};
-pub use interp::{Interpreter, OutputSlot, Scratch, ShadeOut};
+pub use interp::{Interpreter, OutputSlot, Scratch, ShadeOut, output_layout};
 pub use lights::Light;
 pub use texture::{Texture, TextureError, TextureSet};
