@@ -14,6 +14,14 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
+/// `println!` through [`print_out`]: a closed pipe ends the output quietly instead of
+/// panicking.
+macro_rules! say {
+    ($($arg:tt)*) => {
+        print_out(&format!("{}\n", format_args!($($arg)*)))
+    };
+}
+
 #[derive(Parser)]
 #[command(
     name = "shadenet",
@@ -418,7 +426,7 @@ fn jit_outputs(
 
 fn check(path: &Path) -> Result<()> {
     let c = load(path)?;
-    println!(
+    say!(
         "ok: {} ops, outputs: {}, components: [{}], lights: {}",
         c.program.op_count(),
         c.program.output_names().join(", "),
@@ -711,7 +719,7 @@ fn shade(args: ShadeArgs) -> Result<()> {
     }
     if !args.quiet {
         let secs = shade_time.as_secs_f64();
-        println!(
+        say!(
             "shaded {w}x{h} = {n} fragments in {:.3} s ({:.2} M fragments/s, {} threads, {}, {}); load+compile {:.1} ms; {} ops; {} non-finite values zeroed",
             secs,
             n as f64 / secs / 1e6,
@@ -726,10 +734,10 @@ fn shade(args: ShadeArgs) -> Result<()> {
             grid.nonfinite
         );
         if let Some((_, s)) = stats {
-            println!("compile: {s}");
+            say!("compile: {s}");
         }
         for p in &args.output {
-            println!("wrote {}", p.display());
+            say!("wrote {}", p.display());
         }
     }
     Ok(())
@@ -836,7 +844,7 @@ fn render(args: RenderArgs) -> Result<()> {
         let render_s = s.render_time.as_secs_f64();
         let load = setup_time.saturating_sub(s.bvh_time + s.compile_time);
         let layers: Vec<&str> = film.layers.iter().map(|l| l.name.as_str()).collect();
-        println!(
+        say!(
             "rendered {name}: {}x{}, {} spp, {} threads, backend {}",
             film.width,
             film.height,
@@ -844,7 +852,7 @@ fn render(args: RenderArgs) -> Result<()> {
             pool.current_num_threads(),
             backend.name()
         );
-        println!(
+        say!(
             "time: load {:.3} s, compile {:.3} s (shaders: {}), BVH {:.3} s (triangles: {}), render {:.3} s",
             load.as_secs_f64(),
             s.compile_time.as_secs_f64(),
@@ -853,20 +861,20 @@ fn render(args: RenderArgs) -> Result<()> {
             s.triangles,
             render_s
         );
-        println!(
+        say!(
             "{} rays ({:.2} M rays/s), {} shading calls, {} non-finite values caught by the guard",
             s.rays,
             s.rays as f64 / render_s.max(1e-9) / 1e6,
             s.shading_calls,
             s.nonfinite
         );
-        println!(
+        say!(
             "wrote {} (layers: {})",
             exr_path.display(),
             layers.join(", ")
         );
         if let Some(p) = &png_path {
-            println!("wrote {}", p.display());
+            say!("wrote {}", p.display());
         }
     }
     Ok(())

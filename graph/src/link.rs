@@ -15,7 +15,7 @@
 use crate::network::{CompoundSpec, Network, NodeSpec};
 use crate::nodes::{LightDesc, NodeDef, NodeKind, NodeLibrary, PortDefault, PortType};
 use crate::types::{ConstValue, Type};
-use serde_json::{Map, Value as Json};
+use serde_json::Value as Json;
 use std::collections::HashMap;
 use std::fmt;
 
@@ -1242,11 +1242,4 @@ pub fn link(net: &Network, lib: &NodeLibrary) -> Result<Linked, LinkErrors> {
         outputs,
         lights,
     })
-}
-
-/// Used by the docs and error tests: the JSON object form of a connection.
-pub fn connect(target: &str) -> Json {
-    let mut m = Map::new();
-    m.insert("connect".into(), Json::String(target.into()));
-    Json::Object(m)
 }
