@@ -106,6 +106,9 @@ pub struct Scratch<F> {
     visibility: Vec<u8>,
     /// The point the answers in `visibility` are for (bits of its f64 coordinates).
     visibility_at: Option<[u64; 3]>,
+    /// Reusable buffers for light-loop sums (one per nesting level in use), so shading a
+    /// fragment allocates nothing once the buffers exist.
+    sums: Vec<Vec<Val<F>>>,
 }
 
 impl<F> Default for Scratch<F> {
@@ -115,6 +118,7 @@ impl<F> Default for Scratch<F> {
             light: None,
             visibility: Vec::new(),
             visibility_at: None,
+            sums: Vec::new(),
         }
     }
 }
@@ -282,8 +286,12 @@ impl<F: Real> Interpreter<F> {
             Op::Splat(a) => ops::splat(expr.ty.unwrap_or(Type::Vec3), reg(a)),
             Op::Convert(a) => ops::convert(expr.ty.unwrap_or(Type::Float), reg(a)),
             Op::Call(i, args) => {
-                let vals: Vec<Val<F>> = args.iter().map(reg).collect();
-                ops::intrinsic(*i, &vals)
+                // Intrinsics take at most four operands (the validator checks their types).
+                let mut vals = [Val::Int(0); 4];
+                for (d, a) in vals.iter_mut().zip(args) {
+                    *d = reg(a);
+                }
+                ops::intrinsic(*i, &vals[..args.len().min(4)])
             }
             Op::If { cond, then_, else_ } => {
                 let arm = if reg(cond).as_bool() { then_ } else { else_ };
@@ -294,11 +302,9 @@ impl<F: Real> Interpreter<F> {
             Op::Illuminance { p, body } => {
                 let p = reg(p).as_vec3();
                 let n = body.yields.len();
-                let mut sums: Vec<Val<F>> = body
-                    .yields
-                    .iter()
-                    .map(|y| Val::zero(self.program.ty(*y)))
-                    .collect();
+                let mut sums = s.sums.pop().unwrap_or_default();
+                sums.clear();
+                sums.extend(body.yields.iter().map(|y| Val::zero(self.program.ty(*y))));
                 let outer = s.light;
                 let shadows = ctx.scene.filter(|_| self.reads_visible[v.index()]);
                 if shadows.is_some() {
@@ -330,7 +336,8 @@ impl<F: Real> Interpreter<F> {
                 }
                 s.light = outer;
                 debug_assert_eq!(sums.len(), n);
-                self.store_sums(v, sums, s);
+                self.store_sums(v, &sums, s);
+                s.sums.push(sums);
                 Val::Int(0)
             }
             Op::LightL => Val::Vec3(s.light.map_or([F::ZERO; 3], |l| l.0.l)),
@@ -373,7 +380,7 @@ impl<F: Real> Interpreter<F> {
         }
     }
 
-    fn store_sums(&self, region: Value, vals: Vec<Val<F>>, s: &mut Scratch<F>) {
+    fn store_sums(&self, region: Value, vals: &[Val<F>], s: &mut Scratch<F>) {
         for &(i, k) in &self.projs[region.index()] {
             if let Some(v) = vals.get(k as usize) {
                 s.regs[i] = *v;
