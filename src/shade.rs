@@ -78,43 +78,42 @@ pub fn shade_grid<F: Real>(
 ) -> Result<Grid, shadenet_runtime::TextureError> {
     let interp = Interpreter::<F>::new(program)?;
     let stride: usize = interp.slots().iter().map(|s| s.ty.width().max(1)).sum();
+    Ok(grid(w, h, stride, |y, row| {
+        let mut scratch = Default::default();
+        let mut out = ShadeOut {
+            values: Vec::new(),
+            nonfinite: 0,
+        };
+        let mut bad = 0u64;
+        for (x, dst) in row.chunks_mut(stride).enumerate() {
+            let mut ctx = ShadeCtx::new(grid_fragment(x as u32, y, w, h), env);
+            ctx.mask = mask;
+            interp.shade_with(&ctx, &mut scratch, &mut out);
+            bad += out.nonfinite as u64;
+            for (d, s) in dst.iter_mut().zip(&out.values) {
+                *d = s.to_f64();
+            }
+        }
+        bad
+    }))
+}
+
+/// The grid loop both shading paths share: rows in parallel on the rayon pool, `row(y,
+/// values)` fills one row (`w * stride` floats) and returns its non-finite count.
+fn grid(w: u32, h: u32, stride: usize, row: impl Fn(u32, &mut [f64]) -> u64 + Sync) -> Grid {
     let mut values = vec![0.0f64; (w * h) as usize * stride];
-    let nonfinite: u64 = values
-        .par_chunks_mut(w as usize * stride)
+    let nonfinite = values
+        .par_chunks_mut((w as usize * stride).max(1))
         .enumerate()
-        .map_init(
-            || {
-                (
-                    Default::default(),
-                    ShadeOut {
-                        values: Vec::new(),
-                        nonfinite: 0,
-                    },
-                )
-            },
-            |(scratch, out), (y, row)| {
-                let mut bad = 0u64;
-                for x in 0..w {
-                    let mut ctx = ShadeCtx::new(grid_fragment(x, y as u32, w, h), env);
-                    ctx.mask = mask;
-                    interp.shade_with(&ctx, scratch, out);
-                    bad += out.nonfinite as u64;
-                    let dst = &mut row[x as usize * stride..(x as usize + 1) * stride];
-                    for (d, s) in dst.iter_mut().zip(&out.values) {
-                        *d = s.to_f64();
-                    }
-                }
-                bad
-            },
-        )
+        .map(|(y, r)| row(y as u32, r))
         .sum();
-    Ok(Grid {
+    Grid {
         width: w,
         height: h,
         stride,
         values,
         nonfinite,
-    })
+    }
 }
 
 /// Shades every pixel of a `w × h` grid with a compiled material on the rayon thread pool,
@@ -129,47 +128,35 @@ pub fn shade_grid_with(
     batch: bool,
 ) -> Grid {
     let stride = material.width();
-    let mut values = vec![0.0f64; (w * h) as usize * stride];
-    let nonfinite: u64 = values
-        .par_chunks_mut(w as usize * stride)
-        .enumerate()
-        .map(|(y, row)| {
-            let mut bad = 0u64;
-            let frags: Vec<Fragment> = (0..w).map(|x| grid_fragment(x, y as u32, w, h)).collect();
-            if batch {
-                let mut soa = vec![0.0f32; stride * LANES];
-                for (chunk, dst) in frags.chunks(LANES).zip(row.chunks_mut(stride * LANES)) {
-                    let packet = FragmentX4::gather(chunk);
-                    bad += material.shade_x4(env, mask, &packet, chunk.len(), &mut soa) as u64;
-                    for (lane, px) in dst.chunks_mut(stride).enumerate() {
-                        for (k, d) in px.iter_mut().enumerate() {
-                            *d = soa[k * LANES + lane] as f64;
-                        }
-                    }
-                }
-            } else {
-                let mut out = vec![0.0f32; stride];
-                for (f, dst) in frags.iter().zip(row.chunks_mut(stride)) {
-                    let ctx = ShadeCtx {
-                        frag: *f,
-                        env,
-                        mask,
-                        scene: None,
-                    };
-                    bad += material.shade(&ctx, &mut out) as u64;
-                    for (d, s) in dst.iter_mut().zip(&out) {
-                        *d = *s as f64;
+    grid(w, h, stride, |y, row| {
+        let mut bad = 0u64;
+        let frags: Vec<Fragment> = (0..w).map(|x| grid_fragment(x, y, w, h)).collect();
+        if batch {
+            let mut soa = vec![0.0f32; stride * LANES];
+            for (chunk, dst) in frags.chunks(LANES).zip(row.chunks_mut(stride * LANES)) {
+                let packet = FragmentX4::gather(chunk);
+                bad += material.shade_x4(env, mask, &packet, chunk.len(), &mut soa) as u64;
+                for (lane, px) in dst.chunks_mut(stride).enumerate() {
+                    for (k, d) in px.iter_mut().enumerate() {
+                        *d = soa[k * LANES + lane] as f64;
                     }
                 }
             }
-            bad
-        })
-        .sum();
-    Grid {
-        width: w,
-        height: h,
-        stride,
-        values,
-        nonfinite,
-    }
+        } else {
+            let mut out = vec![0.0f32; stride];
+            for (f, dst) in frags.iter().zip(row.chunks_mut(stride)) {
+                let ctx = ShadeCtx {
+                    frag: *f,
+                    env,
+                    mask,
+                    scene: None,
+                };
+                bad += material.shade(&ctx, &mut out) as u64;
+                for (d, s) in dst.iter_mut().zip(&out) {
+                    *d = *s as f64;
+                }
+            }
+        }
+        bad
+    })
 }
