@@ -15,7 +15,7 @@
 //! optimized (or wants no optimization at all, as the parity tests do) calls
 //! [`Backend::compile_program`] with the program to run as it is.
 
-use crate::ctx::{Fragment, ShadeCtx, ShadeEnv};
+use crate::ctx::{Fragment, SceneServices, ShadeCtx, ShadeEnv};
 use crate::interp::{Interpreter, OutputSlot, Scratch, ShadeOut};
 use crate::texture::TextureError;
 use shadenet_graph::ir::Program;
@@ -208,6 +208,88 @@ pub trait Material: Send + Sync {
 
     /// Which back end runs it, whether it is a fallback, and compile statistics.
     fn info(&self) -> &MaterialInfo;
+
+    /// Shades any number of fragments, every one with the same environment, component mask
+    /// and scene: `out` receives [`Material::width`] floats per fragment, fragment after
+    /// fragment (array of structures), guarded. This is the entry a batch back end (the GPU)
+    /// implements; the default shades four at a time through [`Material::shade_x4`] without
+    /// a scene, and one at a time through [`Material::shade`] with one.
+    fn shade_many(
+        &self,
+        env: &ShadeEnv,
+        mask: u32,
+        scene: Option<&dyn SceneServices>,
+        frags: &[Fragment],
+        out: &mut [f32],
+    ) -> BatchResult {
+        let t = Instant::now();
+        let nonfinite = match scene {
+            None => shade_batch_x4(self, env, mask, frags, out),
+            Some(scene) => {
+                let w = self.width();
+                let mut bad = 0u64;
+                for (f, dst) in frags.iter().zip(out.chunks_mut(w.max(1))) {
+                    let ctx = ShadeCtx {
+                        frag: *f,
+                        env,
+                        mask,
+                        scene: Some(scene),
+                    };
+                    bad += self.shade(&ctx, dst) as u64;
+                }
+                bad
+            }
+        };
+        BatchResult {
+            nonfinite,
+            times: BatchTimes {
+                kernels: t.elapsed(),
+                ..BatchTimes::default()
+            },
+        }
+    }
+}
+
+/// Where the time of one [`Material::shade_many`] call went. A CPU back end has only
+/// `kernels` (its shading time); the GPU splits upload, kernels, host steps and readback.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BatchTimes {
+    /// Copying fragments and per-call data (uniforms, light samples) to the device.
+    pub upload: Duration,
+    /// Running the shading code (GPU: from submission to completion of the passes).
+    pub kernels: Duration,
+    /// Host steps between GPU passes: light samples with their shadow rays, traced rays,
+    /// occlusion.
+    pub host: Duration,
+    /// Copying results back from the device, and the output guard.
+    pub readback: Duration,
+    /// GPU passes dispatched (0 on the CPU).
+    pub passes: u32,
+}
+
+impl BatchTimes {
+    /// The sum of the four phases.
+    pub fn total(&self) -> Duration {
+        self.upload + self.kernels + self.host + self.readback
+    }
+
+    /// Adds another call's times to these.
+    pub fn add(&mut self, o: &BatchTimes) {
+        self.upload += o.upload;
+        self.kernels += o.kernels;
+        self.host += o.host;
+        self.readback += o.readback;
+        self.passes += o.passes;
+    }
+}
+
+/// The result of [`Material::shade_many`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BatchResult {
+    /// Non-finite floats the output guard replaced with 0.
+    pub nonfinite: u64,
+    /// Where the time went.
+    pub times: BatchTimes,
 }
 
 /// Shades any number of fragments through [`Material::shade_x4`], four at a time: `out`
@@ -215,6 +297,16 @@ pub trait Material: Send + Sync {
 /// Returns the non-finite floats replaced.
 pub fn shade_batch(
     material: &dyn Material,
+    env: &ShadeEnv,
+    mask: u32,
+    frags: &[Fragment],
+    out: &mut [f32],
+) -> u64 {
+    shade_batch_x4(material, env, mask, frags, out)
+}
+
+fn shade_batch_x4<M: Material + ?Sized>(
+    material: &M,
     env: &ShadeEnv,
     mask: u32,
     frags: &[Fragment],

@@ -199,6 +199,17 @@ impl<F: Real> Interpreter<F> {
         &self.program
     }
 
+    /// The prelude's values (evaluated once, when the interpreter was made), as (arena index,
+    /// value) in prelude order. A matrix value is an index into [`Interpreter::matrices`].
+    pub fn prelude_values(&self) -> &[(usize, Val<F>)] {
+        &self.prelude
+    }
+
+    /// The matrix table: constants and parameters of type matrix44, row-major.
+    pub fn matrices(&self) -> &[[F; 16]] {
+        &self.mats
+    }
+
     /// The output layout.
     pub fn slots(&self) -> &[OutputSlot] {
         &self.slots

@@ -13,8 +13,8 @@ pub mod lights;
 pub mod texture;
 
 pub use backend::{
-    Backend, BackendError, CompileStats, FragmentX4, InterpBackend, InterpMaterial, LANES,
-    Material, MaterialCache, MaterialInfo, shade_batch,
+    Backend, BackendError, BatchResult, BatchTimes, CompileStats, FragmentX4, InterpBackend,
+    InterpMaterial, LANES, Material, MaterialCache, MaterialInfo, shade_batch,
 };
 pub use ctx::{Fragment, SceneServices, ShadeCtx, ShadeEnv, Transform};
 pub use interp::{Interpreter, OutputSlot, Scratch, ShadeOut, output_layout};

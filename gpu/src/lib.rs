@@ -1,0 +1,3 @@
+//! stub
+pub mod context;
+pub use context::{GpuContext, GpuError};
