@@ -1,0 +1,1 @@
+// The WGSL intrinsic library (sn_*): being written.

@@ -1,0 +1,1 @@
+// Texture lookup (sn_texture): being written.
