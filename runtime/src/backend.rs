@@ -213,7 +213,8 @@ pub trait Material: Send + Sync {
     /// and scene: `out` receives [`Material::width`] floats per fragment, fragment after
     /// fragment (array of structures), guarded. This is the entry a batch back end (the GPU)
     /// implements; the default shades four at a time through [`Material::shade_x4`] without
-    /// a scene, and one at a time through [`Material::shade`] with one.
+    /// a scene, and one at a time through [`Material::shade`] with one (fragment `i` with
+    /// [`SceneServices::fragment`]`(i)` where the scene gives per-fragment services).
     fn shade_many(
         &self,
         env: &ShadeEnv,
@@ -228,12 +229,12 @@ pub trait Material: Send + Sync {
             Some(scene) => {
                 let w = self.width();
                 let mut bad = 0u64;
-                for (f, dst) in frags.iter().zip(out.chunks_mut(w.max(1))) {
+                for (i, (f, dst)) in frags.iter().zip(out.chunks_mut(w.max(1))).enumerate() {
                     let ctx = ShadeCtx {
                         frag: *f,
                         env,
                         mask,
-                        scene: Some(scene),
+                        scene: Some(scene.fragment(i).unwrap_or(scene)),
                     };
                     bad += self.shade(&ctx, dst) as u64;
                 }

@@ -210,6 +210,19 @@ pub trait SceneServices: Send + Sync {
         max_distance: f32,
         seed: u32,
     ) -> f32;
+
+    /// The services of fragment `index` of the batch a `Material::shade_many` call shades
+    /// with these services, for a renderer whose services carry per-hit state (the tracer's:
+    /// the hit's point, facing normals, seed and ray differentials). `None` (the default):
+    /// these services serve every fragment alike. A back end shading a batch fragment by
+    /// fragment asks once per fragment (the default `shade_many` does); one that calls the
+    /// batch's services directly passes the fragment's own `P` as the origin of `trace`,
+    /// `occluded` and `occlusion`, as the runtime's helpers do, which lets such a renderer
+    /// find the fragment.
+    fn fragment(&self, index: usize) -> Option<&dyn SceneServices> {
+        let _ = index;
+        None
+    }
 }
 
 /// One shading call's input: the fragment, its environment, the active components and the

@@ -37,5 +37,5 @@ pub mod scene;
 pub mod shader;
 
 pub use film::{Film, Layer};
-pub use render::{RenderError, RenderStats, Renderer};
+pub use render::{DeferredOptions, RenderError, RenderStats, Renderer, ShadingMode};
 pub use scene::{Scene, SceneError};

@@ -18,6 +18,27 @@
 //! centres when `spp = 1`) and gets `Fragment::seed = hash(x, y, k)`; secondary rays hash
 //! the parent's seed with the ray type, depth and direction. Nothing depends on which thread
 //! renders a tile, so images are bit-identical for any thread count.
+//!
+//! # Immediate and deferred shading
+//!
+//! In the **immediate** mode (the CPU back ends' default) each camera hit is shaded as soon
+//! as it is found, one [`Shader::shade`] call per hit. In the **deferred** mode (chosen when
+//! the back end [prefers batches](crate::shader::ShaderBackend::prefers_batches), the GPU,
+//! or set with [`Renderer::set_shading_mode`]) a group of tiles of at least
+//! [`DeferredOptions::group_samples`] camera samples is traced first; the shading calls its
+//! hits need (the material's, the override rule's, each override pass's) are collected per
+//! shader and environment and each such group is shaded with one [`Shader::shade_many`]
+//! call; then every sample is finished exactly as the immediate path finishes it (same
+//! film layout, same order of additions, same seeds and statistics), so for a CPU back end
+//! the two modes give the same bits. Secondary hits shaded from inside a `trace` stay
+//! immediate in both modes.
+//!
+//! The tracer's scene services carry per-hit state (the hit point the robust ray offset
+//! starts from, the facing normals, the seed secondary rays hash, the ray differentials
+//! they carry). A batch gets `BatchServices`: fragment `i`'s own services through
+//! `SceneServices::fragment(i)`, and for a back end that calls the batch's services
+//! directly, the fragment whose `P` has the bits of the call's origin (a batch never holds
+//! two fragments with the same `P`: such a fragment goes to a second batch).
 
 use crate::accel::{Accel, Hit, orthonormal};
 use crate::camera::Camera;
@@ -31,11 +52,14 @@ use crate::shader::{Shader, ShaderBackend};
 use glam::{DMat4, Vec3};
 use rayon::prelude::*;
 use shadenet_graph::ir::Program;
-use shadenet_graph::ir::Stream;
+use shadenet_graph::ir::{Space, Stream};
 use shadenet_graph::opt::{self, Needs, Specialization};
-use shadenet_runtime::{Fragment, SceneServices, ShadeCtx, ShadeEnv, ShadeOut, Transform};
-use std::sync::Arc;
+use shadenet_runtime::{
+    BatchTimes, Fragment, SceneServices, ShadeCtx, ShadeEnv, ShadeOut, Transform,
+};
+use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 /// Why a scene cannot be rendered.
@@ -81,6 +105,54 @@ pub struct RenderStats {
     pub shading_calls: u64,
     /// Non-finite values the output guard replaced with 0.
     pub nonfinite: u64,
+    /// Deferred mode: [`Shader::shade_many`] calls made (0 in the immediate mode).
+    pub batches: u64,
+    /// Deferred mode: fragments shaded through those calls (camera hits; every shading call
+    /// of a camera hit, overrides included).
+    pub batched_fragments: u64,
+    /// Deferred mode: the largest batch, in fragments.
+    pub largest_batch: u64,
+    /// Deferred mode: where the batch calls' time went, summed over all calls (and threads:
+    /// groups of tiles shade in parallel). A CPU back end reports only `kernels`.
+    pub batch_times: BatchTimes,
+}
+
+/// How camera hits are shaded (see the module documentation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShadingMode {
+    /// Each hit as it is found, one [`Shader::shade`] call each.
+    Immediate,
+    /// Traced in groups of tiles first, then shaded per shader in batches.
+    Deferred(DeferredOptions),
+}
+
+/// Options of the deferred mode.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DeferredOptions {
+    /// Camera samples traced before shading: consecutive tiles (row by row) are grouped
+    /// until they hold at least this many (at least one tile per group). A group's hits
+    /// are then split per material and environment, so a group should be several times
+    /// the smallest batch worth a GPU dispatch (about 16K fragments: below that the fixed
+    /// cost of an upload, a submission and a readback dominates and a large GPU is not
+    /// filled). Default [`DeferredOptions::DEFAULT_GROUP_SAMPLES`].
+    pub group_samples: usize,
+}
+
+impl DeferredOptions {
+    /// 65 536 samples: a group of tiles covering a quarter of a 256×256 frame at 4 spp, or
+    /// a 640×360 frame in 15 groups, which keeps both threads of a two-core machine busy
+    /// (groups trace and shade in parallel) while a material covering a quarter of the
+    /// frame still gets batches of 16K fragments. Memory: about 4 KB per sample and group
+    /// in flight (samples, fragments, hits).
+    pub const DEFAULT_GROUP_SAMPLES: usize = 1 << 16;
+}
+
+impl Default for DeferredOptions {
+    fn default() -> Self {
+        DeferredOptions {
+            group_samples: DeferredOptions::DEFAULT_GROUP_SAMPLES,
+        }
+    }
 }
 
 /// One specialized program, compiled.
@@ -93,6 +165,9 @@ struct Specialized {
     uv_tangents: bool,
     /// Compute ray differentials.
     differentials: bool,
+    /// Reads object space (then its environment's object transform matters, and hits of
+    /// different instances cannot share a batch).
+    object_space: bool,
     /// The output parts the film reads.
     parts: Vec<Part>,
 }
@@ -155,6 +230,7 @@ impl Specialized {
             mask,
             uv_tangents: needs.streams.contains(&Stream::Uv) || needs.tangents(),
             differentials: needs.differentials(),
+            object_space: needs.spaces.contains(&Space::Object),
             parts,
         })
     }
@@ -200,6 +276,7 @@ pub struct Renderer {
     emission: usize,
     warnings: Vec<String>,
     stats: RenderStats,
+    mode: ShadingMode,
 }
 
 impl std::fmt::Debug for Renderer {
@@ -219,7 +296,8 @@ impl Renderer {
     /// Prepares a scene whose materials (in `scene.materials` order) are compiled to
     /// `programs`: builds the BVH, specializes each material per distinct component mask
     /// the ray-match rules produce (and the override shaders), and compiles them with
-    /// `backend`.
+    /// `backend`. Camera hits are shaded deferred, in batches, when the back end prefers
+    /// batches, else immediately ([`Renderer::set_shading_mode`] changes it).
     pub fn new(
         scene: Scene,
         programs: Vec<Program>,
@@ -422,7 +500,28 @@ impl Renderer {
             emission,
             warnings,
             stats,
+            mode: if backend.prefers_batches() {
+                ShadingMode::Deferred(DeferredOptions::default())
+            } else {
+                ShadingMode::Immediate
+            },
         })
+    }
+
+    /// How camera hits are shaded.
+    pub fn shading_mode(&self) -> ShadingMode {
+        self.mode
+    }
+
+    /// Shades camera hits immediately or deferred in batches (both give the same image with
+    /// a CPU back end). A group size of 0 is taken as 1.
+    pub fn set_shading_mode(&mut self, mode: ShadingMode) {
+        self.mode = match mode {
+            ShadingMode::Deferred(o) => ShadingMode::Deferred(DeferredOptions {
+                group_samples: o.group_samples.max(1),
+            }),
+            m => m,
+        };
     }
 
     /// Problems worth telling the user that do not stop the render (a pass naming a
@@ -456,28 +555,62 @@ impl Renderer {
         let total = tiles.len() as u64;
         let done = AtomicU64::new(0);
         let layout = self.layout();
-        let results: Vec<(TileOut, TileStats)> = tiles
-            .par_iter()
-            .map(|&(x0, y0, x1, y1)| {
-                let stats = TileStats::default();
-                let out = self.render_tile(x0, y0, x1, y1, &layout, &stats);
-                let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-                progress(d, total);
-                (out, stats)
-            })
-            .collect();
+        let (outs, tile_stats): (Vec<TileOut>, Vec<TileStats>) = match self.mode {
+            ShadingMode::Immediate => tiles
+                .par_iter()
+                .map(|&(x0, y0, x1, y1)| {
+                    let stats = TileStats::default();
+                    let out = self.render_tile(x0, y0, x1, y1, &layout, &stats);
+                    let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+                    progress(d, total);
+                    (out, stats)
+                })
+                .unzip(),
+            ShadingMode::Deferred(opts) => {
+                let spp = self.scene.settings.spp as usize;
+                let groups = group_tiles(&tiles, spp, opts.group_samples);
+                let results: Vec<(Vec<TileOut>, TileStats)> = groups
+                    .par_iter()
+                    .map(|g| {
+                        let stats = TileStats::default();
+                        let outs = self.render_group(&tiles[g.clone()], &layout, &stats);
+                        let d = done.fetch_add(g.len() as u64, Ordering::Relaxed) + g.len() as u64;
+                        progress(d, total);
+                        (outs, stats)
+                    })
+                    .collect();
+                let mut outs = Vec::with_capacity(tiles.len());
+                let mut stats = Vec::with_capacity(results.len());
+                for (o, s) in results {
+                    outs.extend(o);
+                    stats.push(s);
+                }
+                (outs, stats)
+            }
+        };
         let mut acc = vec![0.0f32; (w as usize) * (h as usize) * layout.stride];
         let mut stats = self.stats.clone();
-        for ((x0, y0, x1, _), (out, ts)) in tiles.iter().zip(results) {
+        for ((x0, y0, x1, _), out) in tiles.iter().zip(outs) {
             let tw = (x1 - x0) as usize;
             for (i, px) in out.values.chunks_exact(layout.stride).enumerate() {
                 let (x, y) = (*x0 as usize + i % tw, *y0 as usize + i / tw);
                 let dst = (y * w as usize + x) * layout.stride;
                 acc[dst..dst + layout.stride].copy_from_slice(px);
             }
+        }
+        for ts in tile_stats {
             stats.rays += ts.rays.load(Ordering::Relaxed);
             stats.shading_calls += ts.shading_calls.load(Ordering::Relaxed);
             stats.nonfinite += ts.nonfinite.load(Ordering::Relaxed);
+            stats.batches += ts.batches.load(Ordering::Relaxed);
+            stats.batched_fragments += ts.batched.load(Ordering::Relaxed);
+            stats.largest_batch = stats.largest_batch.max(ts.largest.load(Ordering::Relaxed));
+            let t = ts
+                .times
+                .lock()
+                .map(|t| *t)
+                .unwrap_or_else(|e| *e.into_inner());
+            stats.batch_times.add(&t);
         }
         let film = self.compose(&acc, &layout);
         stats.render_time = start.elapsed();
@@ -591,19 +724,7 @@ impl Renderer {
                 let dst = &mut values[i * layout.stride..(i + 1) * layout.stride];
                 for k in 0..spp {
                     sample.iter_mut().for_each(|v| *v = 0.0);
-                    let (jx, jy) = pixel_sample(x, y, k, spp);
-                    let seed = hash3(x, y, k);
-                    let ray = self
-                        .camera
-                        .ray(x as f32 + jx, y as f32 + jy, self.differentials);
-                    let state = RayState {
-                        o: ray.o,
-                        d: ray.d,
-                        ray: RayMatch::Camera,
-                        depth: 0,
-                        seed,
-                        diffs: ray.diffs,
-                    };
+                    let state = self.camera_ray(x, y, k);
                     self.camera_sample(&state, layout, &mut sample, &mut out, stats);
                     for (d, s) in dst.iter_mut().zip(&sample) {
                         *d += *s;
@@ -624,6 +745,36 @@ impl Renderer {
         out: &mut ShadeOut<f32>,
         stats: &TileStats,
     ) {
+        let Some((action, prep)) = self.camera_hit(ray, layout, sample, stats) else {
+            return;
+        };
+        match action {
+            Action::Material(a) => {
+                let sp = &self.shaders[prep.material][*a];
+                self.shade(sp, ray, &prep, out, stats);
+                add_parts(sp, &out.values, layout, sample);
+            }
+            Action::Override(o) => {
+                let v = self.override_value(*o, ray, &prep, out, stats);
+                add_override_beauty(v, layout, sample);
+            }
+        }
+        for &(o, off) in &layout.overrides {
+            let v = self.override_value(o, ray, &prep, out, stats);
+            put_override_pass(o, off, v, sample);
+        }
+    }
+
+    /// Traces a camera ray: a miss or an emitter fills `sample` and gives `None`; a surface
+    /// hit marks the sample covered and gives the action camera hits take and the prepared
+    /// hit (shading is the caller's).
+    fn camera_hit(
+        &self,
+        ray: &RayState,
+        layout: &Layout,
+        sample: &mut [f32],
+        stats: &TileStats,
+    ) -> Option<(&Action, Prepared)> {
         stats.rays.fetch_add(1, Ordering::Relaxed);
         let em = self.emission * 3;
         let found = self.intersect(ray.o, ray.d);
@@ -633,14 +784,14 @@ impl Renderer {
                 for c in 0..3 {
                     sample[em + c] += bg[c] as f32;
                 }
-                return;
+                return None;
             }
             Found::Emitter(rad) => {
                 for c in 0..3 {
                     sample[em + c] += rad[c];
                 }
                 sample[layout.ncomp * 3 + 3] = 1.0;
-                return;
+                return None;
             }
             Found::Surface(h) => h,
         };
@@ -648,35 +799,172 @@ impl Renderer {
         let action = self.action(ray.ray, ray.depth);
         let material = self.material_of(&hit);
         let uv = layout.overrides_need_uv || self.needs_uv(action, material);
-        let prep = self.prepare(ray, &hit, uv);
-        match action {
-            Action::Material(a) => {
-                let sp = &self.shaders[prep.material][*a];
-                self.shade(sp, ray, &prep, out, stats);
-                for part in &sp.parts {
-                    let base = match (part.beauty, part.comp) {
-                        (true, Some(k)) => k * 3,
-                        (true, None) => layout.ncomp * 3,
-                        (false, Some(k)) => layout.ncomp * 3 + 4 + k * 3,
-                        (false, None) => continue,
-                    };
-                    for c in 0..part.width.min(3) {
-                        sample[base + c] += out.values[part.offset + c];
+        Some((action, self.prepare(ray, &hit, uv)))
+    }
+
+    /// The camera ray of sample `k` of pixel `(x, y)`.
+    fn camera_ray(&self, x: u32, y: u32, k: u32) -> RayState {
+        let spp = self.scene.settings.spp;
+        let (jx, jy) = pixel_sample(x, y, k, spp);
+        let ray = self
+            .camera
+            .ray(x as f32 + jx, y as f32 + jy, self.differentials);
+        RayState {
+            o: ray.o,
+            d: ray.d,
+            ray: RayMatch::Camera,
+            depth: 0,
+            seed: hash3(x, y, k),
+            diffs: ray.diffs,
+        }
+    }
+
+    /// The tiles of one group in the deferred mode: trace every camera sample, shade the
+    /// hits per shader and environment in batches, then finish each sample as
+    /// [`Renderer::camera_sample`] does.
+    fn render_group(
+        &self,
+        tiles: &[(u32, u32, u32, u32)],
+        layout: &Layout,
+        stats: &TileStats,
+    ) -> Vec<TileOut> {
+        let spp = self.scene.settings.spp;
+        let stride = layout.stride;
+        let nsamples: usize = tiles
+            .iter()
+            .map(|(x0, y0, x1, y1)| ((x1 - x0) * (y1 - y0)) as usize * spp as usize)
+            .sum();
+        let mut samples = vec![0.0f32; nsamples * stride];
+        // 1. Trace: every sample's camera ray; each shading call a hit needs becomes a job
+        //    of the batch of its shader and environment.
+        let mut jobs: Vec<Job> = Vec::new();
+        let mut batches: Vec<BatchKey> = Vec::new();
+        let mut batch_of: HashMap<(usize, usize), usize> = HashMap::new();
+        let mut s = 0usize;
+        for &(x0, y0, x1, y1) in tiles {
+            for y in y0..y1 {
+                for x in x0..x1 {
+                    for k in 0..spp {
+                        let ray = self.camera_ray(x, y, k);
+                        let sample = &mut samples[s * stride..(s + 1) * stride];
+                        if let Some((action, prep)) = self.camera_hit(&ray, layout, sample, stats) {
+                            let mut push = |sp: &Specialized, apply: Apply| {
+                                let instance = prep.surface.instance as usize;
+                                let env = if sp.object_space {
+                                    instance
+                                } else {
+                                    usize::MAX
+                                };
+                                let key = (Arc::as_ptr(&sp.shader) as *const u8 as usize, env);
+                                let batch = *batch_of.entry(key).or_insert_with(|| {
+                                    batches.push(BatchKey {
+                                        shader: sp.clone(),
+                                        instance,
+                                        jobs: Vec::new(),
+                                    });
+                                    batches.len() - 1
+                                });
+                                batches[batch].jobs.push(jobs.len());
+                                jobs.push(Job {
+                                    sample: s,
+                                    apply,
+                                    frag: self.fragment(sp, &ray, &prep),
+                                    hit: self.services(&ray, &prep, stats),
+                                });
+                            };
+                            match action {
+                                Action::Material(a) => {
+                                    push(
+                                        &self.shaders[prep.material][*a],
+                                        Apply::Parts(prep.material, *a),
+                                    );
+                                }
+                                Action::Override(o) => match self.override_shader(*o) {
+                                    Some(sp) => push(sp, Apply::OverrideBeauty(*o)),
+                                    None => add_override_beauty([0.0; 3], layout, sample),
+                                },
+                            }
+                            for &(o, off) in &layout.overrides {
+                                match self.override_shader(o) {
+                                    Some(sp) => push(sp, Apply::OverridePass(o, off)),
+                                    None => put_override_pass(o, off, [0.0; 3], sample),
+                                }
+                            }
+                        }
+                        s += 1;
                     }
                 }
             }
-            Action::Override(o) => {
-                let v = self.override_value(*o, ray, &prep, out, stats);
-                for c in 0..3 {
-                    sample[layout.ncomp * 3 + c] += v[c.min(v.len() - 1)];
+        }
+        // 2. Shade: one `shade_many` call per batch (more where two hits share a `P`).
+        let mut results = vec![(0usize, 0usize); jobs.len()]; // (start in `arena`, width)
+        let mut arena: Vec<f32> = Vec::new();
+        let mut out = Vec::new();
+        let mut frags = Vec::new();
+        for b in &batches {
+            let env = &self.envs[b.instance];
+            for part in unique_points(&b.jobs, &jobs) {
+                frags.clear();
+                frags.extend(part.iter().map(|&j| jobs[j].frag));
+                let services = BatchServices::new(part.iter().map(|&j| jobs[j].hit).collect());
+                let r = b.shader.shader.shade_many(
+                    env,
+                    b.shader.mask,
+                    Some(&services),
+                    &frags,
+                    &mut out,
+                );
+                let n = part.len() as u64;
+                stats.shading_calls.fetch_add(n, Ordering::Relaxed);
+                stats.nonfinite.fetch_add(r.nonfinite, Ordering::Relaxed);
+                stats.batches.fetch_add(1, Ordering::Relaxed);
+                stats.batched.fetch_add(n, Ordering::Relaxed);
+                stats.largest.fetch_max(n, Ordering::Relaxed);
+                if let Ok(mut t) = stats.times.lock() {
+                    t.add(&r.times);
+                }
+                let width = out.len() / part.len().max(1);
+                for (i, &j) in part.iter().enumerate() {
+                    results[j] = (arena.len() + i * width, width);
+                }
+                arena.extend_from_slice(&out[..width * part.len()]);
+            }
+        }
+        // 3. Finish: apply each job's outputs to its sample, in the order the immediate
+        //    path applies them.
+        for (job, &(start, width)) in jobs.iter().zip(&results) {
+            let values = &arena[start..start + width];
+            let sample = &mut samples[job.sample * stride..(job.sample + 1) * stride];
+            match job.apply {
+                Apply::Parts(m, a) => add_parts(&self.shaders[m][a], values, layout, sample),
+                Apply::OverrideBeauty(o) => {
+                    add_override_beauty(override_channels(o, values), layout, sample)
+                }
+                Apply::OverridePass(o, off) => {
+                    put_override_pass(o, off, override_channels(o, values), sample)
                 }
             }
         }
-        for &(o, off) in &layout.overrides {
-            let v = self.override_value(o, ray, &prep, out, stats);
-            let nc = o.channels().len();
-            sample[off..off + nc].copy_from_slice(&v[..nc]);
+        // 4. Accumulate the samples into pixels, tile by tile, as `render_tile` does.
+        let inv = 1.0 / spp as f32;
+        let mut s = 0usize;
+        let mut outs = Vec::with_capacity(tiles.len());
+        for &(x0, y0, x1, y1) in tiles {
+            let n = ((x1 - x0) * (y1 - y0)) as usize;
+            let mut values = vec![0.0f32; n * stride];
+            for dst in values.chunks_exact_mut(stride) {
+                for _ in 0..spp {
+                    let sample = &samples[s * stride..(s + 1) * stride];
+                    for (d, v) in dst.iter_mut().zip(sample) {
+                        *d += *v;
+                    }
+                    s += 1;
+                }
+                dst.iter_mut().for_each(|v| *v *= inv);
+            }
+            outs.push(TileOut { values });
         }
+        outs
     }
 
     fn action(&self, ray: RayMatch, depth: u32) -> &Action {
@@ -695,18 +983,19 @@ impl Renderer {
         out: &mut ShadeOut<f32>,
         stats: &TileStats,
     ) -> [f32; 3] {
-        let Some((_, sp)) = self.overrides.iter().find(|(k, _)| *k == kind) else {
+        let Some(sp) = self.override_shader(kind) else {
             return [0.0; 3];
         };
         self.shade(sp, ray, prep, out, stats);
-        let mut v = [0.0f32; 3];
-        for (d, s) in v.iter_mut().zip(&out.values) {
-            *d = *s;
-        }
-        if kind.channels().len() == 1 {
-            v = [v[0]; 3];
-        }
-        v
+        override_channels(kind, &out.values)
+    }
+
+    /// The compiled override shader of a kind.
+    fn override_shader(&self, kind: OverrideKind) -> Option<&Specialized> {
+        self.overrides
+            .iter()
+            .find(|(k, _)| *k == kind)
+            .map(|(_, sp)| sp)
     }
 
     fn intersect(&self, o: Vec3, d: Vec3) -> Found {
@@ -815,6 +1104,25 @@ impl Renderer {
         out: &mut ShadeOut<f32>,
         stats: &TileStats,
     ) {
+        let frag = self.fragment(sp, ray, prep);
+        let services = self.services(ray, prep, stats);
+        let env = &self.envs[prep.surface.instance as usize];
+        let ctx = ShadeCtx {
+            frag,
+            env,
+            mask: sp.mask,
+            scene: Some(&services),
+        };
+        sp.shader.shade(&ctx, out);
+        stats.shading_calls.fetch_add(1, Ordering::Relaxed);
+        stats
+            .nonfinite
+            .fetch_add(out.nonfinite as u64, Ordering::Relaxed);
+    }
+
+    /// The fragment a specialized shader gets at a prepared hit (uv, tangents and
+    /// differentials only where it reads them).
+    fn fragment(&self, sp: &Specialized, ray: &RayState, prep: &Prepared) -> Fragment {
         let s = &prep.surface;
         let mut frag = Fragment {
             p: s.p.to_array(),
@@ -837,19 +1145,7 @@ impl Renderer {
             frag.dpdx = d.dpdx.to_array();
             frag.dpdy = d.dpdy.to_array();
         }
-        let services = self.services(ray, prep, stats);
-        let env = &self.envs[s.instance as usize];
-        let ctx = ShadeCtx {
-            frag,
-            env,
-            mask: sp.mask,
-            scene: Some(&services),
-        };
-        sp.shader.shade(&ctx, out);
-        stats.shading_calls.fetch_add(1, Ordering::Relaxed);
-        stats
-            .nonfinite
-            .fetch_add(out.nonfinite as u64, Ordering::Relaxed);
+        frag
     }
 
     /// Radiance along a secondary ray: the total of what it hits, shaded with the action
@@ -910,12 +1206,197 @@ struct TileOut {
     values: Vec<f32>,
 }
 
-/// Counters of one tile (one thread works a tile, so they are never contended).
+/// Counters of one tile, or one group of tiles in the deferred mode (one thread works it, so
+/// they are never contended).
 #[derive(Default)]
 struct TileStats {
     rays: AtomicU64,
     shading_calls: AtomicU64,
     nonfinite: AtomicU64,
+    batches: AtomicU64,
+    batched: AtomicU64,
+    largest: AtomicU64,
+    times: Mutex<BatchTimes>,
+}
+
+/// Adds a material's output parts (`values`: one shading call's outputs) to a sample.
+fn add_parts(sp: &Specialized, values: &[f32], layout: &Layout, sample: &mut [f32]) {
+    for part in &sp.parts {
+        let base = match (part.beauty, part.comp) {
+            (true, Some(k)) => k * 3,
+            (true, None) => layout.ncomp * 3,
+            (false, Some(k)) => layout.ncomp * 3 + 4 + k * 3,
+            (false, None) => continue,
+        };
+        for c in 0..part.width.min(3) {
+            sample[base + c] += values[part.offset + c];
+        }
+    }
+}
+
+/// An override rule's value goes to the beauty (untagged).
+fn add_override_beauty(v: [f32; 3], layout: &Layout, sample: &mut [f32]) {
+    for c in 0..3 {
+        sample[layout.ncomp * 3 + c] += v[c.min(v.len() - 1)];
+    }
+}
+
+/// An override pass's channels go to its place in the sample.
+fn put_override_pass(kind: OverrideKind, off: usize, v: [f32; 3], sample: &mut [f32]) {
+    let nc = kind.channels().len();
+    sample[off..off + nc].copy_from_slice(&v[..nc]);
+}
+
+/// The value of an override shader from its outputs: its channels (up to 3 floats), a
+/// one-channel value (depth, occlusion) repeated in all three so that an override rule
+/// shows it as grey in the beauty.
+fn override_channels(kind: OverrideKind, values: &[f32]) -> [f32; 3] {
+    let mut v = [0.0f32; 3];
+    for (d, s) in v.iter_mut().zip(values) {
+        *d = *s;
+    }
+    if kind.channels().len() == 1 {
+        v = [v[0]; 3];
+    }
+    v
+}
+
+/// Consecutive tiles (in the given order) grouped until each group holds at least
+/// `min_samples` camera samples; every group has at least one tile.
+fn group_tiles(
+    tiles: &[(u32, u32, u32, u32)],
+    spp: usize,
+    min_samples: usize,
+) -> Vec<std::ops::Range<usize>> {
+    let mut groups = Vec::new();
+    let (mut start, mut n) = (0usize, 0usize);
+    for (i, (x0, y0, x1, y1)) in tiles.iter().enumerate() {
+        n += ((x1 - x0) * (y1 - y0)) as usize * spp;
+        if n >= min_samples {
+            groups.push(start..i + 1);
+            start = i + 1;
+            n = 0;
+        }
+    }
+    if start < tiles.len() {
+        groups.push(start..tiles.len());
+    }
+    groups
+}
+
+/// Splits a batch's jobs (in order) into parts in which no two fragments have the same `P`
+/// bits, so that [`BatchServices`] can find a fragment by its point. Nearly always one
+/// part: two camera hits share a point only when two rays' directions differ below f32
+/// resolution.
+fn unique_points(batch: &[usize], jobs: &[Job]) -> Vec<Vec<usize>> {
+    let mut parts: Vec<(Vec<usize>, std::collections::HashSet<[u32; 3]>)> = Vec::new();
+    for &j in batch {
+        let key = jobs[j].frag.p.map(f32::to_bits);
+        match parts.iter_mut().find(|(_, seen)| !seen.contains(&key)) {
+            Some((list, seen)) => {
+                list.push(j);
+                seen.insert(key);
+            }
+            None => parts.push((vec![j], [key].into_iter().collect())),
+        }
+    }
+    parts.into_iter().map(|(list, _)| list).collect()
+}
+
+/// One deferred shading call: which sample it finishes and how, its fragment and its hit's
+/// scene services.
+struct Job<'a> {
+    sample: usize,
+    apply: Apply,
+    frag: Fragment,
+    hit: HitServices<'a>,
+}
+
+/// How a deferred shading call's outputs finish its sample.
+#[derive(Clone, Copy, Debug)]
+enum Apply {
+    /// A material's parts (material, action).
+    Parts(usize, usize),
+    /// An override rule: the beauty.
+    OverrideBeauty(OverrideKind),
+    /// An override pass at this offset of the sample.
+    OverridePass(OverrideKind, usize),
+}
+
+/// The jobs of one shader and environment (`instance`: whose environment; any instance's
+/// when the shader does not read object space).
+struct BatchKey {
+    shader: Specialized,
+    instance: usize,
+    jobs: Vec<usize>,
+}
+
+/// The scene services of a batch (see the module documentation): fragment `i`'s own
+/// services through [`SceneServices::fragment`], and for direct calls the services of the
+/// fragment whose `P` has the origin's bits (a ray from elsewhere starts where asked, with
+/// a seed hashed from the origin and no differentials).
+struct BatchServices<'a> {
+    hits: Vec<HitServices<'a>>,
+    by_point: HashMap<[u32; 3], usize>,
+}
+
+impl<'a> BatchServices<'a> {
+    fn new(hits: Vec<HitServices<'a>>) -> BatchServices<'a> {
+        let by_point = hits
+            .iter()
+            .enumerate()
+            .map(|(i, h)| (h.p.to_array().map(f32::to_bits), i))
+            .collect();
+        BatchServices { hits, by_point }
+    }
+
+    /// The services of the fragment at `origin`, or detached ones.
+    fn at(&self, origin: [f32; 3]) -> HitServices<'a> {
+        match self.by_point.get(&origin.map(f32::to_bits)) {
+            Some(&i) => self.hits[i],
+            None => {
+                let any = self.hits[0];
+                HitServices {
+                    p: Vec3::NAN,
+                    ng_facing: Vec3::ZERO,
+                    n_facing: Vec3::ZERO,
+                    d_in: Vec3::ZERO,
+                    diffs: None,
+                    seed: hash3(
+                        origin[0].to_bits(),
+                        origin[1].to_bits(),
+                        origin[2].to_bits(),
+                    ),
+                    ..any
+                }
+            }
+        }
+    }
+}
+
+impl SceneServices for BatchServices<'_> {
+    fn trace(&self, origin: [f32; 3], dir: [f32; 3], ray_type: i32, depth: i32) -> [f32; 3] {
+        self.at(origin).trace(origin, dir, ray_type, depth)
+    }
+
+    fn occluded(&self, from: [f32; 3], to: [f32; 3]) -> bool {
+        self.at(from).occluded(from, to)
+    }
+
+    fn occlusion(
+        &self,
+        p: [f32; 3],
+        n: [f32; 3],
+        samples: u32,
+        max_distance: f32,
+        seed: u32,
+    ) -> f32 {
+        self.at(p).occlusion(p, n, samples, max_distance, seed)
+    }
+
+    fn fragment(&self, index: usize) -> Option<&dyn SceneServices> {
+        self.hits.get(index).map(|h| h as &dyn SceneServices)
+    }
 }
 
 enum Found {
@@ -965,6 +1446,7 @@ struct Prepared {
 
 /// The scene services of one hit: secondary rays start from its point with a robust
 /// offset, and carry its differentials.
+#[derive(Clone, Copy)]
 struct HitServices<'a> {
     r: &'a Renderer,
     stats: &'a TileStats,
@@ -978,10 +1460,11 @@ struct HitServices<'a> {
 
 impl HitServices<'_> {
     /// The start of a ray from `origin` towards `dir`: the hit point offset to the side
-    /// `dir` leaves on, when `origin` is the hit point.
+    /// `dir` leaves on, when `origin` is the hit point (never for detached services, whose
+    /// point is NaN).
     fn start(&self, origin: Vec3, dir: Vec3) -> Vec3 {
         let tol = 1e-4 * (1.0 + self.p.abs().max_element());
-        if (origin - self.p).abs().max_element() <= tol {
+        if self.p.is_finite() && (origin - self.p).abs().max_element() <= tol {
             let side = if dir.dot(self.ng_facing) >= 0.0 {
                 self.ng_facing
             } else {
@@ -1579,6 +2062,159 @@ scale = 0.4
             hits >= 100 && partial >= 10,
             "{hits} hits, {partial} partly occluded"
         );
+    }
+
+    /// Films and statistics of one scene rendered immediately and deferred (with groups of
+    /// `group` samples) are identical, bit for bit, on every layer.
+    fn assert_deferred_matches(text: &str, program: Program, group: usize) -> RenderStats {
+        let mut r = Renderer::new(scene(text), vec![program], &InterpBackend).unwrap();
+        assert_eq!(r.shading_mode(), ShadingMode::Immediate);
+        let (a, sa) = r.render(&|_, _| {});
+        r.set_shading_mode(ShadingMode::Deferred(DeferredOptions {
+            group_samples: group,
+        }));
+        let (b, sb) = r.render(&|_, _| {});
+        for (la, lb) in a.layers.iter().zip(&b.layers) {
+            assert_eq!(la.name, lb.name);
+            let differ = la
+                .data
+                .iter()
+                .zip(&lb.data)
+                .filter(|(x, y)| x.to_bits() != y.to_bits())
+                .count();
+            assert_eq!(differ, 0, "layer {}: {differ} values differ", la.name);
+        }
+        assert_eq!(a.layers.len(), b.layers.len());
+        assert_eq!(
+            (sa.rays, sa.shading_calls, sa.nonfinite),
+            (sb.rays, sb.shading_calls, sb.nonfinite)
+        );
+        assert_eq!(sa.batches, 0);
+        assert!(sb.batches > 0 && sb.batched_fragments > 0, "{sb:?}");
+        sb
+    }
+
+    /// A floor with a box on it, partly out of frame (misses see the background), lit by a
+    /// point light and a quad light (shadow rays from inside the batch), in passes with
+    /// override passes (occlusion asks the scene from inside the batch); 3 spp, tiles of
+    /// 2×2 over a 9×7 frame (partial tiles).
+    const BOX_ON_FLOOR: &str = r#"
+[camera]
+position = [0, 2.5, 3]
+look_at = [0, 0.2, 0]
+resolution = [9, 7]
+
+[render]
+spp = 3
+tile_size = 2
+passes = ["diffuse", "normal", "depth", "uv", "occlusion"]
+occlusion_samples = 8
+occlusion_distance = 0.8
+
+[materials.m]
+json = '{"nodes": [], "outputs": {}}'
+
+[meshes.q]
+type = "quad"
+
+[meshes.cube]
+type = "box"
+
+[[instances]]
+mesh = "q"
+material = "m"
+rotate = [-90, 0, 0]
+scale = 1.5
+
+[[instances]]
+mesh = "cube"
+material = "m"
+translate = [0.2, 0.4, 0]
+scale = 0.4
+
+[[lights]]
+type = "point"
+position = [0.8, 1.5, 0.6]
+intensity = 3
+
+[[lights]]
+type = "quad"
+corner = [-0.3, 1.8, -0.3]
+edge_u = [0.6, 0, 0]
+edge_v = [0, 0, 0.6]
+intensity = 2
+samples = 3
+"#;
+
+    /// The deferred mode gives the immediate mode's image, bit for bit, on every layer, and
+    /// the same statistics, for groups of one tile, several tiles and the whole frame; an
+    /// override rule on camera rays shades the override in the batch.
+    #[test]
+    fn deferred_shading_gives_the_immediate_image() {
+        for group in [1, 20, 1 << 20] {
+            let st = assert_deferred_matches(BOX_ON_FLOOR, lambert([0.6, 0.5, 0.4]), group);
+            // Every camera hit's shading calls went through batches: material and four
+            // override passes per hit.
+            assert_eq!(st.batched_fragments, st.shading_calls, "{st:?}");
+            assert!(st.largest_batch > 1);
+        }
+        let rule = format!(
+            "{BOX_ON_FLOOR}\n[[render.rules]]\nray = \"camera\"\noverride = \"occlusion\"\n"
+        );
+        assert_deferred_matches(&rule, lambert([0.6, 0.5, 0.4]), 30);
+        // A material reading object space is batched per instance.
+        let st = assert_deferred_matches(BOX_ON_FLOOR, object_p(), 1 << 20);
+        assert!(st.batches >= 2, "{st:?}");
+    }
+
+    /// A program whose output is `P` in object space.
+    fn object_p() -> Program {
+        let src = r#"{ "nodes": [ { "name": "i", "type": "samplerInfo",
+             "inputs": { "space": "object" } } ],
+             "outputs": { "color": "i.P" } }"#;
+        compile_json(src, &NodeLibrary::standard())
+            .unwrap_or_else(|e| panic!("{e}"))
+            .program
+    }
+
+    /// A batch's services find each fragment by its point (direct calls) and by index
+    /// (`fragment`); a point no fragment has gets detached services: the ray starts where
+    /// asked.
+    #[test]
+    fn batch_services_find_the_fragment_by_point_and_index() {
+        let r = Renderer::new(scene(ROOM), vec![lambert([0.5; 3])], &InterpBackend).unwrap();
+        let stats = TileStats::default();
+        let a = services(&r, &stats, Vec3::ZERO, Vec3::Y);
+        let mut b = services(&r, &stats, Vec3::new(0.2, 0.0, 0.1), Vec3::Y);
+        b.seed = 99;
+        let bs = BatchServices::new(vec![a, b]);
+        let hit = |s: &HitServices| (s.p, s.seed);
+        assert_eq!(hit(&bs.at([0.2, 0.0, 0.1])), (b.p, 99));
+        assert_eq!(hit(&bs.at([0.0, 0.0, 0.0])), (Vec3::ZERO, 7));
+        assert!(bs.at([0.5, 0.0, 0.0]).p.is_nan());
+        assert!(bs.fragment(1).is_some() && bs.fragment(2).is_none());
+        // From the fragment's own point the ray is offset (the floor does not shadow its own
+        // point at a grazing angle); the same point through detached services is not.
+        let direct = bs.occluded([0.0, 0.0, 0.0], [5.0, 0.01, 0.0]);
+        assert!(!direct);
+        assert_eq!(
+            bs.fragment(0)
+                .unwrap()
+                .occluded([0.0, 0.0, 0.0], [5.0, 0.01, 0.0]),
+            direct
+        );
+    }
+
+    #[test]
+    fn tiles_group_until_enough_samples() {
+        let tiles: Vec<_> = (0..5).map(|i| (i * 2, 0, i * 2 + 2, 2)).collect();
+        assert_eq!(group_tiles(&tiles, 1, 8), vec![0..2, 2..4, 4..5]);
+        assert_eq!(
+            group_tiles(&tiles, 2, 1),
+            vec![0..1, 1..2, 2..3, 3..4, 4..5]
+        );
+        assert_eq!(group_tiles(&tiles, 1, 1000), vec![0..5]);
+        assert!(group_tiles(&[], 1, 8).is_empty());
     }
 
     /// A component the first output lacks comes from another output (as a surface's

@@ -4,12 +4,22 @@
 //! rules produce) and hands each specialized program to a [`ShaderBackend`], getting back a
 //! [`Shader`] it calls per hit from every rayon thread (and recursively, from inside a
 //! shader's `trace`). [`RuntimeBackend`] adapts any `shadenet_runtime::Backend` (the
-//! interpreter, the JIT) to it; [`InterpBackend`] is the interpreter, the reference.
+//! interpreter, the JIT) to it, [`BatchedBackend`] one that shades best in large batches
+//! (the GPU); [`InterpBackend`] is the interpreter, the reference.
+//!
+//! A shader has two entries: [`Shader::shade`] (one fragment: every hit in the immediate
+//! mode, and secondary hits shaded from inside a `trace` in both modes) and
+//! [`Shader::shade_many`] (a batch of fragments sharing environment and component mask: the
+//! camera hits of the renderer's deferred mode, see `render`), which maps to the runtime's
+//! `Material::shade_many`.
 
 use shadenet_graph::ir::Program;
-use shadenet_runtime::{Backend, Material, ShadeCtx, ShadeOut};
+use shadenet_runtime::{
+    Backend, BatchResult, BatchTimes, Fragment, Material, SceneServices, ShadeCtx, ShadeEnv,
+    ShadeOut,
+};
 use std::sync::Arc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// A compiled material: shades one fragment, writing every output (each component part
 /// separately) into `out`, laid out as the interpreter lays out the program's outputs.
@@ -17,6 +27,46 @@ pub trait Shader: Send + Sync {
     /// Shades one fragment. May be called recursively (a shader's `trace` shades another
     /// hit on the same thread before this call returns).
     fn shade(&self, ctx: &ShadeCtx, out: &mut ShadeOut<f32>);
+
+    /// Shades a batch: every fragment with the same environment and component mask, and
+    /// fragment `i` with the scene services `scene.fragment(i)` where the scene gives
+    /// per-fragment services (see `SceneServices::fragment`), else `scene`. `out` is
+    /// cleared and receives each fragment's outputs (as [`Shader::shade`] writes them), one
+    /// fragment after the other. The default calls [`Shader::shade`] once per fragment.
+    fn shade_many(
+        &self,
+        env: &ShadeEnv,
+        mask: u32,
+        scene: Option<&dyn SceneServices>,
+        frags: &[Fragment],
+        out: &mut Vec<f32>,
+    ) -> BatchResult {
+        let t = Instant::now();
+        out.clear();
+        let mut one = ShadeOut {
+            values: Vec::new(),
+            nonfinite: 0,
+        };
+        let mut nonfinite = 0u64;
+        for (i, f) in frags.iter().enumerate() {
+            let ctx = ShadeCtx {
+                frag: *f,
+                env,
+                mask,
+                scene: scene.map(|s| s.fragment(i).unwrap_or(s)),
+            };
+            self.shade(&ctx, &mut one);
+            nonfinite += one.nonfinite as u64;
+            out.extend_from_slice(&one.values);
+        }
+        BatchResult {
+            nonfinite,
+            times: BatchTimes {
+                kernels: t.elapsed(),
+                ..BatchTimes::default()
+            },
+        }
+    }
 }
 
 /// Compiles specialized programs into shaders.
@@ -25,6 +75,12 @@ pub trait ShaderBackend: Send + Sync {
     fn name(&self) -> &str;
     /// Compiles one (already specialized and optimized) program.
     fn compile(&self, program: &Program) -> Result<Arc<dyn Shader>, String>;
+    /// Whether the back end shades best in large batches (the GPU: a dispatch per hit would
+    /// cost more than the shading), so that the renderer shades camera hits deferred, in
+    /// batches through [`Shader::shade_many`]. Default: false (shade each hit as it is found).
+    fn prefers_batches(&self) -> bool {
+        false
+    }
 }
 
 /// Any runtime back end as a shader back end. The runtime's materials are re-entrant (the
@@ -32,12 +88,27 @@ pub trait ShaderBackend: Send + Sync {
 /// stack), so recursive shading needs nothing more here.
 pub struct RuntimeBackend(pub Arc<dyn Backend>);
 
-struct MaterialShader(Arc<dyn Material>);
+/// A runtime material as a shader: [`Shader::shade`] is `Material::shade`,
+/// [`Shader::shade_many`] is `Material::shade_many`.
+pub struct MaterialShader(pub Arc<dyn Material>);
 
 impl Shader for MaterialShader {
     fn shade(&self, ctx: &ShadeCtx, out: &mut ShadeOut<f32>) {
         out.values.resize(self.0.width(), 0.0);
         out.nonfinite = self.0.shade(ctx, &mut out.values);
+    }
+
+    fn shade_many(
+        &self,
+        env: &ShadeEnv,
+        mask: u32,
+        scene: Option<&dyn SceneServices>,
+        frags: &[Fragment],
+        out: &mut Vec<f32>,
+    ) -> BatchResult {
+        out.clear();
+        out.resize(frags.len() * self.0.width(), 0.0);
+        self.0.shade_many(env, mask, scene, frags, out)
     }
 }
 
@@ -52,6 +123,25 @@ impl ShaderBackend for RuntimeBackend {
             .compile_program(program, Duration::ZERO)
             .map_err(|e| e.to_string())?;
         Ok(Arc::new(MaterialShader(m)))
+    }
+}
+
+/// A runtime back end that shades best in large batches (the GPU) as a shader back end:
+/// [`RuntimeBackend`] with [`ShaderBackend::prefers_batches`] true, so the renderer shades
+/// camera hits in deferred batches.
+pub struct BatchedBackend(pub Arc<dyn Backend>);
+
+impl ShaderBackend for BatchedBackend {
+    fn name(&self) -> &str {
+        self.0.name()
+    }
+
+    fn compile(&self, program: &Program) -> Result<Arc<dyn Shader>, String> {
+        RuntimeBackend(self.0.clone()).compile(program)
+    }
+
+    fn prefers_batches(&self) -> bool {
+        true
     }
 }
 
