@@ -1,4 +1,5 @@
-//! The `shadenet` command line: `render`, `shade`, `compile`, `check`, `nodes`, `gen`.
+//! The `shadenet` command line: `render`, `shade`, `compile`, `check`, `nodes`, `gen`,
+//! `bench`, `gpu-info`.
 
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand, ValueEnum};
@@ -8,7 +9,8 @@ use shadenet::graph::nodes::{LightDesc, LightKind};
 use shadenet::graph::opt::{self, Specialization};
 use shadenet::output::{OutputError, write_atomic, write_exr, write_png};
 use shadenet::runtime::{Backend, InterpBackend, Material};
-use shadenet::shade::{grid_env, shade_grid, shade_grid_with};
+use shadenet::shade::{grid_env, shade_grid, shade_grid_many, shade_grid_with};
+use shadenet_gpu::{GpuBackend, GpuContext, GpuOptions, PassMode};
 use shadenet_jit::{JitBackend, JitOptions};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -57,6 +59,9 @@ enum Cmd {
     /// Run the benchmarks (DESIGN §9): tables per suite, CSV + SVG per suite and a markdown
     /// summary in the output directory.
     Bench(BenchArgs),
+    /// List the GPU adapters (best first) and describe the one the GPU back end uses; exit 1
+    /// when there is none.
+    GpuInfo,
 }
 
 #[derive(clap::Args)]
@@ -121,6 +126,10 @@ struct CompileArgs {
     /// JIT's compile statistics (lowering, Cranelift and linking time, code size).
     #[arg(long)]
     stats: bool,
+    /// GPU pass partitioning for `--emit wgsl`: `auto` (the cost model), `1` (one kernel
+    /// between host steps) or a pass count.
+    #[arg(long, value_name = "auto|1|N", value_parser = parse_gpu_passes)]
+    gpu_passes: Option<PassMode>,
     #[command(flatten)]
     opt: OptArgs,
 }
@@ -215,6 +224,8 @@ enum BackendArg {
     Jit,
     /// The Cranelift JIT, 4-wide batch entry.
     JitBatch,
+    /// The GPU (wgpu): the whole grid in one batch.
+    Gpu,
 }
 
 #[derive(clap::Args)]
@@ -239,11 +250,15 @@ struct ShadeArgs {
     /// spot:X,Y,Z:DX,DY,DZ:INTENSITY:CONE_DEG[:R,G,B], ambient:INTENSITY[:R,G,B].
     #[arg(long)]
     light: Vec<String>,
-    /// Back end: `interp` (the interpreter), `jit` (Cranelift, one call per fragment) or
-    /// `jit-batch` (Cranelift, four fragments per call). Default: `jit`, or `interp` with
-    /// `--precision f64`.
+    /// Back end: `interp` (the interpreter), `jit` (Cranelift, one call per fragment),
+    /// `jit-batch` (Cranelift, four fragments per call) or `gpu` (wgpu, the whole grid in one
+    /// batch). Default: `jit`, or `interp` with `--precision f64`.
     #[arg(long, value_enum)]
     backend: Option<BackendArg>,
+    /// GPU pass partitioning (with `--backend gpu`): `auto` (the cost model), `1` (one
+    /// kernel between host steps) or a pass count.
+    #[arg(long, value_name = "auto|1|N", value_parser = parse_gpu_passes)]
+    gpu_passes: Option<PassMode>,
     /// Precision: f32 (shading) or f64 (the interpreter's accuracy reference).
     #[arg(long, value_enum, default_value_t = Precision::F32)]
     precision: Precision,
@@ -261,6 +276,9 @@ enum RenderBackendArg {
     Interp,
     /// The Cranelift JIT (scalar entry, one call per hit).
     Jit,
+    /// The GPU (wgpu): camera hits shaded deferred, in batches; the JIT shades secondary
+    /// hits.
+    Gpu,
 }
 
 #[derive(clap::Args)]
@@ -277,6 +295,10 @@ struct RenderArgs {
     /// Back end that runs the materials.
     #[arg(long, value_enum, default_value_t = RenderBackendArg::Jit)]
     backend: RenderBackendArg,
+    /// GPU pass partitioning (with `--backend gpu`): `auto` (the cost model), `1` (one
+    /// kernel between host steps) or a pass count.
+    #[arg(long, value_name = "auto|1|N", value_parser = parse_gpu_passes)]
+    gpu_passes: Option<PassMode>,
     /// Samples per pixel (overrides the scene).
     #[arg(long)]
     spp: Option<u32>,
@@ -310,6 +332,31 @@ fn parse_res(s: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
+fn parse_gpu_passes(s: &str) -> Result<PassMode, String> {
+    s.parse::<PassMode>()
+}
+
+/// The GPU back end's options from `--gpu-passes`.
+fn gpu_options(passes: Option<PassMode>) -> GpuOptions {
+    GpuOptions {
+        passes: passes.unwrap_or_default(),
+        ..GpuOptions::default()
+    }
+}
+
+/// `--gpu-passes` only means something to the GPU back end.
+fn check_gpu_passes(passes: Option<PassMode>, gpu: bool, what: &str) -> Result<()> {
+    if passes.is_some() && !gpu {
+        bail!("--gpu-passes applies to {what} only");
+    }
+    Ok(())
+}
+
+/// Milliseconds of a duration, for the summaries.
+fn ms(d: std::time::Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
 fn main() {
     let cli = Cli::parse();
     let result = match cli.cmd {
@@ -323,6 +370,7 @@ fn main() {
         }
         Cmd::Gen { what } => generate(what),
         Cmd::Bench(args) => bench(args),
+        Cmd::GpuInfo => gpu_info(),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
@@ -570,14 +618,15 @@ fn shade(args: ShadeArgs) -> Result<()> {
         (Some(BackendArg::Interp), _) => BackendArg::Interp,
         (Some(b), Precision::F64) => bail!(
             "--precision f64 runs the interpreter (the accuracy reference); --backend {} is f32 only",
-            if b == BackendArg::Jit {
-                "jit"
-            } else {
-                "jit-batch"
+            match b {
+                BackendArg::Jit => "jit",
+                BackendArg::Gpu => "gpu",
+                _ => "jit-batch",
             }
         ),
         (Some(b), Precision::F32) => b,
     };
+    check_gpu_passes(args.gpu_passes, backend == BackendArg::Gpu, "--backend gpu")?;
     let names = program.output_names();
     let aov = args.aov.clone().unwrap_or_else(|| names[0].to_string());
     if !names.contains(&aov.as_str()) {
@@ -595,6 +644,7 @@ fn shade(args: ShadeArgs) -> Result<()> {
         };
     let env = grid_env(&lights);
     let (w, h) = args.res;
+    let mut gpu_split = None;
     let (grid, load_time, shade_time, ops, stats) = match args.precision {
         Precision::F64 => {
             let optimized;
@@ -610,12 +660,19 @@ fn shade(args: ShadeArgs) -> Result<()> {
             (grid, load_time, t1.elapsed(), p.op_count(), None)
         }
         Precision::F32 => {
-            let b: Box<dyn Backend> = match backend {
-                BackendArg::Interp => Box::new(InterpBackend),
-                _ => Box::new(JitBackend::with_options(JitOptions {
+            let jit = || {
+                JitBackend::with_options(JitOptions {
                     log_fallback: !args.quiet,
                     ..JitOptions::default()
-                })),
+                })
+            };
+            let b: Box<dyn Backend> = match backend {
+                BackendArg::Interp => Box::new(InterpBackend),
+                BackendArg::Gpu => Box::new(
+                    GpuBackend::new(gpu_options(args.gpu_passes), Arc::new(jit()))
+                        .context("--backend gpu: the GPU back end cannot start")?,
+                ),
+                _ => Box::new(jit()),
             };
             let material: Arc<dyn Material> = if args.opt.no_opt {
                 b.compile_program(program, std::time::Duration::ZERO)?
@@ -624,14 +681,20 @@ fn shade(args: ShadeArgs) -> Result<()> {
             };
             let load_time = t0.elapsed();
             let t1 = Instant::now();
-            let grid = shade_grid_with(
-                &*material,
-                &env,
-                w,
-                h,
-                mask,
-                backend == BackendArg::JitBatch,
-            );
+            let grid = if backend == BackendArg::Gpu {
+                let (grid, r) = shade_grid_many(&*material, &env, w, h, mask);
+                gpu_split = Some(r.times);
+                grid
+            } else {
+                shade_grid_with(
+                    &*material,
+                    &env,
+                    w,
+                    h,
+                    mask,
+                    backend == BackendArg::JitBatch,
+                )
+            };
             let info = material.info();
             let ops = info.stats.ops;
             let which = match (backend, &info.fallback) {
@@ -639,6 +702,7 @@ fn shade(args: ShadeArgs) -> Result<()> {
                 (BackendArg::Interp, _) => "interp",
                 (BackendArg::Jit, _) => "jit",
                 (BackendArg::JitBatch, _) => "jit-batch",
+                (BackendArg::Gpu, _) => "gpu",
             };
             (
                 grid,
@@ -736,6 +800,16 @@ fn shade(args: ShadeArgs) -> Result<()> {
         if let Some((_, s)) = stats {
             say!("compile: {s}");
         }
+        if let Some(t) = gpu_split {
+            say!(
+                "gpu: upload {:.3} ms, kernels {:.3} ms, host {:.3} ms, readback {:.3} ms; {} passes dispatched",
+                ms(t.upload),
+                ms(t.kernels),
+                ms(t.host),
+                ms(t.readback),
+                t.passes
+            );
+        }
         for p in &args.output {
             say!("wrote {}", p.display());
         }
@@ -747,11 +821,18 @@ fn render(args: RenderArgs) -> Result<()> {
     use shadenet::render::{self as r, BackendKind, Files, RenderOptions};
     use std::io::IsTerminal;
     let t0 = Instant::now();
-    let kind = match args.backend {
-        RenderBackendArg::Interp => BackendKind::Interp,
-        RenderBackendArg::Jit => BackendKind::Jit,
+    check_gpu_passes(
+        args.gpu_passes,
+        args.backend == RenderBackendArg::Gpu,
+        "--backend gpu",
+    )?;
+    let backend = match args.backend {
+        RenderBackendArg::Interp => r::backend(BackendKind::Interp)?,
+        RenderBackendArg::Jit => r::backend(BackendKind::Jit)?,
+        RenderBackendArg::Gpu => {
+            r::gpu_backend(gpu_options(args.gpu_passes)).context("--backend gpu")?
+        }
     };
-    let backend = r::backend(kind)?;
     let (exr_path, png_path) = match (&args.output, &args.png) {
         (None, None) => (
             PathBuf::from("render.exr"),
@@ -868,6 +949,25 @@ fn render(args: RenderArgs) -> Result<()> {
             s.shading_calls,
             s.nonfinite
         );
+        if s.batches > 0 {
+            let t = &s.batch_times;
+            say!(
+                "deferred shading: {} batches, {} fragments (mean {:.0}, largest {}); {} shading calls from inside traced rays ran one by one",
+                s.batches,
+                s.batched_fragments,
+                s.batched_fragments as f64 / s.batches as f64,
+                s.largest_batch,
+                s.shading_calls - s.batched_fragments
+            );
+            say!(
+                "batch time (summed over threads): upload {:.3} s, kernels {:.3} s, host {:.3} s, readback {:.3} s; {} GPU passes dispatched",
+                t.upload.as_secs_f64(),
+                t.kernels.as_secs_f64(),
+                t.host.as_secs_f64(),
+                t.readback.as_secs_f64(),
+                t.passes
+            );
+        }
         say!(
             "wrote {} (layers: {})",
             exr_path.display(),
@@ -935,5 +1035,31 @@ fn bench(args: BenchArgs) -> Result<()> {
             .collect::<Vec<_>>()
             .join(",")
     );
+    Ok(())
+}
+
+fn gpu_info() -> Result<()> {
+    let list = shadenet_gpu::context::adapters();
+    if list.is_empty() {
+        say!("adapters: none");
+    } else {
+        say!("adapters (best first):");
+        for a in &list {
+            say!(
+                "  {} ({}, {}; driver: {})",
+                a.name,
+                a.backend,
+                a.device_type,
+                if a.driver.is_empty() {
+                    "unknown"
+                } else {
+                    &a.driver
+                }
+            );
+        }
+    }
+    let ctx = GpuContext::shared().context("the GPU back end has no device")?;
+    say!("chosen:");
+    print_out(&ctx.describe());
     Ok(())
 }

@@ -9,12 +9,13 @@
 //! (`examples/scenes/default.toml` and the network files it names), so `shadenet render`
 //! works from any directory.
 
+use shadenet_gpu::{GpuBackend, GpuOptions};
 use shadenet_graph::ir::Program;
 use shadenet_graph::network::Network;
 use shadenet_graph::{NodeLibrary, link, lower};
 use shadenet_tracer::passes::PassDef;
 use shadenet_tracer::scene::{self, MaterialRef, MaterialSource, Scene, SceneError};
-use shadenet_tracer::shader::{InterpBackend, RuntimeBackend, ShaderBackend};
+use shadenet_tracer::shader::{BatchedBackend, InterpBackend, RuntimeBackend, ShaderBackend};
 use shadenet_tracer::{RenderError, Renderer};
 use std::path::{Component, Path, PathBuf};
 use std::sync::Arc;
@@ -67,8 +68,11 @@ const EMBEDDED: &[(&str, &str)] = &[
 pub enum BackendKind {
     /// The interpreter (f32).
     Interp,
-    /// The Cranelift JIT (not built yet).
+    /// The Cranelift JIT.
     Jit,
+    /// The GPU (wgpu), with the JIT as its scalar companion (secondary hits); camera hits
+    /// are shaded deferred, in batches. Default [`GpuOptions`]: see [`gpu_backend`].
+    Gpu,
 }
 
 /// Command-line overrides of a scene's settings.
@@ -261,7 +265,18 @@ pub fn backend(kind: BackendKind) -> Result<Box<dyn ShaderBackend>, SetupError> 
         BackendKind::Jit => Ok(Box::new(RuntimeBackend(Arc::new(
             shadenet_jit::JitBackend::new(),
         )))),
+        BackendKind::Gpu => gpu_backend(GpuOptions::default()),
     }
+}
+
+/// The GPU back end with these options and the JIT as its scalar companion (it shades the
+/// single hits: secondary rays shaded from inside `trace`), as a shader back end that
+/// prefers batches (the renderer shades camera hits deferred). Fails, naming the cause,
+/// when no adapter exists or no device opens on it.
+pub fn gpu_backend(options: GpuOptions) -> Result<Box<dyn ShaderBackend>, SetupError> {
+    let gpu = GpuBackend::new(options, Arc::new(shadenet_jit::JitBackend::new()))
+        .map_err(|e| SetupError::Backend(format!("the GPU back end cannot start: {e}")))?;
+    Ok(Box::new(BatchedBackend(Arc::new(gpu))))
 }
 
 /// Compiles every material of a scene and prepares the renderer.

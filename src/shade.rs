@@ -10,7 +10,8 @@ use rayon::prelude::*;
 use shadenet_graph::ir::{Program, RAY_CAMERA};
 use shadenet_graph::ops::Real;
 use shadenet_runtime::{
-    Fragment, FragmentX4, Interpreter, LANES, Material, ShadeCtx, ShadeEnv, ShadeOut, Transform,
+    BatchResult, Fragment, FragmentX4, Interpreter, LANES, Material, ShadeCtx, ShadeEnv, ShadeOut,
+    Transform,
 };
 
 /// The eye position of the shade camera.
@@ -159,4 +160,30 @@ pub fn shade_grid_with(
         }
         bad
     })
+}
+
+/// Shades every pixel of a `w × h` grid with one [`Material::shade_many`] call (the batch
+/// entry the GPU implements; no scene), with the components in `mask` active. Returns the
+/// grid and the call's result (non-finite count, where the time went).
+pub fn shade_grid_many(
+    material: &dyn Material,
+    env: &ShadeEnv,
+    w: u32,
+    h: u32,
+    mask: u32,
+) -> (Grid, BatchResult) {
+    let stride = material.width();
+    let frags: Vec<Fragment> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| grid_fragment(x, y, w, h)))
+        .collect();
+    let mut out = vec![0.0f32; frags.len() * stride];
+    let result = material.shade_many(env, mask, None, &frags, &mut out);
+    let grid = Grid {
+        width: w,
+        height: h,
+        stride,
+        values: out.iter().map(|v| *v as f64).collect(),
+        nonfinite: result.nonfinite,
+    };
+    (grid, result)
 }

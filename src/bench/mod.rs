@@ -2,11 +2,16 @@
 //! JIT against the rustc-compiled native reference, speed against error.
 //!
 //! - **B1** the multiplication tree (Larsson 2005, §5.1.1): shading only (one thread, CSE
-//!   off and on, scalar and batch entries, the native reference), full renders of the tree
-//!   scene (all threads, the renderer's specialization) and preprocessing, world and camera
-//!   space; the thesis's Figures 7–9 printed beside.
+//!   off and on, scalar and batch entries, the native reference, the GPU's batch entry),
+//!   full renders of the tree scene (all threads, the renderer's specialization; the GPU
+//!   deferred) and preprocessing, world and camera space; the thesis's Figures 7–9 printed
+//!   beside.
 //! - **B2** thread scaling of B1's shading, 1…N threads.
-//! - **B3** the example scenes rendered with each back end.
+//! - **B3** the example scenes rendered with each back end (the GPU deferred, in batches).
+//!
+//! GPU rows appear where an adapter exists (a note says why they are missing otherwise);
+//! their shading time is split into upload, kernels, host steps and readback
+//! (`BatchTimes`), with the passes dispatched.
 //! - **B4** preprocessing (link + optimize + compile) against network size.
 //! - **B5** N passes in one render against N one-pass renders; specialized against
 //!   unspecialized shading.
@@ -23,15 +28,19 @@ pub mod workloads;
 pub mod native;
 
 use report::{ErrorStats, Row, Timing, time};
+use shadenet_gpu::{GpuBackend, GpuOptions};
 use shadenet_graph::ir::{Program, Space};
 use shadenet_graph::opt::{self, Specialization};
 use shadenet_jit::{JitBackend, JitOptions};
-use shadenet_runtime::{Backend, InterpBackend, Interpreter, LANES, Material, ShadeCtx, ShadeEnv};
-use shadenet_tracer::Renderer;
+use shadenet_runtime::{
+    Backend, BatchTimes, InterpBackend, Interpreter, LANES, Material, ShadeCtx, ShadeEnv,
+};
 use shadenet_tracer::scene::{self, MaterialSource, Scene};
 use shadenet_tracer::shader::ShaderBackend;
+use shadenet_tracer::{RenderStats, Renderer};
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
 use workloads::{Entry, packets, tree_fragments, tree_program, tree_spec};
 
 /// The suites, in order.
@@ -135,6 +144,53 @@ fn actual(asked: &str, m: &dyn Material) -> String {
     }
 }
 
+/// The GPU back end of the GPU rows (default options, the JIT as scalar companion), or why
+/// there is none.
+fn gpu_backend() -> Result<GpuBackend, String> {
+    GpuBackend::new(GpuOptions::default(), Arc::new(jit(false))).map_err(|e| e.to_string())
+}
+
+/// Why GPU rows are missing: (case, reason).
+type Notes = Vec<(String, String)>;
+
+/// The notes of a suite for [`notes_markdown`]: why every GPU row is missing, or none.
+fn gpu_notes(gpu: &Result<GpuBackend, String>) -> Notes {
+    gpu.as_ref()
+        .err()
+        .map(|e| ("every case".to_string(), e.clone()))
+        .into_iter()
+        .collect()
+}
+
+/// The notes printed after a suite's table: why GPU rows are missing, one line per reason.
+fn notes_markdown(notes: &Notes) -> String {
+    let mut reasons: Vec<(&str, Vec<&str>)> = Vec::new();
+    for (case, why) in notes {
+        match reasons.iter_mut().find(|r| r.0 == why) {
+            Some(r) => {
+                if !r.1.contains(&case.as_str()) {
+                    r.1.push(case)
+                }
+            }
+            None => reasons.push((why, vec![case])),
+        }
+    }
+    let mut s = String::new();
+    for (why, cases) in reasons {
+        s.push_str(&format!(
+            "\nNote: no GPU rows for {}: {why}\n",
+            cases.join(", ")
+        ));
+    }
+    s
+}
+
+/// The time split of the run whose wall time is the median of `runs`.
+fn median_split(runs: &mut [(Duration, BatchTimes)]) -> Option<BatchTimes> {
+    runs.sort_by_key(|r| r.0);
+    runs.get(runs.len().checked_sub(1)? / 2).map(|r| r.1)
+}
+
 fn pool(threads: usize) -> rayon::ThreadPool {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -169,6 +225,10 @@ fn space_name(s: Space) -> &'static str {
     if s == Space::World { "world" } else { "camera" }
 }
 
+/// The GPU of a suite's rows: the back end, or why there is none (said once per suite).
+type Gpu<'a> = Option<&'a Result<GpuBackend, String>>;
+
+#[allow(clippy::too_many_arguments)]
 fn shading_rows(
     opts: &BenchOptions,
     suite: &'static str,
@@ -177,6 +237,8 @@ fn shading_rows(
     threads: &[usize],
     configs: &[(&str, bool, Entry)],
     with_native: bool,
+    gpu: Gpu,
+    notes: &mut Notes,
 ) -> Vec<Row> {
     let (w, h) = opts.size();
     let n = (w * h) as usize;
@@ -244,41 +306,104 @@ fn shading_rows(
             }
         }
     }
+    if let Some(Ok(gpu)) = gpu {
+        let case = format!("L{level} {} shade", space_name(space));
+        for cse in [false, true] {
+            let m = match gpu.compile(&program, &tree_spec(cse)) {
+                Ok(m) => m,
+                Err(e) => {
+                    notes.push((case.clone(), e.to_string()));
+                    continue;
+                }
+            };
+            let mut gout = vec![0.0f32; n * m.width()];
+            let mut runs = Vec::new();
+            let timing = time(reps, budget, || {
+                let t = Instant::now();
+                let r = m.shade_many(&env, u32::MAX, None, &frags, &mut gout);
+                runs.push((t.elapsed(), r.times));
+            });
+            rows.push(Row {
+                suite,
+                case: case.clone(),
+                backend: actual("gpu", &*m),
+                config: format!(
+                    "CSE {}, shade_many (1 batch)",
+                    if cse { "on" } else { "off" }
+                ),
+                work: n as u64,
+                unit: "frag",
+                time: timing,
+                error: Some(ErrorStats::measure(&gout[..n * 3], &reference, 3)),
+                split: median_split(&mut runs),
+                ..Row::default()
+            });
+        }
+    }
     rows
 }
 
 const TREE_SCENE: &str = include_str!("../../examples/scenes/mult_tree.toml");
 
-/// Renders `scene` with `backend` `reps` times; the film's beauty layer of the last run.
+/// A timed render: timing, preparation seconds, the beauty layer of the last run and its
+/// floats per pixel, and the statistics of the median run.
+type Rendered = (Timing, f64, Vec<f32>, usize, RenderStats);
+
+/// Renders `scene` with `backend` `reps` times (panics if the scene cannot be prepared:
+/// the example scenes can).
 fn render_timed(
     scene: &Scene,
     programs: &[Program],
     backend: &dyn ShaderBackend,
     reps: (usize, f64),
-) -> (Timing, f64, Vec<f32>, usize) {
+) -> Rendered {
+    try_render_timed(scene, programs, backend, reps).expect("the scene prepares")
+}
+
+/// [`render_timed`], or why the back end cannot prepare the scene.
+fn try_render_timed(
+    scene: &Scene,
+    programs: &[Program],
+    backend: &dyn ShaderBackend,
+    reps: (usize, f64),
+) -> Result<Rendered, String> {
     let t = Instant::now();
-    let r = Renderer::new(scene.clone(), programs.to_vec(), backend).expect("the scene prepares");
+    let r = Renderer::new(scene.clone(), programs.to_vec(), backend).map_err(|e| e.to_string())?;
     let prep = t.elapsed().as_secs_f64();
     let mut film = None;
-    let timing = time(reps.0, reps.1, || film = Some(r.render(&|_, _| {}).0));
-    let film = film.expect("one render");
-    let beauty = film.layers.into_iter().next().expect("a beauty layer");
+    let mut runs = Vec::new();
+    let timing = time(reps.0, reps.1, || {
+        let (f, st) = r.render(&|_, _| {});
+        film = Some(f);
+        runs.push(st);
+    });
+    runs.sort_by_key(|st| st.render_time);
+    let stats = runs.get(runs.len() / 2).cloned().unwrap_or_default();
+    let film = film.ok_or("no render ran")?;
+    let beauty = film
+        .layers
+        .into_iter()
+        .next()
+        .ok_or("the film has no beauty layer")?;
     let stride = beauty.channels.len();
-    (timing, prep, beauty.data, stride)
+    Ok((timing, prep, beauty.data, stride, stats))
 }
 
 /// Renders a scene with the interpreter, the JIT (through the runtime traits, reporting a
-/// fallback) and the f64 reference; one row per back end.
+/// fallback), the GPU where `gpu` has one (deferred, in batches) and the f64 reference; one
+/// row per back end.
 fn render_rows(
     suite: &'static str,
     case: &str,
     scene: &Scene,
     programs: &[Program],
     reps: (usize, f64),
+    gpu: Gpu,
+    notes: &mut Notes,
 ) -> Vec<Row> {
     let threads = rayon::current_num_threads();
     let pixels = (scene.camera.width * scene.camera.height) as u64;
-    let (_, _, reference, stride) = render_timed(scene, programs, &render::F64Shaders, (1, 0.0));
+    let (_, _, reference, stride, _) = render_timed(scene, programs, &render::F64Shaders, (1, 0.0));
     let reference: Vec<f64> = reference.iter().map(|v| *v as f64).collect();
     let mut rows = Vec::new();
     let backends: Vec<(&str, Box<dyn Backend>)> = vec![
@@ -287,7 +412,7 @@ fn render_rows(
     ];
     for (name, b) in backends {
         let shaders = render::RuntimeShaders::new(b);
-        let (timing, _, beauty, _) = render_timed(scene, programs, &shaders, reps);
+        let (timing, _, beauty, _, _) = render_timed(scene, programs, &shaders, reps);
         let used = shaders.actual();
         rows.push(Row {
             suite,
@@ -300,6 +425,33 @@ fn render_rows(
             error: Some(ErrorStats::measure(&beauty, &reference, stride)),
             ..Row::default()
         });
+    }
+    if let Some(Ok(_)) = gpu {
+        let Ok(b) = gpu_backend() else {
+            return rows;
+        };
+        let shaders = render::RuntimeShaders::batched(Box::new(b));
+        match try_render_timed(scene, programs, &shaders, reps) {
+            Ok((timing, _, beauty, _, st)) => {
+                let used = shaders.actual();
+                rows.push(Row {
+                    suite,
+                    case: case.to_string(),
+                    backend: if used == "gpu" { used } else { used + " (gpu)" },
+                    config: format!(
+                        "renderer spec, deferred: {} batches (largest {}), secondary hits on the JIT, {threads} thr; split summed over batches and threads",
+                        st.batches, st.largest_batch
+                    ),
+                    work: pixels * scene.settings.spp as u64,
+                    unit: "sample",
+                    time: timing,
+                    error: Some(ErrorStats::measure(&beauty, &reference, stride)),
+                    split: Some(st.batch_times),
+                    ..Row::default()
+                });
+            }
+            Err(e) => notes.push((case.to_string(), e)),
+        }
     }
     rows
 }
@@ -375,9 +527,21 @@ fn b1(opts: &BenchOptions) -> SuiteResult {
     } else {
         opts.levels()
     };
+    let gpu = gpu_backend();
+    let mut notes = gpu_notes(&gpu);
     for space in [Space::World, Space::Camera] {
         for level in opts.levels() {
-            rows.extend(shading_rows(opts, "B1", level, space, &[1], &configs, true));
+            rows.extend(shading_rows(
+                opts,
+                "B1",
+                level,
+                space,
+                &[1],
+                &configs,
+                true,
+                Some(&gpu),
+                &mut notes,
+            ));
             rows.extend(preprocess_rows("B1", level, space, reps));
             if render_levels.contains(&level) {
                 let (s, p) = tree_scene(level, space, (w, h));
@@ -387,11 +551,13 @@ fn b1(opts: &BenchOptions) -> SuiteResult {
                     &s,
                     &p,
                     reps,
+                    Some(&gpu),
+                    &mut notes,
                 ));
             }
         }
     }
-    let extra = thesis_beside(&rows, opts);
+    let extra = notes_markdown(&notes) + &thesis_beside(&rows, opts);
     SuiteResult {
         name: "B1",
         title: format!(
@@ -492,7 +658,17 @@ fn b2(opts: &BenchOptions) -> SuiteResult {
         ("interp", false, Entry::Scalar),
         ("jit", false, Entry::Batch),
     ];
-    let rows = shading_rows(opts, "B2", level, Space::World, &threads, &configs, true);
+    let rows = shading_rows(
+        opts,
+        "B2",
+        level,
+        Space::World,
+        &threads,
+        &configs,
+        true,
+        None,
+        &mut Vec::new(),
+    );
     let mut rows = rows;
     // Ratios within a thread count, and the speed-up over 1 thread in the case name.
     for r in &mut rows {
@@ -531,6 +707,8 @@ fn example_scenes(opts: &BenchOptions) -> Vec<(String, Scene, Vec<Program>)> {
 fn b3(opts: &BenchOptions) -> SuiteResult {
     let mut rows = Vec::new();
     let mut size = (0, 0);
+    let gpu = gpu_backend();
+    let mut notes = gpu_notes(&gpu);
     for (name, s, programs) in example_scenes(opts) {
         size = (s.camera.width, s.camera.height);
         rows.extend(render_rows(
@@ -539,6 +717,8 @@ fn b3(opts: &BenchOptions) -> SuiteResult {
             &s,
             &programs,
             opts.reps(),
+            Some(&gpu),
+            &mut notes,
         ));
     }
     SuiteResult {
@@ -548,7 +728,7 @@ fn b3(opts: &BenchOptions) -> SuiteResult {
             size.0, size.1
         ),
         rows,
-        extra: String::new(),
+        extra: notes_markdown(&notes),
     }
 }
 
@@ -584,14 +764,14 @@ fn b5(opts: &BenchOptions) -> SuiteResult {
             ("jit", Box::new(jit(false))),
         ] {
             let shaders = render::RuntimeShaders::new(b);
-            let (one, prep, _, _) = render_timed(&s, &programs, &shaders, reps);
+            let (one, prep, _, _, _) = render_timed(&s, &programs, &shaders, reps);
             let used = shaders.actual();
             let mut sum = Timing::default();
             let mut sum_prep = 0.0;
             for p in &passes {
                 let mut s1 = s.clone();
                 s1.settings.passes = vec![p.clone()];
-                let (t, pr, _, _) = render_timed(&s1, &programs, &shaders, reps);
+                let (t, pr, _, _, _) = render_timed(&s1, &programs, &shaders, reps);
                 sum.median += t.median;
                 sum.min += t.min;
                 sum.max += t.max;

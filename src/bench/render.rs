@@ -3,8 +3,8 @@
 //! renders with any back end and the back end that actually runs each material is known.
 
 use shadenet_graph::ir::Program;
-use shadenet_runtime::{Backend, Interpreter, Material, Scratch, ShadeCtx, ShadeOut};
-use shadenet_tracer::shader::{Shader, ShaderBackend};
+use shadenet_runtime::{Backend, Interpreter, Scratch, ShadeCtx, ShadeOut};
+use shadenet_tracer::shader::{MaterialShader, Shader, ShaderBackend};
 use std::cell::RefCell;
 use std::sync::{Arc, Mutex};
 
@@ -13,14 +13,25 @@ use std::sync::{Arc, Mutex};
 pub struct RuntimeShaders {
     backend: Box<dyn Backend>,
     used: Mutex<Vec<(String, Option<String>)>>,
+    batched: bool,
 }
 
 impl RuntimeShaders {
-    /// Wraps a back end.
+    /// Wraps a back end (camera hits shaded immediately).
     pub fn new(backend: Box<dyn Backend>) -> RuntimeShaders {
         RuntimeShaders {
             backend,
             used: Mutex::new(Vec::new()),
+            batched: false,
+        }
+    }
+
+    /// Wraps a back end that prefers batches (the GPU: the renderer shades camera hits
+    /// deferred, in batches).
+    pub fn batched(backend: Box<dyn Backend>) -> RuntimeShaders {
+        RuntimeShaders {
+            batched: true,
+            ..RuntimeShaders::new(backend)
         }
     }
 
@@ -49,18 +60,13 @@ impl RuntimeShaders {
     }
 }
 
-struct MaterialShader(Arc<dyn Material>);
-
-impl Shader for MaterialShader {
-    fn shade(&self, ctx: &ShadeCtx, out: &mut ShadeOut<f32>) {
-        out.values.resize(self.0.width(), 0.0);
-        out.nonfinite = self.0.shade(ctx, &mut out.values);
-    }
-}
-
 impl ShaderBackend for RuntimeShaders {
     fn name(&self) -> &str {
         self.backend.name()
+    }
+
+    fn prefers_batches(&self) -> bool {
+        self.batched
     }
 
     fn compile(&self, program: &Program) -> Result<Arc<dyn Shader>, String> {

@@ -1,6 +1,7 @@
 //! The results of `shadenet bench`: rows, the printed tables, CSV, SVG plots and the
 //! markdown summary.
 
+use shadenet_runtime::BatchTimes;
 use std::fmt::Write as _;
 use std::time::Instant;
 
@@ -110,6 +111,10 @@ pub struct Row {
     pub vs_native: Option<f64>,
     /// Error against the f64 interpreter (none where nothing is output: preprocessing).
     pub error: Option<ErrorStats>,
+    /// Where the shading time of a batch back end (the GPU) went: upload, kernels, host
+    /// steps, readback, and passes dispatched, from `Material::shade_many` (of the median
+    /// run; a render's sums over its batches and threads).
+    pub split: Option<BatchTimes>,
 }
 
 impl Row {
@@ -150,7 +155,7 @@ fn opt(v: Option<f64>, f: impl Fn(f64) -> String) -> String {
 }
 
 /// The column names of tables and CSV.
-pub const COLUMNS: [&str; 16] = [
+pub const COLUMNS: [&str; 21] = [
     "suite",
     "case",
     "backend",
@@ -167,6 +172,11 @@ pub const COLUMNS: [&str; 16] = [
     "max_abs_err",
     "rmse",
     "differing_pixels",
+    "upload_ms",
+    "kernels_ms",
+    "host_ms",
+    "readback_ms",
+    "gpu_passes",
 ];
 
 fn cells(r: &Row) -> Vec<String> {
@@ -189,13 +199,22 @@ fn cells(r: &Row) -> Vec<String> {
         r.error
             .map(|e| format!("{}/{}", e.differing, e.pixels))
             .unwrap_or_else(|| "—".into()),
+        opt(r.split.map(|t| t.upload.as_secs_f64()), ms),
+        opt(r.split.map(|t| t.kernels.as_secs_f64()), ms),
+        opt(r.split.map(|t| t.host.as_secs_f64()), ms),
+        opt(r.split.map(|t| t.readback.as_secs_f64()), ms),
+        r.split
+            .map(|t| t.passes.to_string())
+            .unwrap_or_else(|| "—".into()),
     ]
 }
 
-/// A markdown table of rows.
+/// A markdown table of rows; with a column of the GPU time split (upload / kernels / host /
+/// readback ms, passes) when some row has one.
 pub fn markdown(rows: &[Row]) -> String {
     let mut s = String::new();
-    let head = [
+    let split = rows.iter().any(|r| r.split.is_some());
+    let mut head = vec![
         "case",
         "back end",
         "config",
@@ -208,11 +227,14 @@ pub fn markdown(rows: &[Row]) -> String {
         "RMSE",
         "differing px",
     ];
+    if split {
+        head.push("GPU split ms: upload / kernels / host / readback (passes)");
+    }
     let _ = writeln!(s, "| {} |", head.join(" | "));
     let _ = writeln!(s, "|{}", "---|".repeat(head.len()));
     for r in rows {
         let c = cells(r);
-        let _ = writeln!(
+        let _ = write!(
             s,
             "| {} | {} | {} | {} {} | {} ({}–{}, {}) | {} | {} | {} | {} | {} | {} |",
             c[1],
@@ -231,6 +253,18 @@ pub fn markdown(rows: &[Row]) -> String {
             c[14],
             c[15]
         );
+        if split {
+            let _ = write!(
+                s,
+                " {} |",
+                if r.split.is_some() {
+                    format!("{} / {} / {} / {} ({})", c[16], c[17], c[18], c[19], c[20])
+                } else {
+                    "—".into()
+                }
+            );
+        }
+        s.push('\n');
     }
     s
 }
@@ -311,6 +345,7 @@ pub fn svg(title: &str, rows: &[Row]) -> String {
         "interp" => "#d62728",
         "native (rustc)" => "#2ca02c",
         b if b.starts_with("jit") => "#1f77b4",
+        b if b.starts_with("gpu") => "#9467bd",
         _ => "#ff7f0e",
     };
     for (i, r) in rows.iter().enumerate() {
