@@ -159,3 +159,35 @@ pub fn tmp(group: &str, name: &str) -> std::path::PathBuf {
     std::fs::create_dir_all(&dir).unwrap();
     dir.join(name)
 }
+
+/// Runs the `shadenet` binary with extra environment variables: (exit code, stdout, stderr).
+pub fn shadenet_env(args: &[&str], env: &[(&str, &str)]) -> (i32, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_shadenet"))
+        .args(args)
+        .envs(env.iter().copied())
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run shadenet");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// Whether the GPU back end has a device. Without one, prints `SKIPPED: <test>: <why>` to
+/// stderr and returns false (the test returns: a machine without any Vulkan or GL driver
+/// cannot run it); with `SHADENET_REQUIRE_GPU=1` in the environment (CI, which installs
+/// Mesa's lavapipe) a missing device fails the test instead.
+pub fn gpu_or_skip(test: &str) -> bool {
+    match shadenet_gpu::GpuContext::shared() {
+        Ok(_) => true,
+        Err(e) => {
+            if std::env::var("SHADENET_REQUIRE_GPU").is_ok_and(|v| v == "1") {
+                panic!("{test}: SHADENET_REQUIRE_GPU=1 but the GPU back end cannot run: {e}");
+            }
+            eprintln!("SKIPPED: {test}: {e}");
+            false
+        }
+    }
+}

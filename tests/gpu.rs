@@ -1,0 +1,293 @@
+//! The GPU back end through the facade and the CLI: the Cornell box rendered with
+//! `--backend gpu` against the JIT render (error printed, asserted under a documented
+//! tolerance), `shade --backend gpu`, `gpu-info`, `compile --emit wgsl --stats` (no device
+//! needed), and clear errors for a bad `--gpu-passes` and a missing adapter.
+//!
+//! Tests that need a device skip with `SKIPPED: <test>: <why>` where no adapter exists, and
+//! fail instead under `SHADENET_REQUIRE_GPU=1` (see `common::gpu_or_skip`).
+
+mod common;
+use common::{gpu_or_skip, shadenet, shadenet_env};
+
+use shadenet::render::{BackendKind, RenderOptions, backend, setup_with};
+use shadenet::tracer::{Film, RenderStats, ShadingMode};
+use std::path::{Path, PathBuf};
+
+fn example(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("examples/scenes")
+        .join(name)
+}
+
+fn tmp(name: &str) -> PathBuf {
+    common::tmp("gpu", name)
+}
+
+/// An adapter name no machine has: `SHADENET_GPU_ADAPTER` set to it makes the GPU back end
+/// fail to start the way a machine without an adapter does.
+const NO_ADAPTER: (&str, &str) = ("SHADENET_GPU_ADAPTER", "no-such-adapter-7f3a");
+
+/// Tolerance of the GPU render against the JIT render (beauty, every channel, linear
+/// radiance). The GPU computes the same f32 arithmetic in a different order where WGSL and
+/// the driver choose (fused multiply-adds, `pow`/`exp`/`sin` from the driver's library
+/// rather than the runtime's), so single values differ by a few ulps; the difference grows
+/// where a shader's result steers a traced ray (the mirror and the glass: a direction an
+/// ulp apart can hit a neighbouring triangle of the sphere) — those are rare pixels, so the
+/// RMSE bound is the tight one.
+const CORNELL_MAX_ABS: f64 = 1e-3;
+/// See [`CORNELL_MAX_ABS`].
+const CORNELL_RMSE: f64 = 1e-5;
+
+fn render(
+    path: &Path,
+    opts: &RenderOptions,
+    kind: BackendKind,
+) -> (Film, RenderStats, ShadingMode) {
+    let b = backend(kind).unwrap_or_else(|e| panic!("{kind:?}: {e}"));
+    let r = setup_with(Some(path), opts, b.as_ref())
+        .unwrap_or_else(|e| panic!("{kind:?}: {}: {e}", path.display()));
+    let mode = r.shading_mode();
+    let (film, stats) = r.render(&|_, _| {});
+    (film, stats, mode)
+}
+
+/// Max abs and RMSE between two layers' floats.
+fn error(a: &[f32], b: &[f32]) -> (f64, f64) {
+    assert_eq!(a.len(), b.len());
+    let mut max = 0.0f64;
+    let mut sq = 0.0f64;
+    for (x, y) in a.iter().zip(b) {
+        let d = (*x as f64 - *y as f64).abs();
+        max = max.max(d);
+        sq += d * d;
+    }
+    (max, (sq / a.len().max(1) as f64).sqrt())
+}
+
+/// `render --backend gpu` of the Cornell box (eight passes: mirror, glass, area-light
+/// shadows, the occlusion override pass) against the JIT render of the same scene.
+#[test]
+fn gpu_render_of_the_cornell_box_matches_the_jit() {
+    if !gpu_or_skip("gpu_render_of_the_cornell_box_matches_the_jit") {
+        return;
+    }
+    let opts = RenderOptions {
+        spp: Some(1),
+        res: Some((64, 64)),
+        passes: None,
+    };
+    let path = example("cornell.toml");
+    let (jit, _, jit_mode) = render(&path, &opts, BackendKind::Jit);
+    let (gpu, stats, gpu_mode) = render(&path, &opts, BackendKind::Gpu);
+    assert_eq!(jit_mode, ShadingMode::Immediate);
+    assert!(matches!(gpu_mode, ShadingMode::Deferred(_)), "{gpu_mode:?}");
+    assert!(stats.batches > 0, "{stats:?}");
+    assert!(
+        stats.batch_times.passes > 0,
+        "the GPU dispatched nothing: {stats:?}"
+    );
+    eprintln!(
+        "GPU Cornell 64×64: {} batches, {} fragments batched (largest {}), {} shading calls; upload {:?}, kernels {:?}, host {:?}, readback {:?}, {} passes",
+        stats.batches,
+        stats.batched_fragments,
+        stats.largest_batch,
+        stats.shading_calls,
+        stats.batch_times.upload,
+        stats.batch_times.kernels,
+        stats.batch_times.host,
+        stats.batch_times.readback,
+        stats.batch_times.passes
+    );
+    assert_eq!(jit.layers.len(), gpu.layers.len());
+    for (lj, lg) in jit.layers.iter().zip(&gpu.layers) {
+        assert_eq!(lj.name, lg.name);
+        let (max, rmse) = error(&lj.data, &lg.data);
+        eprintln!(
+            "GPU vs JIT, Cornell box, layer {:<10}: max abs {max:.3e}, RMSE {rmse:.3e}",
+            lj.name
+        );
+        if lj.name == "beauty" {
+            assert!(
+                max <= CORNELL_MAX_ABS && rmse <= CORNELL_RMSE,
+                "beauty: max abs {max:e} (bound {CORNELL_MAX_ABS:e}), RMSE {rmse:e} (bound {CORNELL_RMSE:e})"
+            );
+        }
+    }
+}
+
+/// `shade --backend gpu` writes the image the JIT writes (8-bit PNG, every channel within
+/// one step), prints the time split, and honours `--gpu-passes`.
+#[test]
+fn shade_backend_gpu_writes_the_jit_image() {
+    if !gpu_or_skip("shade_backend_gpu_writes_the_jit_image") {
+        return;
+    }
+    let mut images = Vec::new();
+    for (backend, passes) in [
+        ("jit", None),
+        ("gpu", None),
+        ("gpu", Some("1")),
+        ("gpu", Some("3")),
+    ] {
+        let png = tmp(&format!(
+            "marble-{backend}-{}.png",
+            passes.unwrap_or("auto")
+        ));
+        let mut args = vec![
+            "shade",
+            "examples/networks/marble.json",
+            "-o",
+            png.to_str().unwrap(),
+            "--res",
+            "48x32",
+            "--backend",
+            backend,
+        ];
+        if let Some(p) = passes {
+            args.extend(["--gpu-passes", p]);
+        }
+        let (code, out, err) = shadenet(&args);
+        assert_eq!(code, 0, "{args:?}\n{out}\n{err}");
+        assert!(out.contains(&format!("f32, {backend})")), "{out}");
+        if backend == "gpu" {
+            let line = out
+                .lines()
+                .find(|l| l.starts_with("gpu: "))
+                .unwrap_or_else(|| panic!("no time split in\n{out}"));
+            for want in ["upload", "kernels", "host", "readback", "passes dispatched"] {
+                assert!(line.contains(want), "{line}");
+            }
+        }
+        images.push(image::open(&png).expect("PNG").to_rgb8());
+    }
+    for img in &images[1..] {
+        let worst = images[0]
+            .as_raw()
+            .iter()
+            .zip(img.as_raw())
+            .map(|(a, b)| a.abs_diff(*b))
+            .max()
+            .unwrap_or(0);
+        assert!(
+            worst <= 1,
+            "GPU PNG differs from the JIT's by {worst} steps"
+        );
+    }
+}
+
+/// `gpu-info` lists the adapters and describes the chosen one; without an adapter (here: one
+/// asked for by a name no adapter has) it fails with exit 1 and says why.
+#[test]
+fn gpu_info_describes_the_adapter_or_fails_clearly() {
+    let (code, out, err) = shadenet_env(&["gpu-info"], &[NO_ADAPTER]);
+    assert_eq!(code, 1, "{out}\n{err}");
+    assert!(
+        err.contains("no GPU adapter") && !err.contains("panicked"),
+        "{err}"
+    );
+    if !gpu_or_skip("gpu_info_describes_the_adapter_or_fails_clearly (with a device)") {
+        return;
+    }
+    let (code, out, err) = shadenet(&["gpu-info"]);
+    assert_eq!(code, 0, "{out}\n{err}");
+    for want in [
+        "adapters (best first):",
+        "chosen:",
+        "adapter: ",
+        "backend: ",
+        "max_storage_buffers_per_shader_stage: ",
+    ] {
+        assert!(out.contains(want), "missing {want:?} in\n{out}");
+    }
+}
+
+/// Without an adapter, `render --backend gpu` and `shade --backend gpu` fail with exit 1,
+/// naming the back end and the cause, and write nothing.
+#[test]
+fn backend_gpu_without_an_adapter_is_a_clear_error() {
+    let exr = tmp("none.exr");
+    let png = tmp("none.png");
+    let (code, out, err) = shadenet_env(
+        &[
+            "render",
+            "--backend",
+            "gpu",
+            "-o",
+            exr.to_str().unwrap(),
+            "--res",
+            "8x8",
+        ],
+        &[NO_ADAPTER],
+    );
+    assert_eq!(code, 1, "{out}\n{err}");
+    assert!(
+        err.contains("--backend gpu")
+            && err.contains("GPU back end cannot start")
+            && err.contains("no GPU adapter")
+            && err.contains(NO_ADAPTER.1),
+        "{err}"
+    );
+    assert!(!exr.exists());
+    let (code, _, err) = shadenet_env(
+        &[
+            "shade",
+            "examples/networks/marble.json",
+            "-o",
+            png.to_str().unwrap(),
+            "--backend",
+            "gpu",
+        ],
+        &[NO_ADAPTER],
+    );
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("--backend gpu") && err.contains("no GPU adapter"),
+        "{err}"
+    );
+    assert!(!png.exists());
+}
+
+/// A bad `--gpu-passes` value is refused by name with what is expected; a good one without
+/// the GPU back end is refused too.
+#[test]
+fn bad_gpu_passes_values_are_clear_errors() {
+    let png = tmp("passes.png");
+    for (cmd, value) in [
+        ("shade", "0"),
+        ("shade", "many"),
+        ("render", "-2"),
+        ("compile", "auto1"),
+    ] {
+        let mut args = vec![cmd];
+        if cmd != "render" {
+            args.push("examples/networks/marble.json");
+        }
+        if cmd == "shade" {
+            args.extend(["-o", png.to_str().unwrap(), "--backend", "gpu"]);
+        }
+        let flag = format!("--gpu-passes={value}");
+        args.push(&flag);
+        let (code, out, err) = shadenet(&args);
+        assert_ne!(code, 0, "{args:?}: {out}");
+        assert!(
+            err.contains("--gpu-passes")
+                && err.contains(&format!("`{value}`"))
+                && err.contains("expected auto, 1 or a pass count"),
+            "{args:?}: {err}"
+        );
+        assert!(!err.contains("panicked"), "{err}");
+    }
+    let (code, _, err) = shadenet(&[
+        "shade",
+        "examples/networks/marble.json",
+        "-o",
+        png.to_str().unwrap(),
+        "--gpu-passes",
+        "2",
+    ]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("--gpu-passes applies to --backend gpu"),
+        "{err}"
+    );
+}
