@@ -281,6 +281,16 @@ enum RenderBackendArg {
     Gpu,
 }
 
+#[derive(Clone, Copy, ValueEnum, PartialEq)]
+enum ShadingArg {
+    /// The back end decides.
+    Auto,
+    /// Each camera hit as it is found.
+    Immediate,
+    /// Camera hits in batches.
+    Deferred,
+}
+
 #[derive(clap::Args)]
 struct RenderArgs {
     /// The scene file (.toml); without one, the embedded default scene.
@@ -299,6 +309,11 @@ struct RenderArgs {
     /// kernel between host steps) or a pass count.
     #[arg(long, value_name = "auto|1|N", value_parser = parse_gpu_passes)]
     gpu_passes: Option<PassMode>,
+    /// How camera hits are shaded: `auto` (deferred in batches for the GPU, immediately for
+    /// the CPU back ends), `immediate` (each hit as it is found) or `deferred` (traced per
+    /// group of tiles, then shaded in batches; the same image on the CPU back ends).
+    #[arg(long, value_enum, default_value_t = ShadingArg::Auto)]
+    shading: ShadingArg,
     /// Samples per pixel (overrides the scene).
     #[arg(long)]
     spp: Option<u32>,
@@ -819,6 +834,7 @@ fn shade(args: ShadeArgs) -> Result<()> {
 
 fn render(args: RenderArgs) -> Result<()> {
     use shadenet::render::{self as r, BackendKind, Files, RenderOptions};
+    use shadenet::tracer::{DeferredOptions, ShadingMode};
     use std::io::IsTerminal;
     let t0 = Instant::now();
     check_gpu_passes(
@@ -878,7 +894,14 @@ fn render(args: RenderArgs) -> Result<()> {
             res: args.res,
         },
     )?;
-    let (renderer, compiled) = r::prepare(scene, files, &dir, backend.as_ref())?;
+    let (mut renderer, compiled) = r::prepare(scene, files, &dir, backend.as_ref())?;
+    match args.shading {
+        ShadingArg::Auto => {}
+        ShadingArg::Immediate => renderer.set_shading_mode(ShadingMode::Immediate),
+        ShadingArg::Deferred => {
+            renderer.set_shading_mode(ShadingMode::Deferred(DeferredOptions::default()))
+        }
+    }
     let setup_time = t0.elapsed();
     if !args.quiet {
         for (m, c) in renderer.scene().materials.iter().zip(&compiled) {
@@ -926,12 +949,17 @@ fn render(args: RenderArgs) -> Result<()> {
         let load = setup_time.saturating_sub(s.bvh_time + s.compile_time);
         let layers: Vec<&str> = film.layers.iter().map(|l| l.name.as_str()).collect();
         say!(
-            "rendered {name}: {}x{}, {} spp, {} threads, backend {}",
+            "rendered {name}: {}x{}, {} spp, {} threads, backend {}, {} shading",
             film.width,
             film.height,
             renderer.scene().settings.spp,
             pool.current_num_threads(),
-            backend.name()
+            backend.name(),
+            match renderer.shading_mode() {
+                ShadingMode::Immediate => "immediate".to_string(),
+                ShadingMode::Deferred(o) =>
+                    format!("deferred (groups of ≥{} samples)", o.group_samples),
+            }
         );
         say!(
             "time: load {:.3} s, compile {:.3} s (shaders: {}), BVH {:.3} s (triangles: {}), render {:.3} s",
