@@ -91,3 +91,46 @@ fn deferred_and_immediate_renders_are_identical() {
         }
     }
 }
+
+/// `render --shading deferred` writes the EXR `--shading immediate` writes, byte for byte,
+/// and says which mode it used and how it batched.
+#[test]
+fn cli_shading_modes_write_the_same_exr() {
+    let dir = std::env::temp_dir().join(format!("shadenet-deferred-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut files = Vec::new();
+    for mode in ["immediate", "deferred"] {
+        let exr = dir.join(format!("{mode}.exr"));
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_shadenet"))
+            .args([
+                "render",
+                "examples/scenes/cornell_glass.toml",
+                "-o",
+                exr.to_str().unwrap(),
+                "--res",
+                "20x16",
+                "--spp",
+                "1",
+                "--shading",
+                mode,
+            ])
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "{stdout}\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(stdout.contains(&format!("{mode} ")), "{stdout}");
+        assert_eq!(
+            stdout.contains("deferred shading: "),
+            mode == "deferred",
+            "{stdout}"
+        );
+        files.push(std::fs::read(&exr).unwrap());
+    }
+    assert!(files[0] == files[1], "the EXRs differ");
+    let _ = std::fs::remove_dir_all(&dir);
+}
