@@ -7,6 +7,7 @@
 pub mod context;
 pub mod emit;
 pub mod material;
+pub mod testing;
 
 pub use context::{GpuContext, GpuError};
 pub use material::{GpuBackend, GpuOptions, PassMode};
