@@ -1,3 +1,5 @@
+//! Probe: opens the shared device, prints its limits and adapters, and checks a few float
+//! rules (no FMA contraction, division, sqrt, subnormals) with one dispatch.
 use shadenet_gpu::GpuContext;
 use wgpu::util::DeviceExt;
 fn main() {

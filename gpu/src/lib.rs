@@ -6,7 +6,11 @@
 
 pub mod context;
 pub mod emit;
+pub mod kernel;
 pub mod material;
+pub mod plan;
+pub mod testing;
 
 pub use context::{GpuContext, GpuError};
-pub use material::{GpuBackend, GpuOptions, PassMode};
+pub use material::{GpuBackend, GpuMaterial, GpuOptions, PassMode};
+pub use plan::{Plan, plan};

@@ -1,0 +1,1 @@
+//! Test helpers for the GPU back end (device or skip). Being written.
