@@ -119,7 +119,9 @@ struct CompileArgs {
     /// What to print: `ir` (the optimized program), `ir:after=PASS` (the program after every
     /// run of PASS: specialize, fold, dead_branch, cse, dce, hoist), `ir:before` (the
     /// unoptimized program), `clif` (the Cranelift IR the JIT compiles: prelude, scalar and
-    /// batch entries) or `none`. Default: `ir`, or `none` with --stats.
+    /// batch entries), `wgsl` (the GPU kernels of the program's pass plan, each headed by a
+    /// comment naming its pass and items; with --stats also the plan) or `none`. Default:
+    /// `ir`, or `none` with --stats.
     #[arg(long)]
     emit: Option<String>,
     /// Print, per pass, ops before/after, changes and time, then the program's needs and the
@@ -416,20 +418,24 @@ fn compile(args: &CompileArgs) -> Result<()> {
         }
     });
     let after = match emit.as_str() {
-        "ir" | "none" | "ir:before" | "clif" => None,
+        "ir" | "none" | "ir:before" | "clif" | "wgsl" => None,
         e => match e.strip_prefix("ir:after=") {
             Some(pass) if opt::pass(pass).is_some() => Some(pass.to_string()),
             _ => bail!(
-                "--emit `{e}`: expected ir, ir:before, ir:after=PASS (specialize, fold, dead_branch, cse, dce, hoist), clif or none"
+                "--emit `{e}`: expected ir, ir:before, ir:after=PASS (specialize, fold, dead_branch, cse, dce, hoist), clif, wgsl or none"
             ),
         },
     };
+    check_gpu_passes(args.gpu_passes, emit == "wgsl", "--emit wgsl")?;
     if emit == "ir:before" {
         print_out(&c.program.to_string());
     }
     if args.opt.no_opt {
         if emit == "ir" {
             print_out(&c.program.to_string());
+        }
+        if emit == "wgsl" {
+            gpu_outputs(&c.program, args.gpu_passes, args.stats)?;
         }
         return jit_outputs(&c.program, emit == "clif", args.stats, true);
     }
@@ -449,7 +455,86 @@ fn compile(args: &CompileArgs) -> Result<()> {
     if args.stats {
         print_out(&report.to_string());
     }
+    if emit == "wgsl" {
+        gpu_outputs(&program, args.gpu_passes, args.stats)?;
+    }
     jit_outputs(&program, emit == "clif", args.stats, spec.passes.cse)
+}
+
+/// `--emit wgsl`: the GPU kernels of an already optimized program's pass plan, each headed
+/// by a comment naming its pass and items; with `stats`, the plan after them. Planned with
+/// the device's limits when a device opens, else with `wgpu::Limits::default()`; the first
+/// line says which.
+fn gpu_outputs(
+    program: &shadenet::graph::ir::Program,
+    passes: Option<PassMode>,
+    stats: bool,
+) -> Result<()> {
+    use shadenet_gpu::plan::{ItemKind, Step};
+    let (limits, whose) = match GpuContext::shared() {
+        Ok(ctx) => (
+            ctx.limits.clone(),
+            format!(
+                "the limits of adapter `{}` ({})",
+                ctx.info.name, ctx.info.backend
+            ),
+        ),
+        Err(e) => (
+            wgpu::Limits::default(),
+            format!("wgpu::Limits::default() (no device: {e})"),
+        ),
+    };
+    let plan = shadenet_gpu::plan(program, &gpu_options(passes), &limits)?;
+    let total = plan.passes();
+    let mut text = format!(
+        "// material `{}`: GPU passes: {total}, host steps: {}; planned with {whose}\n",
+        plan.material,
+        plan.host_steps()
+    );
+    let mut pass = 0;
+    for (step, st) in plan.steps.iter().enumerate() {
+        let Step::Pass(ps) = st else {
+            continue;
+        };
+        text.push_str(&format!(
+            "\n// ---- pass {pass} of {total} (step {step}): {} items, {} ops ----\n",
+            ps.items.len(),
+            ps.cost
+        ));
+        let names: Vec<String> = ps
+            .items
+            .iter()
+            .map(|it| match &it.kind {
+                ItemKind::Value(v) => plan.name(*v),
+                ItemKind::Merge(v) => format!("merge({})", plan.name(*v)),
+                ItemKind::Illuminance { region, .. } => {
+                    format!("illuminance({})", plan.name(*region))
+                }
+            })
+            .collect();
+        let mut line = String::from("// items:");
+        for n in names {
+            if line.len() + n.len() + 1 > 96 {
+                text.push_str(&line);
+                text.push('\n');
+                line = String::from("//       ");
+            }
+            line.push(' ');
+            line.push_str(&n);
+        }
+        text.push_str(&line);
+        text.push('\n');
+        text.push_str(&ps.wgsl);
+        if !ps.wgsl.ends_with('\n') {
+            text.push('\n');
+        }
+        pass += 1;
+    }
+    print_out(&text);
+    if stats {
+        print_out(&format!("{plan}"));
+    }
+    Ok(())
 }
 
 /// `--emit clif` and the JIT half of `--stats` for an already optimized program; `speed`:

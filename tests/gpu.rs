@@ -291,3 +291,74 @@ fn bad_gpu_passes_values_are_clear_errors() {
         "{err}"
     );
 }
+
+/// How many kernels `compile --emit wgsl` printed (their header comments).
+fn kernel_headers(out: &str) -> usize {
+    out.lines()
+        .filter(|l| l.starts_with("// ---- pass "))
+        .count()
+}
+
+/// `compile --emit wgsl [--stats]` needs no device: without one (here: an adapter asked for
+/// by a name no adapter has) it plans with wgpu's default limits and says so; every kernel is
+/// headed by its pass and items, `--stats` adds the plan, and `--gpu-passes` changes the
+/// partitioning.
+#[test]
+fn compile_emit_wgsl_plans_without_a_device() {
+    let net = "examples/networks/marble.json";
+    let (code, out, err) = shadenet_env(
+        &["compile", net, "--emit", "wgsl", "--stats"],
+        &[NO_ADAPTER],
+    );
+    assert_eq!(code, 0, "{out}\n{err}");
+    let first = out
+        .lines()
+        .find(|l| l.starts_with("// material `marble`"))
+        .unwrap_or_else(|| panic!("no plan header in\n{out}"));
+    assert!(
+        first.contains("planned with wgpu::Limits::default() (no device: no GPU adapter"),
+        "{first}"
+    );
+    for want in [
+        "// ---- pass 0 of ",
+        "// items: ",
+        "@compute",
+        "gpu plan of `marble`",
+        "sn_tmp: ",
+        "total: ",
+        "jit: ",
+    ] {
+        assert!(out.contains(want), "missing {want:?} in\n{out}");
+    }
+    let wgsl_only = shadenet_env(&["compile", net, "--emit", "wgsl"], &[NO_ADAPTER]);
+    assert_eq!(wgsl_only.0, 0, "{}", wgsl_only.2);
+    assert!(
+        !wgsl_only.1.contains("gpu plan of"),
+        "no plan without --stats"
+    );
+    let fused = shadenet_env(
+        &["compile", net, "--emit", "wgsl", "--gpu-passes", "1"],
+        &[NO_ADAPTER],
+    );
+    assert_eq!(fused.0, 0, "{}", fused.2);
+    assert_eq!(kernel_headers(&fused.1), 1, "{}", fused.1);
+    let three = shadenet_env(
+        &["compile", net, "--emit", "wgsl", "--gpu-passes", "3"],
+        &[NO_ADAPTER],
+    );
+    assert_eq!(three.0, 0, "{}", three.2);
+    assert_eq!(kernel_headers(&three.1), 3, "{}", three.1);
+    // With the device, when there is one, its limits.
+    if gpu_or_skip("compile_emit_wgsl_plans_without_a_device (with a device)") {
+        let (code, out, err) = shadenet(&["compile", net, "--emit", "wgsl"]);
+        assert_eq!(code, 0, "{err}");
+        assert!(
+            out.contains("planned with the limits of adapter `"),
+            "{out}"
+        );
+    }
+    // --gpu-passes means nothing to other emits.
+    let (code, _, err) = shadenet(&["compile", net, "--emit", "ir", "--gpu-passes", "2"]);
+    assert_eq!(code, 1);
+    assert!(err.contains("--gpu-passes applies to --emit wgsl"), "{err}");
+}
