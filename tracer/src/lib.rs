@@ -6,8 +6,9 @@
 //! into ([`render`]), the film ([`film`]) and image output ([`output`]).
 //!
 //! It must not touch nodes or networks: it receives compiled [`shadenet_graph::ir::Program`]s
-//! (the facade links networks) and runs them through a [`shader::ShaderBackend`] — the
-//! interpreter today, the runtime's `Backend` trait once it exists. It specializes programs
+//! (the facade links networks) and runs them through a [`shader::ShaderBackend`] (the
+//! interpreter, any runtime `Backend`: the JIT, the GPU), shading camera hits immediately or,
+//! for a back end that prefers batches, deferred in batches ([`render`]). It specializes programs
 //! with `graph::opt` (one per component mask the ray-match rules produce) and builds its
 //! override shaders with `graph::ir::Builder`, but never looks inside a program beyond its
 //! outputs and needs. It does not depend on the facade.
