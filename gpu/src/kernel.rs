@@ -12,7 +12,9 @@
 //! values (loads), `transform` (the uniform matrices, through world space, normals by the
 //! inverse transpose, as `runtime::interp::transform`), `component_enabled` (the mask),
 //! `ambient`, the light sample, `texture` (`sn_texture`), `proj`; every pure op comes from
-//! [`emit::op_expr`].
+//! [`emit::op_expr`]. Every float value (and float constant) is assigned behind a value
+//! barrier (an XOR with a uniform zero) so that the shader compiler cannot rewrite
+//! arithmetic across IR ops: see [`keep`] for why.
 //!
 //! [`validate`] runs naga's WGSL front end and validator on a kernel.
 //!
@@ -21,11 +23,11 @@
 
 use crate::emit;
 use crate::plan::{
-    ItemKind, LIGHT_COLUMNS, Plan, Step, U_AMBIENT, U_CAMERA, U_CAMERA_INV, U_MASK, U_N, U_OBJECT,
-    U_OBJECT_INV, U_SAMPLES, is_remat, op_name, value_name,
+    ItemKind, LIGHT_COLUMNS, Plan, Step, U_AMBIENT, U_CAMERA, U_CAMERA_INV, U_KEEP, U_MASK, U_N,
+    U_OBJECT, U_OBJECT_INV, U_SAMPLES, is_remat, op_name, value_name,
 };
 use shadenet_graph::ir::{Block, Op, Program, Space, Value, XformKind};
-use shadenet_graph::types::Type;
+use shadenet_graph::types::{ConstValue, Type};
 use shadenet_runtime::BackendError;
 use std::collections::{BTreeSet, HashSet};
 use std::fmt::Write as _;
@@ -85,6 +87,111 @@ fn snk_xf_normal(b: u32, v: vec3<f32>) -> vec3<f32> {
 }
 ";
 
+/// One top-level declaration of a WGSL library text: its name and its text (with the comment
+/// lines after it, up to the next declaration).
+struct LibItem<'a> {
+    name: &'a str,
+    text: &'a str,
+}
+
+/// Splits a WGSL library into its top-level declarations (`fn`, `const`, `struct`, `alias`,
+/// `var`, `override` at the start of a line); `None` if some code is outside them (then the
+/// library is included whole).
+fn library_items(lib: &str) -> Option<(&str, Vec<LibItem<'_>>)> {
+    let mut starts = Vec::new();
+    let mut at = 0;
+    for line in lib.split_inclusive('\n') {
+        let name = ["fn ", "const ", "struct ", "alias ", "override "]
+            .iter()
+            .find_map(|k| line.strip_prefix(k))
+            .or_else(|| {
+                line.strip_prefix("var")
+                    .and_then(|r| r.split_once('>').map(|x| x.1).or(Some(r)))
+            })
+            .map(|r| {
+                let r = r.trim_start();
+                let end = r
+                    .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+                    .unwrap_or(r.len());
+                &r[..end]
+            });
+        if let Some(name) = name.filter(|n| !n.is_empty()) {
+            starts.push((at, name));
+        }
+        at += line.len();
+    }
+    let head = &lib[..starts.first().map_or(lib.len(), |s| s.0)];
+    // Only comments and blank lines may come before the first declaration.
+    if head
+        .lines()
+        .any(|l| !l.trim().is_empty() && !l.trim_start().starts_with("//"))
+    {
+        return None;
+    }
+    let items = starts
+        .iter()
+        .enumerate()
+        .map(|(k, &(a, name))| LibItem {
+            name,
+            text: &lib[a..starts.get(k + 1).map_or(lib.len(), |s| s.0)],
+        })
+        .collect();
+    Some((head, items))
+}
+
+/// Calls `f` on every identifier of a WGSL text (comments included: harmless, they can only
+/// add declarations).
+fn identifiers(text: &str, mut f: impl FnMut(&str)) {
+    let b = text.as_bytes();
+    let mut i = 0;
+    while i < b.len() {
+        if b[i].is_ascii_alphabetic() || b[i] == b'_' {
+            let start = i;
+            while i < b.len() && (b[i].is_ascii_alphanumeric() || b[i] == b'_') {
+                i += 1;
+            }
+            f(&text[start..i]);
+        } else {
+            i += 1;
+        }
+    }
+}
+
+/// The declarations of `lib` that `code` needs (directly or through each other), in the
+/// library's order: a kernel compiles faster without the rest (Mesa and LLVM see only what
+/// the pass calls). The whole library when it cannot be split.
+fn library_for(lib: &str, code: &str) -> String {
+    let Some((head, items)) = library_items(lib) else {
+        return lib.to_string();
+    };
+    let index: std::collections::HashMap<&str, usize> = items
+        .iter()
+        .enumerate()
+        .map(|(k, it)| (it.name, k))
+        .collect();
+    let mut keep = vec![false; items.len()];
+    let mut todo = Vec::new();
+    let mark = |name: &str, keep: &mut Vec<bool>, todo: &mut Vec<usize>| {
+        if let Some(&k) = index.get(name)
+            && !keep[k]
+        {
+            keep[k] = true;
+            todo.push(k);
+        }
+    };
+    identifiers(code, |n| mark(n, &mut keep, &mut todo));
+    while let Some(k) = todo.pop() {
+        identifiers(items[k].text, |n| mark(n, &mut keep, &mut todo));
+    }
+    let mut out = String::from(head);
+    for (it, k) in items.iter().zip(&keep) {
+        if *k {
+            out.push_str(it.text);
+        }
+    }
+    out
+}
+
 struct Writer<'a> {
     p: &'a Program,
     plan: &'a Plan,
@@ -117,6 +224,59 @@ fn line(out: &mut String, depth: usize, text: &str) {
     }
     out.push_str(text);
     out.push('\n');
+}
+
+/// `e` behind the value barrier: its bits XOR the key ([`emit::KEY`], `sn_keep`), a uniform
+/// that is 0 at run time but unknown to the shader compiler, for float-based types (other
+/// types as they are).
+///
+/// WGSL has no way to ask for exact floating point, naga marks no SPIR-V op
+/// `NoContraction`, and Mesa then treats every float op as inexact: it reassociates
+/// products with constants, folds `x * 0.0` to `0.0` (NaN × 0 is NaN on the CPU), and so
+/// on, differently depending on which ops share a kernel. Behind the barrier each IR value
+/// is opaque to the optimizer, so a value is computed from its operands by its own op alone:
+/// the same bits whether its users are in this kernel or in a later pass, and the same as
+/// the interpreter's where the op itself is exact. Costs one integer XOR per component.
+fn keep(ty: Type, e: &str) -> String {
+    let k = emit::KEY;
+    match ty {
+        Type::Float => format!("bitcast<f32>(bitcast<u32>({e}) ^ {k})"),
+        Type::Vec2 => format!("bitcast<vec2<f32>>(bitcast<vec2<u32>>({e}) ^ vec2<u32>({k}))"),
+        Type::Vec3 | Type::Color => {
+            format!("bitcast<vec3<f32>>(bitcast<vec3<u32>>({e}) ^ vec3<u32>({k}))")
+        }
+        _ => e.to_string(),
+    }
+}
+
+/// A float constant (or matrix) behind the value barrier, so the shader compiler cannot
+/// fold it into its users.
+fn kept_const(c: &ConstValue) -> Option<String> {
+    let row = |v: &[f64]| {
+        let xs: Vec<String> = v.iter().map(|x| emit::float_literal(*x as f32)).collect();
+        xs.join(", ")
+    };
+    Some(match c {
+        ConstValue::Float(x) => keep(Type::Float, &emit::float_literal(*x as f32)),
+        ConstValue::Vec2(v) => keep(Type::Vec2, &format!("vec2<f32>({})", row(v))),
+        ConstValue::Vec3(v) | ConstValue::Color(v) => {
+            keep(Type::Vec3, &format!("vec3<f32>({})", row(v)))
+        }
+        ConstValue::Matrix44(m) => {
+            let rows: Vec<String> = m
+                .chunks(4)
+                .map(|r| {
+                    format!(
+                        "bitcast<vec4<f32>>(bitcast<vec4<u32>>(vec4<f32>({})) ^ vec4<u32>({}))",
+                        row(r),
+                        emit::KEY
+                    )
+                })
+                .collect();
+            format!("array<vec4<f32>, 4>({})", rows.join(", "))
+        }
+        _ => return None,
+    })
 }
 
 /// Whether WGSL's `select` takes values of this type (scalars and vectors; not arrays).
@@ -180,6 +340,10 @@ impl Writer<'_> {
             return self.name(v);
         }
         match self.p.op(v) {
+            Op::Const(c) if kept_const(c).is_some() => {
+                self.remat.insert(v);
+                self.name(v)
+            }
             Op::Const(c) => match emit::literal(c) {
                 Ok(s) => s,
                 Err(e) => {
@@ -238,6 +402,9 @@ impl Writer<'_> {
                     if let Some((m, inv)) = space_slots(*from) {
                         let b = if *kind == XformKind::Normal { m } else { inv };
                         e = format!("{f}({b}u, {e})");
+                        if to != &Space::World {
+                            e = keep(Type::Vec3, &e);
+                        }
                     }
                     if let Some((m, inv)) = space_slots(*to) {
                         let b = if *kind == XformKind::Normal { inv } else { m };
@@ -313,7 +480,7 @@ impl Writer<'_> {
         let p = self.p;
         match kind {
             ItemKind::Value(v) => {
-                let e = self.value_expr(*v)?;
+                let e = keep(p.ty(*v), &self.value_expr(*v)?);
                 line(out, depth, &format!("{} = {e};", self.name(*v)));
                 self.stores(out, depth, *v);
             }
@@ -353,7 +520,10 @@ impl Writer<'_> {
                 let r = self.name(*region);
                 for (k, y) in body.yields.iter().enumerate() {
                     let t = self.wgsl_type(*y)?;
-                    line(out, depth, &format!("var sn_sum_{r}_{k}: {t} = {t}();"));
+                    // The sums start from a zero the compiler cannot fold (`0 + y` is not
+                    // `y` for y = -0).
+                    let zero = keep(p.ty(*y), &format!("{t}()"));
+                    line(out, depth, &format!("var sn_sum_{r}_{k}: {t} = {zero};"));
                 }
                 line(out, depth, "for (var j = 0u; j < sn_S; j++) {");
                 let d = depth + 1;
@@ -449,7 +619,7 @@ impl Writer<'_> {
                     ));
                 }
                 _ => {
-                    let e = self.value_expr(v)?;
+                    let e = keep(p.ty(v), &self.value_expr(v)?);
                     line(out, depth, &format!("{} = {e};", self.name(v)));
                 }
             }
@@ -457,8 +627,14 @@ impl Writer<'_> {
         Ok(())
     }
 
-    /// The `let` loading a stream, parameter or prelude value.
+    /// The `let` loading a stream, parameter or prelude value, or a float constant behind
+    /// the value barrier.
     fn remat_load(&self, v: Value) -> Result<String, BackendError> {
+        if let Op::Const(c) = self.p.op(v)
+            && let Some(e) = kept_const(c)
+        {
+            return Ok(format!("let {} = {e};", self.name(v)));
+        }
         let ty = self.p.ty(v);
         let n = emit::columns(ty);
         let cols: Vec<String> = if let Some(&s) = self.plan.layout.prelude.get(&v.index()) {
@@ -620,35 +796,18 @@ pub(crate) fn write(
         }
     }
 
-    // Assemble.
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "// shadenet: material `{}`, pass {pass_no}",
-        p.name.replace(['\n', '\r'], " ")
-    );
-    s.push_str(emit::LIBRARY);
-    if !s.ends_with('\n') {
-        s.push('\n');
-    }
-    s.push_str("\n@group(0) @binding(0) var<storage, read> sn_uni: array<f32>;\n");
-    s.push_str("@group(0) @binding(1) var<storage, read> sn_frag: array<f32>;\n");
-    s.push_str("@group(0) @binding(2) var<storage, read_write> sn_out: array<f32>;\n");
-    s.push_str("@group(0) @binding(3) var<storage, read_write> sn_tmp: array<f32>;\n");
-    if pass.lights {
-        s.push_str("@group(0) @binding(4) var<storage, read> sn_light: array<f32>;\n");
-    }
+    // Assemble: the entry point first, then what it needs of the libraries.
+    let mut extra = String::new();
     if w.uses_textures {
-        s.push_str("@group(0) @binding(5) var<storage, read> sn_texels: array<vec4<f32>>;\n");
-        s.push_str("@group(0) @binding(6) var<storage, read> sn_tex_info: array<vec4<u32>>;\n");
-        s.push_str(emit::TEXTURE_LIBRARY);
-        if !s.ends_with('\n') {
-            s.push('\n');
+        extra.push_str(emit::TEXTURE_LIBRARY);
+        if !extra.ends_with('\n') {
+            extra.push('\n');
         }
     }
     if w.uses_xf {
-        s.push_str(TRANSFORM_HELPERS);
+        extra.push_str(TRANSFORM_HELPERS);
     }
+    let mut s = String::new();
     let _ = writeln!(
         s,
         "\n@compute @workgroup_size({})\nfn main(@builtin(global_invocation_id) sn_gid: vec3<u32>) {{",
@@ -659,6 +818,11 @@ pub(crate) fn write(
     line(&mut s, 1, "if (i >= n) {");
     line(&mut s, 2, "return;");
     line(&mut s, 1, "}");
+    line(
+        &mut s,
+        1,
+        &format!("let {} = bitcast<u32>(sn_uni[{U_KEEP}u]);", emit::KEY),
+    );
     if w.uses_mask {
         line(
             &mut s,
@@ -712,8 +876,61 @@ pub(crate) fn write(
     }
     s.push_str(&body);
     s.push_str("}\n");
+    let entry = s;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "// shadenet: material `{}`, pass {pass_no}",
+        p.name.replace(['\n', '\r'], " ")
+    );
+    s.push_str(&library_for(emit::LIBRARY, &format!("{extra}{entry}")));
+    if !s.ends_with('\n') {
+        s.push('\n');
+    }
+    s.push_str("\n@group(0) @binding(0) var<storage, read> sn_uni: array<f32>;\n");
+    s.push_str("@group(0) @binding(1) var<storage, read> sn_frag: array<f32>;\n");
+    s.push_str("@group(0) @binding(2) var<storage, read_write> sn_out: array<f32>;\n");
+    s.push_str("@group(0) @binding(3) var<storage, read_write> sn_tmp: array<f32>;\n");
+    if pass.lights {
+        s.push_str("@group(0) @binding(4) var<storage, read> sn_light: array<f32>;\n");
+    }
+    if w.uses_textures {
+        s.push_str("@group(0) @binding(5) var<storage, read> sn_texels: array<vec4<f32>>;\n");
+        s.push_str("@group(0) @binding(6) var<storage, read> sn_tex_info: array<vec4<u32>>;\n");
+    }
+    s.push_str(&extra);
+    s.push_str(&entry);
     Ok(KernelText {
         wgsl: s,
         textures: w.uses_textures,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_library_splits_into_declarations() {
+        let (_, items) = library_items(emit::LIBRARY).expect("lib.wgsl splits");
+        assert!(items.iter().any(|i| i.name == "sn_sqrt"));
+        let (_, tex) = library_items(emit::TEXTURE_LIBRARY).expect("texture.wgsl splits");
+        assert!(tex.iter().any(|i| i.name == "sn_texture"));
+    }
+
+    #[test]
+    fn only_the_declarations_a_kernel_needs_are_included() {
+        let lib = "// head\nconst SN_T = array<f32, 2>(1.0f, 2.0f);\n\
+                   fn sn_a(x: f32) -> f32 {\n    return x * SN_T[0];\n}\n\
+                   fn sn_b(x: f32) -> f32 {\n    return sn_a(x);\n}\n\
+                   // unused\nfn sn_c(x: f32) -> f32 {\n    return x;\n}\n";
+        let out = library_for(lib, "fn main() { let y = sn_b(1.0f); }");
+        assert!(out.contains("fn sn_a") && out.contains("fn sn_b") && out.contains("SN_T"));
+        assert!(!out.contains("fn sn_c"), "{out}");
+        // Code outside declarations: the whole library.
+        assert_eq!(
+            library_for("let x = 1;\nfn sn_a() {}\n", "sn_a"),
+            "let x = 1;\nfn sn_a() {}\n"
+        );
+    }
 }

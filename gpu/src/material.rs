@@ -22,8 +22,8 @@
 
 use crate::context::{GpuContext, GpuError};
 use crate::plan::{
-    self, HostKind, LIGHT_COLUMNS, Plan, Step, U_AMBIENT, U_CAMERA, U_CAMERA_INV, U_MASK, U_N,
-    U_OBJECT, U_OBJECT_INV, U_SAMPLES, U_VALUES, encode_const,
+    self, HostKind, LIGHT_COLUMNS, Plan, Step, U_AMBIENT, U_CAMERA, U_CAMERA_INV, U_KEEP, U_MASK,
+    U_N, U_OBJECT, U_OBJECT_INV, U_SAMPLES, U_VALUES, encode_const,
 };
 use rayon::prelude::*;
 use shadenet_graph::ir::{Op, Program, Stream, Value};
@@ -425,6 +425,12 @@ impl GpuMaterial {
         &self.plan
     }
 
+    /// Whether a batch failed on the device, so that this material now shades every batch
+    /// on its companion (see the module documentation).
+    pub fn device_failed(&self) -> bool {
+        self.failed.load(Ordering::Relaxed)
+    }
+
     /// The scalar companion that shades single fragments.
     pub fn companion(&self) -> &Arc<dyn Material> {
         &self.companion
@@ -461,6 +467,7 @@ impl GpuMaterial {
         u[U_N] = f32::from_bits(n as u32);
         u[U_MASK] = f32::from_bits(mask);
         u[U_SAMPLES] = f32::from_bits(samples as u32);
+        u[U_KEEP] = f32::from_bits(0);
         let amb: [f32; 3] = lights::ambient(&env.lights);
         u[U_AMBIENT..U_AMBIENT + 3].copy_from_slice(&amb);
         for (slot, m) in [
@@ -817,8 +824,8 @@ impl GpuMaterial {
         {
             if let Some(c) = l.tmp.get(v.index()).copied().flatten() {
                 let (w, x) = match step.kind {
-                    HostKind::Trace(_) => (3, 0.0),
-                    _ => (1, 1.0),
+                    HostKind::Trace(_) => (3, 0.0f32),
+                    _ => (1, 1.0f32),
                 };
                 let data = vec![x; w * n];
                 self.ctx.queue.write_buffer(

@@ -37,6 +37,8 @@ pub const U_MASK: usize = 1;
 pub const U_SAMPLES: usize = 2;
 /// First of three uniform slots holding the ambient light's color.
 pub const U_AMBIENT: usize = 3;
+/// Uniform slot holding 0 (as bits): the kernels' value barrier (see `crate::kernel`).
+pub const U_KEEP: usize = 6;
 /// First uniform slot of the world → camera matrix (16 floats, row-major).
 pub const U_CAMERA: usize = 8;
 /// First uniform slot of the camera → world matrix.
@@ -618,6 +620,17 @@ fn share_passes(costs: &[(usize, usize)], n: usize) -> Vec<usize> {
             }
         })
         .collect();
+    // Too many (each run got at least one): take back from the runs with the least cost
+    // per pass.
+    while k.iter().sum::<usize>() > n {
+        let cheapest = (0..costs.len())
+            .filter(|&i| k[i] > 1)
+            .min_by_key(|&i| (costs[i].0 * 1000) / k[i]);
+        match cheapest {
+            Some(i) => k[i] -= 1,
+            None => break,
+        }
+    }
     // Hand out what is left to the runs with the most cost per pass.
     loop {
         let used: usize = k.iter().sum();

@@ -1,1 +1,975 @@
-// The WGSL intrinsic library (sn_*): being written.
+// shadenet WGSL library: the sn_* functions the expressions of emit::op_expr call.
+//
+// Every function mirrors one function of graph/src/ops (DESIGN §7) with the same sequence of
+// IEEE operations, so that a device doing IEEE f32 arithmetic without contraction (Mesa's
+// lavapipe) gives the CPU's bits for everything but the transcendentals (exp, log, sin, cos,
+// tan, asin, acos, atan2, pow), which call the device's own functions (their measured error is
+// in the documentation of gpu/src/emit.rs).
+//
+// Rules followed throughout:
+// - NaN and infinity are tested on the bits (sn_is_nan, sn_is_inf, sn_is_finite), never with
+//   `x != x`, which a driver assuming finite arithmetic may fold away.
+// - Nothing divides by zero or converts an out-of-range float to an int at run time where the
+//   result is used: the total rules pick the result with `select` or an early return.
+// - Integer arithmetic that may overflow goes through u32 (wrapping by definition).
+// - WGSL has no inf/NaN literals: they are made with bitcast.
+
+// ---- bits ----
+
+fn sn_is_nan(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7fffffffu) > 0x7f800000u;
+}
+
+// A signaling NaN: exponent all ones, quiet bit clear, payload non-zero.
+fn sn_is_snan(x: f32) -> bool {
+    let b = bitcast<u32>(x) & 0x7fffffffu;
+    return b > 0x7f800000u && (b & 0x00400000u) == 0u;
+}
+
+fn sn_is_inf(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7fffffffu) == 0x7f800000u;
+}
+
+fn sn_is_finite(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7f800000u) != 0x7f800000u;
+}
+
+fn sn_inf() -> f32 {
+    return bitcast<f32>(0x7f800000u);
+}
+
+fn sn_nan() -> f32 {
+    return bitcast<f32>(0x7fc00000u);
+}
+
+// The magnitude of m with the sign of s.
+fn sn_copysign(m: f32, s: f32) -> f32 {
+    return bitcast<f32>((bitcast<u32>(m) & 0x7fffffffu) | (bitcast<u32>(s) & 0x80000000u));
+}
+
+// ---- the key: a run-time zero the compiler cannot see through ----
+//
+// Mesa rewrites float expressions as if they were real numbers wherever the same SSA value
+// appears twice: `a - a` becomes 0 (NaN for an infinite a), `a * b + a * c` becomes
+// `a * (b + c)` (a different rounding); and wherever it sees a constant: `x * 0.0` becomes 0,
+// `(x * 2.0) * 0.5` becomes x. The same value appears twice when an IR op reads one value
+// twice (`sub %x, %x`), when two IR values compute the same thing (the compiler merges them)
+// or when a vector's components are one value (`splat`). A function that could meet that
+// takes the kernel's key `k` (`sn_keep`: a uniform that is 0 at run time) and passes an
+// operand through sn_o*, which the compiler cannot prove equal to anything else.
+
+fn sn_o(x: f32, k: u32) -> f32 {
+    return bitcast<f32>(bitcast<u32>(x) ^ k);
+}
+
+fn sn_o2(x: vec2<f32>, k: u32) -> vec2<f32> {
+    return bitcast<vec2<f32>>(bitcast<vec2<u32>>(x) ^ vec2<u32>(k));
+}
+
+fn sn_o3(x: vec3<f32>, k: u32) -> vec3<f32> {
+    return bitcast<vec3<f32>>(bitcast<vec3<u32>>(x) ^ vec3<u32>(k));
+}
+
+fn sn_o4(x: vec4<f32>, k: u32) -> vec4<f32> {
+    return bitcast<vec4<f32>>(bitcast<vec4<u32>>(x) ^ vec4<u32>(k));
+}
+
+// ---- total float ops (ops::div, fmod, sqrt, log, asin, acos, fract, pow) ----
+
+// a / b, 0 where b == 0 (either zero).
+fn sn_div(a: f32, b: f32) -> f32 {
+    return select(a / b, 0.0f, b == 0.0f);
+}
+
+// a - b * floor(a / b), 0 where b == 0.
+fn sn_mod(a: f32, b: f32) -> f32 {
+    return select(a - b * floor(a / b), 0.0f, b == 0.0f);
+}
+
+// sqrt(x), 0 for x < 0; sqrt(±0) = ±0 and sqrt(NaN) = NaN as IEEE says (lavapipe's sqrt
+// gives +0 for both: it takes the square root of max(x, 0)).
+fn sn_sqrt(x: f32) -> f32 {
+    if (x == 0.0f || sn_is_nan(x)) {
+        return x;
+    }
+    return select(sqrt(x), 0.0f, x < 0.0f);
+}
+
+// x - floor(x) (WGSL's fract may clamp below 1; this may round up to 1, as the CPU does).
+fn sn_fract(x: f32) -> f32 {
+    return x - floor(x);
+}
+
+// ---- transcendentals ----
+//
+// exp, log, asin, acos, atan2 and pow are ports of FreeBSD msun's float functions (fdlibm,
+// Copyright (C) 1993 by Sun Microsystems, Inc.: "Permission to use, copy, modify, and
+// distribute this software is freely granted, provided that this notice is preserved."):
+// only IEEE + - * / sqrt and bit operations, so they give the same bits on every device that
+// does IEEE arithmetic without contraction, about 1 ulp from the correctly rounded result
+// (the measured distance to the CPU's functions is in the documentation of emit.rs). WGSL's
+// built-ins for these are approximations of unspecified accuracy (lavapipe's asin is 4e-4
+// off, its log of a subnormal 15 off, its pow thousands of ulps). sin, cos and tan stay the
+// device's.
+
+// expf (e_expf.c): every input, NaN and infinities included.
+fn sn_exp(x_in: f32) -> f32 {
+    var x = x_in;
+    let hx0 = bitcast<u32>(x);
+    let neg = (hx0 >> 31u) == 1u;
+    let hx = hx0 & 0x7fffffffu;
+    if (hx >= 0x42b17218u) { // |x| >= 88.721...
+        if (hx > 0x7f800000u) {
+            return x; // NaN
+        }
+        if (hx == 0x7f800000u) {
+            return select(x, 0.0f, neg); // exp(±inf) = inf, 0
+        }
+        if (x > 88.72168f) {
+            return sn_inf(); // overflow
+        }
+        if (x < -103.972084f) {
+            return 0.0f; // underflow
+        }
+    }
+    var hi = 0.0f;
+    var lo = 0.0f;
+    var k = 0i;
+    if (hx > 0x3eb17218u) { // |x| > 0.5 ln2: argument reduction
+        if (hx < 0x3f851592u) { // and |x| < 1.5 ln2
+            hi = x - select(0.69314575f, -0.69314575f, neg);
+            lo = select(1.4286068e-06f, -1.4286068e-06f, neg);
+            k = select(1i, -1i, neg);
+        } else {
+            k = i32(1.442695f * x + select(0.5f, -0.5f, neg));
+            let t = f32(k);
+            hi = x - t * 0.69314575f; // exact
+            lo = t * 1.4286068e-06f;
+        }
+        x = hi - lo;
+    } else if (hx < 0x39000000u) { // |x| < 2^-14
+        return 1.0f + x;
+    }
+    let t = x * x;
+    let c = x - t * (0.16666625f + t * -0.0027667333f);
+    if (k == 0i) {
+        return 1.0f - ((x * c) / (c - 2.0f) - x);
+    }
+    let y = 1.0f - ((lo - (x * c) / (2.0f - c)) - hi);
+    if (k >= -125i) {
+        // 2^k as 2^min(k, 127), then times 2 for k = 128 (y * 2^128 stays finite for y < 1).
+        let twopk = bitcast<f32>(u32(0x3f800000i + (min(k, 127i) << 23u)));
+        return select(y * twopk, (y * twopk) * 2.0f, k == 128i);
+    }
+    // subnormal result: 2^(k + 100), then 2^-100 (one rounding)
+    let twopk = bitcast<f32>(u32(0x3f800000i + ((k + 100i) << 23u)));
+    return (y * twopk) * 7.888609e-31f;
+}
+
+// logf (e_logf.c) for x > 0 (subnormals and +inf included). k: the key.
+fn sn_log_pos(x_in: f32, kk: u32) -> f32 {
+    var x = x_in;
+    var ix = bitcast<i32>(x);
+    var k = 0i;
+    if (ix < 0x00800000i) { // subnormal: scale up
+        k = -25i;
+        x = x * 33554432.0f;
+        ix = bitcast<i32>(x);
+    }
+    if (ix >= 0x7f800000i) {
+        return x; // +inf
+    }
+    k = k + ((ix >> 23u) - 127i);
+    ix = ix & 0x007fffffi;
+    let i = (ix + (0x95f64i << 3u)) & 0x800000i;
+    x = bitcast<f32>(ix | (i ^ 0x3f800000i)); // normalize x or x/2
+    k = k + (i >> 23u);
+    let f = x - 1.0f;
+    let dk = f32(k);
+    if ((0x007fffffi & (0x8000i + ix)) < 0xc000i) { // -2^-9 <= f < 2^-9
+        if (f == 0.0f) {
+            if (k == 0i) {
+                return 0.0f;
+            }
+            return dk * 0.6931381f + sn_o(dk * 9.058001e-06f, kk);
+        }
+        let r = f * f * (0.5f - 0.33333334f * f);
+        if (k == 0i) {
+            return f - r;
+        }
+        return dk * 0.6931381f - ((r - dk * 9.058001e-06f) - f);
+    }
+    let s = f / (2.0f + f);
+    let z = s * s;
+    let w = z * z;
+    let i2 = (ix - (0x6147ai << 3u)) | ((0x6b851i << 3u) - ix);
+    let t1 = w * (0.40000972f + w * 0.24279079f);
+    let t2 = z * (0.6666666f + w * 0.28498787f);
+    let r = t2 + t1;
+    if (i2 > 0i) {
+        let hfsq = 0.5f * f * f;
+        if (k == 0i) {
+            return f - (hfsq - s * (hfsq + r));
+        }
+        return dk * 0.6931381f - ((hfsq - (s * (hfsq + r) + dk * 9.058001e-06f)) - f);
+    }
+    if (k == 0i) {
+        return f - s * (f - r);
+    }
+    return dk * 0.6931381f - ((s * (f - r) - dk * 9.058001e-06f) - f);
+}
+
+// ops::log: ln(x), ln(f32::MIN_POSITIVE) (as f32: -87.33655, 0xc2aeac50) for x <= 0; NaN
+// stays NaN.
+fn sn_log(x: f32, k: u32) -> f32 {
+    if (x <= 0.0f) {
+        return bitcast<f32>(0xc2aeac50u);
+    }
+    if (sn_is_nan(x)) {
+        return x;
+    }
+    return sn_log_pos(x, k);
+}
+
+// clamp(x, -1, 1) as ops::clamp_unit writes it (NaN stays NaN).
+fn sn_clamp_unit(x: f32) -> f32 {
+    return select(select(x, 1.0f, x > 1.0f), -1.0f, x < -1.0f);
+}
+
+// The rational approximation of asinf/acosf: R(t) = p(t) / q(t).
+fn sn_asin_r(t: f32) -> f32 {
+    let p = t * (0.16666667f + t * (-0.32556581f + t * (0.20121253f + t * (-0.040055536f
+        + t * (0.000791535f + t * 3.479331e-05f)))));
+    let q = 1.0f + t * (-2.403395f + t * (2.0209458f + t * (-0.688284f + t * 0.077038154f)));
+    return p / q;
+}
+
+// asinf (e_asinf.c) of the clamped argument.
+fn sn_asin(x_in: f32) -> f32 {
+    let x = sn_clamp_unit(x_in);
+    let hx = bitcast<i32>(x);
+    let ix = hx & 0x7fffffffi;
+    if (ix >= 0x3f800000i) { // |x| = 1, or NaN
+        if (ix == 0x3f800000i) {
+            return sn_copysign(1.5707964f, x); // ±pi/2
+        }
+        return x;
+    }
+    if (ix < 0x3f000000i) { // |x| < 0.5
+        if (ix < 0x32000000i) { // |x| < 2^-27
+            return x;
+        }
+        return x + x * sn_asin_r(x * x);
+    }
+    let t = (1.0f - abs(x)) * 0.5f;
+    let r = sn_asin_r(t);
+    let s = sqrt(t);
+    var res: f32;
+    if (ix >= 0x3f79999ai) { // |x| > 0.975
+        res = 1.5707963f - (2.0f * (s + s * r) - 7.5497894e-08f);
+    } else {
+        let w = bitcast<f32>(bitcast<i32>(s) & bitcast<i32>(0xfffff000u));
+        let c = (t - w * w) / (s + w);
+        let p = 2.0f * s * r - (7.5497894e-08f - 2.0f * c);
+        let q = 0.7853982f - 2.0f * w;
+        res = 0.7853982f - (p - q);
+    }
+    return select(-res, res, hx > 0i);
+}
+
+// acosf (e_acosf.c) of the clamped argument.
+fn sn_acos(x_in: f32) -> f32 {
+    let x = sn_clamp_unit(x_in);
+    let hx = bitcast<i32>(x);
+    let ix = hx & 0x7fffffffi;
+    if (ix >= 0x3f800000i) { // |x| = 1, or NaN
+        if (ix == 0x3f800000i) {
+            return select(3.1415927f, 0.0f, hx > 0i); // acos(1) = 0, acos(-1) = pi
+        }
+        return x;
+    }
+    if (ix < 0x3f000000i) { // |x| < 0.5
+        if (ix <= 0x32800000i) { // |x| <= 2^-26
+            return 1.5707964f;
+        }
+        let r = x * sn_asin_r(x * x);
+        return 1.5707963f - (x - (7.5497894e-08f - r));
+    }
+    if (hx < 0i) { // x <= -0.5
+        let z = (1.0f + x) * 0.5f;
+        let s = sqrt(z);
+        let w = sn_asin_r(z) * s - 7.5497894e-08f;
+        return 3.1415925f - 2.0f * (s + w);
+    }
+    // x >= 0.5
+    let z = (1.0f - x) * 0.5f;
+    let s = sqrt(z);
+    let df = bitcast<f32>(bitcast<i32>(s) & bitcast<i32>(0xfffff000u));
+    let c = (z - df * df) / (s + df);
+    let w = sn_asin_r(z) * s + c;
+    return 2.0f * (df + w);
+}
+
+const SN_ATAN_HI = array<f32, 4>(0.4636476f, 0.7853981f, 0.9827937f, 1.5707963f);
+const SN_ATAN_LO = array<f32, 4>(5.0121582e-09f, 3.7748947e-08f, 3.4473217e-08f, 7.5497894e-08f);
+
+// atanf (s_atanf.c, fdlibm's 11-term polynomial) of a finite x.
+fn sn_atan(x_in: f32) -> f32 {
+    let hx = bitcast<i32>(x_in);
+    let ix = hx & 0x7fffffffi;
+    if (ix >= 0x4c800000i) { // |x| >= 2^26
+        return sn_copysign(1.5707964f, x_in);
+    }
+    var x = x_in;
+    var id = -1i;
+    if (ix < 0x3ee00000i) { // |x| < 0.4375
+        if (ix < 0x39800000i) { // |x| < 2^-12
+            return x;
+        }
+    } else {
+        x = abs(x);
+        if (ix < 0x3f980000i) { // |x| < 1.1875
+            if (ix < 0x3f300000i) { // 7/16 <= |x| < 11/16
+                id = 0i;
+                x = (2.0f * x - 1.0f) / (2.0f + x);
+            } else { // 11/16 <= |x| < 19/16
+                id = 1i;
+                x = (x - 1.0f) / (x + 1.0f);
+            }
+        } else if (ix < 0x401c0000i) { // |x| < 2.4375
+            id = 2i;
+            x = (x - 1.5f) / (1.0f + 1.5f * x);
+        } else { // 2.4375 <= |x| < 2^26
+            id = 3i;
+            x = -1.0f / x;
+        }
+    }
+    let z = x * x;
+    let w = z * z;
+    let s1 = z * (0.33333334f + w * (0.14285715f + w * (0.09090887f + w * (0.06661073f
+        + w * (0.04976878f + w * 0.01628582f)))));
+    let s2 = w * (-0.2f + w * (-0.111111104f + w * (-0.07691876f + w * (-0.058335703f
+        + w * -0.03653157f))));
+    if (id < 0i) {
+        return x - x * (s1 + s2);
+    }
+    let r = SN_ATAN_HI[id] - ((x * (s1 + s2) - SN_ATAN_LO[id]) - x);
+    return select(r, -r, hx < 0i);
+}
+
+// Rust's f32::atan2 (C99 Annex F special cases written out), e_atan2f.c for finite non-zero
+// operands.
+fn sn_atan2(y: f32, x: f32) -> f32 {
+    if (sn_is_nan(x) || sn_is_nan(y)) {
+        return sn_nan();
+    }
+    let pi = 3.1415927f;
+    let half_pi = 1.5707964f;
+    if (y == 0.0f) {
+        // ±0 towards +x (x > 0 or x = +0), ±π towards -x (x < 0 or x = -0).
+        if (x > 0.0f || (x == 0.0f && bitcast<u32>(x) == 0u)) {
+            return y;
+        }
+        return sn_copysign(pi, y);
+    }
+    if (x == 0.0f) {
+        return sn_copysign(half_pi, y);
+    }
+    if (sn_is_inf(x)) {
+        if (sn_is_inf(y)) {
+            return sn_copysign(select(2.3561945f, 0.7853982f, x > 0.0f), y);
+        }
+        return sn_copysign(select(pi, 0.0f, x > 0.0f), y);
+    }
+    if (sn_is_inf(y)) {
+        return sn_copysign(half_pi, y);
+    }
+    if (x == 1.0f) {
+        return sn_atan(y);
+    }
+    let ix = bitcast<i32>(x) & 0x7fffffffi;
+    let iy = bitcast<i32>(y) & 0x7fffffffi;
+    // 2 * sign(x) + sign(y)
+    let m = select(0i, 1i, y < 0.0f) | select(0i, 2i, x < 0.0f);
+    let k = (iy - ix) >> 23u;
+    var z: f32;
+    var mm = m;
+    if (k > 26i) { // |y / x| > 2^26
+        z = 1.5707964f; // pi_o_2 + 0.5 * pi_lo
+        mm = m & 1i;
+    } else if (k < -26i && x < 0.0f) { // 0 > |y| / x > -2^-26
+        z = 0.0f;
+    } else {
+        z = sn_atan(abs(y / x));
+    }
+    switch (mm) {
+        case 0i: {
+            return z;
+        }
+        case 1i: {
+            return -z;
+        }
+        case 2i: {
+            return pi - (z - -8.742278e-08f);
+        }
+        default: {
+            return (z - -8.742278e-08f) - pi;
+        }
+    }
+}
+
+// Whether b is an odd integer (every float of magnitude >= 2^24 is an even integer).
+fn sn_is_odd_integer(b: f32) -> bool {
+    if (!(abs(b) < 16777216.0f)) {
+        return false;
+    }
+    return trunc(b) == b && (i32(b) & 1) != 0;
+}
+
+// x * 2^n with one rounding (scalbnf for a normal x and a result that may be subnormal).
+fn sn_scalbn(x: f32, n: i32) -> f32 {
+    let ix = bitcast<i32>(x);
+    let k = ((ix & 0x7f800000i) >> 23u) + n;
+    if (k > 0i) {
+        return bitcast<f32>((ix & bitcast<i32>(0x807fffffu)) | (k << 23u));
+    }
+    if (k <= -25i) {
+        return sn_copysign(0.0f, x);
+    }
+    // subnormal: exponent k + 25, then 2^-25
+    return bitcast<f32>((ix & bitcast<i32>(0x807fffffu)) | ((k + 25i) << 23u)) * 2.9802322e-08f;
+}
+
+// powf (e_powf.c) for a finite base ax > 0, ax != 1, and a finite exponent y != 0. k: the key.
+fn sn_pow_pos(ax_in: f32, y: f32, kk: u32) -> f32 {
+    let hy = bitcast<i32>(y);
+    let iy = hy & 0x7fffffffi;
+    if (iy == 0x3f800000i) { // y = ±1
+        return select(ax_in, 1.0f / ax_in, hy < 0i);
+    }
+    if (hy == 0x40000000i) { // y = 2
+        return ax_in * ax_in;
+    }
+    if (hy == 0x3f000000i) { // y = 0.5
+        return sqrt(ax_in);
+    }
+    var ax = ax_in;
+    var ix = bitcast<i32>(ax);
+    var t1: f32;
+    var t2: f32;
+    if (iy > 0x4d000000i) { // |y| > 2^27
+        // over/underflow if x is not close to one
+        if (ix < 0x3f7ffff8i) {
+            return select(0.0f, sn_inf(), hy < 0i);
+        }
+        if (ix > 0x3f800007i) {
+            return select(0.0f, sn_inf(), hy > 0i);
+        }
+        // |1 - x| <= 2^-20: log(x) by x - x^2/2 + x^3/3 - x^4/4
+        let t = ax - 1.0f;
+        let w = (t * t) * (0.5f - t * (0.33333334f - t * 0.25f));
+        let u = 1.442688f * t;
+        let v = t * 7.0526075e-06f - w * 1.442695f;
+        t1 = bitcast<f32>(bitcast<i32>(u + v) & bitcast<i32>(0xfffff000u));
+        t2 = v - (t1 - u);
+    } else {
+        var n = 0i;
+        if (ix < 0x00800000i) { // subnormal
+            ax = ax * 16777216.0f;
+            n = -24i;
+            ix = bitcast<i32>(ax);
+        }
+        n = n + ((ix >> 23u) - 0x7fi);
+        let j = ix & 0x007fffffi;
+        ix = j | 0x3f800000i; // normalize
+        var k = 0i;
+        if (j <= 0x1cc471i) { // |x| < sqrt(3/2)
+            k = 0i;
+        } else if (j < 0x5db3d7i) { // |x| < sqrt(3)
+            k = 1i;
+        } else {
+            k = 0i;
+            n = n + 1i;
+            ix = ix - 0x00800000i;
+        }
+        ax = bitcast<f32>(ix);
+        let bp = select(1.0f, 1.5f, k == 1i);
+        let dp_h = select(0.0f, 0.58496094f, k == 1i);
+        let dp_l = select(0.0f, 1.5632208e-06f, k == 1i);
+        // s = s_h + s_l = (x - 1) / (x + 1) or (x - 1.5) / (x + 1.5)
+        let u = ax - bp;
+        let v = 1.0f / (ax + bp);
+        let s = u * v;
+        let s_h = bitcast<f32>(bitcast<i32>(s) & bitcast<i32>(0xfffff000u));
+        // t_h = ax + bp, high part
+        let t_h = bitcast<f32>((((ix >> 1u) & bitcast<i32>(0xfffff000u)) | 0x20000000i) + 0x00400000i
+            + (k << 21u));
+        let t_l = ax - (t_h - bp);
+        let s_l = v * ((u - s_h * t_h) - s_h * t_l);
+        // log(ax)
+        var s2 = s * s;
+        var r = s2 * s2 * (0.6f + s2 * (0.42857143f + s2 * (0.33333334f + s2 * (0.27272812f
+            + s2 * (0.23066075f + s2 * 0.20697501f)))));
+        r = r + s_l * (s_h + s);
+        s2 = s_h * s_h;
+        let t_h2 = bitcast<f32>(bitcast<i32>(3.0f + s2 + r) & bitcast<i32>(0xfffff000u));
+        let t_l2 = r - ((t_h2 - 3.0f) - s2);
+        // u + v = s * (1 + ...)
+        let u2 = s_h * t_h2;
+        let v2 = s_l * t_h2 + t_l2 * s;
+        // 2 / (3 log2) * (s + ...)
+        let p_h = bitcast<f32>(bitcast<i32>(u2 + v2) & bitcast<i32>(0xfffff000u));
+        let p_l = v2 - (p_h - u2);
+        let z_h = 0.96191406f * p_h; // cp_h + cp_l = 2 / (3 log 2)
+        let z_l = -0.000117368574f * p_h + p_l * 0.9617967f + dp_l;
+        // log2(ax) = (s + ...) * 2 / (3 log 2) = n + dp_h + z_h + z_l
+        let t = f32(n);
+        t1 = bitcast<f32>(bitcast<i32>(((z_h + z_l) + dp_h) + t) & bitcast<i32>(0xfffff000u));
+        t2 = z_l - (((t1 - t) - dp_h) - z_h);
+    }
+    // (y1 + y2) * (t1 + t2), y split
+    let y1 = bitcast<f32>(hy & bitcast<i32>(0xfffff000u));
+    let p_l = (y - y1) * t1 + y * t2;
+    var p_h = y1 * t1;
+    let z = p_l + p_h;
+    let j = bitcast<i32>(z);
+    if (j > 0x43000000i) { // z > 128
+        return sn_inf();
+    } else if (j == 0x43000000i) { // z == 128
+        if (p_l + 4.2995666e-08f > z - sn_o(p_h, kk)) {
+            return sn_inf();
+        }
+    } else if ((j & 0x7fffffffi) > 0x43160000i) { // z < -150
+        return 0.0f;
+    } else if (j == bitcast<i32>(0xc3160000u)) { // z == -150
+        if (p_l <= z - sn_o(p_h, kk)) {
+            return 0.0f;
+        }
+    }
+    // 2^(p_h + p_l)
+    let i = j & 0x7fffffffi;
+    var k2 = (i >> 23u) - 0x7fi;
+    var n2 = 0i;
+    if (i > 0x3f000000i) { // |z| > 0.5: n = [z + 0.5]
+        n2 = j + (0x00800000i >> u32(k2 + 1i));
+        k2 = ((n2 & 0x7fffffffi) >> 23u) - 0x7fi; // new k for n
+        let t = bitcast<f32>(n2 & ~(0x007fffffi >> u32(k2)));
+        n2 = ((n2 & 0x007fffffi) | 0x00800000i) >> u32(23i - k2);
+        if (j < 0i) {
+            n2 = -n2;
+        }
+        p_h = p_h - t;
+    }
+    let t = bitcast<f32>(bitcast<i32>(p_l + p_h) & bitcast<i32>(0xffff8000u));
+    let u = t * 0.69314575f;
+    let v = (p_l - (t - p_h)) * 0.6931472f + t * 1.4286065e-06f;
+    let z2 = u + v;
+    let w = v - (z2 - sn_o(u, kk));
+    let tt = z2 * z2;
+    let tt1 = z2 - tt * (0.16666667f + tt * (-0.0027777778f + tt * (6.613756e-05f
+        + tt * (-1.6533902e-06f + tt * 4.138137e-08f))));
+    let r = (z2 * tt1) / (tt1 - 2.0f) - (w + z2 * w);
+    let z3 = 1.0f - (r - z2);
+    let jj = bitcast<i32>(z3) + (n2 << 23u);
+    if ((jj >> 23u) <= 0i) { // subnormal output
+        return sn_scalbn(z3, n2);
+    }
+    return bitcast<f32>(jj);
+}
+
+// ops::pow: 0 for a negative base with a non-integer exponent, 0 for 0^negative; otherwise
+// Rust's powf, its special cases (C99 Annex F) written out, sn_pow_pos for a finite non-zero
+// base and a finite exponent, negated for a negative base and an odd integer exponent.
+fn sn_pow(a: f32, b: f32, k: u32) -> f32 {
+    if (a < 0.0f && (sn_is_nan(b) || trunc(b) != b)) {
+        return 0.0f;
+    }
+    if (a == 0.0f && b < 0.0f) {
+        return 0.0f;
+    }
+    if (sn_is_snan(a) || sn_is_snan(b)) {
+        return sn_nan(); // glibc: a signaling NaN gives NaN, even for pow(sNaN, 0), pow(1, sNaN)
+    }
+    if (b == 0.0f || a == 1.0f) {
+        return 1.0f; // pow(x, ±0) = 1 and pow(1, y) = 1, a quiet NaN included
+    }
+    if (sn_is_nan(a) || sn_is_nan(b)) {
+        return sn_nan();
+    }
+    let ax = abs(a);
+    if (sn_is_inf(b)) {
+        if (ax == 1.0f) {
+            return 1.0f; // pow(-1, ±inf) = 1
+        }
+        return select(0.0f, sn_inf(), (ax < 1.0f) == (b < 0.0f));
+    }
+    let odd = sn_is_odd_integer(b);
+    if (ax == 0.0f) {
+        // b > 0 here: ±0 for an odd integer exponent, +0 otherwise.
+        return select(0.0f, a, odd);
+    }
+    var r: f32;
+    if (sn_is_inf(ax)) {
+        r = select(sn_inf(), 0.0f, b < 0.0f);
+    } else if (ax == 1.0f) {
+        r = 1.0f; // (-1)^integer
+    } else {
+        r = sn_pow_pos(ax, b, k);
+    }
+    return select(r, -r, a < 0.0f && odd);
+}
+
+// ---- integers (wrapping; division and modulo by zero give 0) ----
+
+fn sn_ineg(a: i32) -> i32 {
+    return bitcast<i32>(0u - bitcast<u32>(a));
+}
+
+fn sn_iabs(a: i32) -> i32 {
+    return select(a, sn_ineg(a), a < 0i);
+}
+
+// a.wrapping_div(b), 0 where b == 0 (i32::MIN / -1 = i32::MIN).
+fn sn_idiv(a: i32, b: i32) -> i32 {
+    if (b == 0i) {
+        return 0i;
+    }
+    if (b == -1i) {
+        return sn_ineg(a);
+    }
+    return a / b;
+}
+
+// a.wrapping_rem_euclid(b), 0 where b == 0.
+fn sn_imod(a: i32, b: i32) -> i32 {
+    if (b == 0i || b == -1i) {
+        return 0i; // x rem -1 is 0 (and i32::MIN % -1 must not run)
+    }
+    let r = a % b; // truncated: the sign of a
+    if (r < 0i) {
+        return bitcast<i32>(bitcast<u32>(r) + bitcast<u32>(sn_iabs(b)));
+    }
+    return r;
+}
+
+// Rust `x as i32`: truncation toward zero, saturating, NaN -> 0.
+fn sn_f2i(x: f32) -> i32 {
+    if (sn_is_nan(x)) {
+        return 0i;
+    }
+    if (x >= 2147483648.0f) {
+        return 2147483647i;
+    }
+    if (x < -2147483648.0f) {
+        return bitcast<i32>(0x80000000u);
+    }
+    return i32(x);
+}
+
+// ---- vectors and matrices (sums left to right, as ops::dot) ----
+
+// 0 + p, as the CPU's sums start: +0 for either zero, p otherwise. Written on the bits:
+// Mesa folds a literal `0.0 + p` to p, which keeps a -0.
+fn sn_plus_zero(p: f32) -> f32 {
+    return bitcast<f32>(bitcast<u32>(p) & select(0xffffffffu, 0x7fffffffu, p == 0.0f));
+}
+
+fn sn_dot2(a: vec2<f32>, b: vec2<f32>) -> f32 {
+    return sn_plus_zero(a.x * b.x) + a.y * b.y;
+}
+
+fn sn_dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {
+    return (sn_plus_zero(a.x * b.x) + a.y * b.y) + a.z * b.z;
+}
+
+fn sn_length2(v: vec2<f32>) -> f32 {
+    return sn_sqrt(sn_dot2(v, v));
+}
+
+fn sn_length3(v: vec3<f32>) -> f32 {
+    return sn_sqrt(sn_dot3(v, v));
+}
+
+fn sn_normalize2(v: vec2<f32>) -> vec2<f32> {
+    let l = sn_length2(v);
+    return vec2<f32>(sn_div(v.x, l), sn_div(v.y, l));
+}
+
+fn sn_normalize3(v: vec3<f32>) -> vec3<f32> {
+    let l = sn_length3(v);
+    return vec3<f32>(sn_div(v.x, l), sn_div(v.y, l), sn_div(v.z, l));
+}
+
+// ops::cross; the second product of each component through the key (k: see sn_o), so that
+// no product shares an operand the compiler could factor out with the other.
+fn sn_cross(a: vec3<f32>, b: vec3<f32>, k: u32) -> vec3<f32> {
+    return vec3<f32>(
+        a.y * b.z - sn_o(a.z * b.y, k),
+        a.z * b.x - sn_o(a.x * b.z, k),
+        a.x * b.y - sn_o(a.y * b.x, k),
+    );
+}
+
+// M * (p, 1), M row-major (rows are the array's elements), the w row ignored; summed left to
+// right, every product after the first through the key (see sn_cross).
+fn sn_mul_point(m: array<vec4<f32>, 4>, p: vec3<f32>, k: u32) -> vec3<f32> {
+    return vec3<f32>(
+        ((m[0].x * p.x + sn_o(m[0].y * p.y, k)) + sn_o(m[0].z * p.z, k)) + m[0].w,
+        ((m[1].x * p.x + sn_o(m[1].y * p.y, k)) + sn_o(m[1].z * p.z, k)) + m[1].w,
+        ((m[2].x * p.x + sn_o(m[2].y * p.y, k)) + sn_o(m[2].z * p.z, k)) + m[2].w,
+    );
+}
+
+// M * (v, 0).
+fn sn_mul_vector(m: array<vec4<f32>, 4>, v: vec3<f32>, k: u32) -> vec3<f32> {
+    return vec3<f32>(
+        (m[0].x * v.x + sn_o(m[0].y * v.y, k)) + sn_o(m[0].z * v.z, k),
+        (m[1].x * v.x + sn_o(m[1].y * v.y, k)) + sn_o(m[1].z * v.z, k),
+        (m[2].x * v.x + sn_o(m[2].y * v.y, k)) + sn_o(m[2].z * v.z, k),
+    );
+}
+
+// ---- noise (ops::noise) ----
+
+// Ken Perlin's reference permutation (Improved Noise, 2002).
+const SN_PERM = array<i32, 256>(
+    151, 160, 137, 91, 90, 15, 131, 13, 201, 95, 96, 53, 194, 233, 7, 225, 140, 36, 103, 30, 69,
+    142, 8, 99, 37, 240, 21, 10, 23, 190, 6, 148, 247, 120, 234, 75, 0, 26, 197, 62, 94, 252, 219,
+    203, 117, 35, 11, 32, 57, 177, 33, 88, 237, 149, 56, 87, 174, 20, 125, 136, 171, 168, 68, 175,
+    74, 165, 71, 134, 139, 48, 27, 166, 77, 146, 158, 231, 83, 111, 229, 122, 60, 211, 133, 230,
+    220, 105, 92, 41, 55, 46, 245, 40, 244, 102, 143, 54, 65, 25, 63, 161, 1, 216, 80, 73, 209, 76,
+    132, 187, 208, 89, 18, 169, 200, 196, 135, 130, 116, 188, 159, 86, 164, 100, 109, 198, 173,
+    186, 3, 64, 52, 217, 226, 250, 124, 123, 5, 202, 38, 147, 118, 126, 255, 82, 85, 212, 207, 206,
+    59, 227, 47, 16, 58, 17, 182, 189, 28, 42, 223, 183, 170, 213, 119, 248, 152, 2, 44, 154, 163,
+    70, 221, 153, 101, 155, 167, 43, 172, 9, 129, 22, 39, 253, 19, 98, 108, 110, 79, 113, 224, 232,
+    178, 185, 112, 104, 218, 246, 97, 228, 251, 34, 242, 193, 238, 210, 144, 12, 191, 179, 162,
+    241, 81, 51, 145, 235, 249, 14, 239, 107, 49, 192, 214, 31, 181, 199, 106, 157, 184, 84, 204,
+    176, 115, 121, 50, 45, 127, 4, 150, 254, 138, 236, 205, 93, 222, 114, 67, 29, 24, 72, 243, 141,
+    128, 195, 78, 66, 215, 61, 156, 180,
+);
+
+fn sn_perm(i: i32) -> i32 {
+    return SN_PERM[i & 255i];
+}
+
+// Wrapping i32 addition.
+fn sn_iadd(a: i32, b: i32) -> i32 {
+    return bitcast<i32>(bitcast<u32>(a) + bitcast<u32>(b));
+}
+
+fn sn_fade(t: f32) -> f32 {
+    return t * t * t * (t * (t * 6.0f - 15.0f) + 10.0f);
+}
+
+fn sn_lerp(t: f32, a: f32, b: f32) -> f32 {
+    return a + t * (b - a);
+}
+
+fn sn_grad(hash: i32, x: f32, y: f32, z: f32) -> f32 {
+    let h = hash & 15i;
+    let u = select(y, x, h < 8i);
+    let v = select(select(z, x, h == 12i || h == 14i), y, h < 4i);
+    return select(-u, u, (h & 1i) == 0i) + select(-v, v, (h & 2i) == 0i);
+}
+
+// The fractional offset in a lattice cell (0 for a non-finite coordinate).
+fn sn_cell_frac(x: f32) -> f32 {
+    let frac = x - floor(x);
+    return select(0.0f, frac, sn_is_finite(frac));
+}
+
+fn sn_noise3(p: vec3<f32>) -> f32 {
+    let xi = sn_f2i(floor(p.x));
+    let yi = sn_f2i(floor(p.y));
+    let zi = sn_f2i(floor(p.z));
+    let x = sn_cell_frac(p.x);
+    let y = sn_cell_frac(p.y);
+    let z = sn_cell_frac(p.z);
+    let u = sn_fade(x);
+    let v = sn_fade(y);
+    let w = sn_fade(z);
+    let a = sn_iadd(sn_perm(xi), yi);
+    let aa = sn_iadd(sn_perm(a), zi);
+    let ab = sn_iadd(sn_perm(sn_iadd(a, 1i)), zi);
+    let b = sn_iadd(sn_perm(sn_iadd(xi, 1i)), yi);
+    let ba = sn_iadd(sn_perm(b), zi);
+    let bb = sn_iadd(sn_perm(sn_iadd(b, 1i)), zi);
+    return sn_lerp(
+        w,
+        sn_lerp(
+            v,
+            sn_lerp(u, sn_grad(sn_perm(aa), x, y, z), sn_grad(sn_perm(ba), x - 1.0f, y, z)),
+            sn_lerp(
+                u,
+                sn_grad(sn_perm(ab), x, y - 1.0f, z),
+                sn_grad(sn_perm(bb), x - 1.0f, y - 1.0f, z),
+            ),
+        ),
+        sn_lerp(
+            v,
+            sn_lerp(
+                u,
+                sn_grad(sn_perm(sn_iadd(aa, 1i)), x, y, z - 1.0f),
+                sn_grad(sn_perm(sn_iadd(ba, 1i)), x - 1.0f, y, z - 1.0f),
+            ),
+            sn_lerp(
+                u,
+                sn_grad(sn_perm(sn_iadd(ab, 1i)), x, y - 1.0f, z - 1.0f),
+                sn_grad(sn_perm(sn_iadd(bb, 1i)), x - 1.0f, y - 1.0f, z - 1.0f),
+            ),
+        ),
+    );
+}
+
+// grad(hash, x, y, +0) with the IEEE result of the `+ 0` terms written out (see sn_noise2).
+fn sn_grad_z0(hash: i32, x: f32, y: f32) -> f32 {
+    let h = hash & 15i;
+    let u = select(y, x, h < 8i);
+    let su = select(-u, u, (h & 1i) == 0i);
+    if (h < 4i || h == 12i || h == 14i) {
+        let v = select(x, y, h < 4i);
+        return su + select(-v, v, (h & 2i) == 0i);
+    }
+    // v = z = +0: su + (+0) (+0 for either zero) or su + (-0) (su).
+    return select(su, sn_plus_zero(su), (h & 2i) == 0i);
+}
+
+// noise3(x, y, 0), the same IEEE operations with the constant z = +0 evaluated by hand:
+// Mesa folds `a + 0.0` to `a` and `0.0 * a` to `0.0`, which would change signed zeros where
+// the CPU adds or multiplies an exact zero (z, fade(z) = +0).
+fn sn_noise2(p: vec2<f32>) -> f32 {
+    let xi = sn_f2i(floor(p.x));
+    let yi = sn_f2i(floor(p.y));
+    let x = sn_cell_frac(p.x);
+    let y = sn_cell_frac(p.y);
+    let u = sn_fade(x);
+    let v = sn_fade(y);
+    // zi = 0: perm(.) + zi = perm(.)
+    let a = sn_iadd(sn_perm(xi), yi);
+    let aa = sn_perm(a);
+    let ab = sn_perm(sn_iadd(a, 1i));
+    let b = sn_iadd(sn_perm(sn_iadd(xi, 1i)), yi);
+    let ba = sn_perm(b);
+    let bb = sn_perm(sn_iadd(b, 1i));
+    let front = sn_lerp(
+        v,
+        sn_lerp(u, sn_grad_z0(sn_perm(aa), x, y), sn_grad_z0(sn_perm(ba), x - 1.0f, y)),
+        sn_lerp(
+            u,
+            sn_grad_z0(sn_perm(ab), x, y - 1.0f),
+            sn_grad_z0(sn_perm(bb), x - 1.0f, y - 1.0f),
+        ),
+    );
+    // z - 1 = -1 (a non-zero constant: no fold changes these).
+    let back = sn_lerp(
+        v,
+        sn_lerp(
+            u,
+            sn_grad(sn_perm(sn_iadd(aa, 1i)), x, y, -1.0f),
+            sn_grad(sn_perm(sn_iadd(ba, 1i)), x - 1.0f, y, -1.0f),
+        ),
+        sn_lerp(
+            u,
+            sn_grad(sn_perm(sn_iadd(ab, 1i)), x, y - 1.0f, -1.0f),
+            sn_grad(sn_perm(sn_iadd(bb, 1i)), x - 1.0f, y - 1.0f, -1.0f),
+        ),
+    );
+    // lerp(w, front, back) with w = fade(+0) = +0: front + (+0) * (back - front), where
+    // (+0) * d is a zero with the sign of d (NaN for a NaN d).
+    let d = back - front;
+    let zd = select(bitcast<f32>(bitcast<u32>(d) & 0x80000000u), d, sn_is_nan(d));
+    return front + zd;
+}
+
+// Σ_{i < octaves} gain^i · noise3(p · lacunarity^i), octaves clamped to [0, 16].
+fn sn_fbm3(p: vec3<f32>, octaves: i32, lacunarity: f32, gain: f32) -> f32 {
+    var sum = 0.0f;
+    var amp = 1.0f;
+    var freq = 1.0f;
+    let n = clamp(octaves, 0i, 16i);
+    for (var i = 0i; i < n; i++) {
+        sum = sum + amp * sn_noise3(p * freq);
+        amp = amp * gain;
+        freq = freq * lacunarity;
+    }
+    return sum;
+}
+
+// A value in [0, 1) constant over each unit cell floor(p): 24 bits of an integer hash.
+fn sn_cellnoise3(p: vec3<f32>) -> f32 {
+    var h = 0x9e3779b9u;
+    for (var k = 0i; k < 3i; k++) {
+        let i = bitcast<u32>(sn_f2i(floor(p[k])));
+        h = h ^ (i * 0x85ebca6bu);
+        h = ((h << 13u) | (h >> 19u)) * 0xc2b2ae35u;
+    }
+    h = h ^ (h >> 16u);
+    h = h * 0x7feb352du;
+    h = h ^ (h >> 15u);
+    h = h * 0x846ca68bu;
+    h = h ^ (h >> 16u);
+    return f32(h >> 8u) / 16777216.0f;
+}
+
+// ---- colour (ops::rgb_to_hsv, ops::hsv_to_rgb) ----
+
+fn sn_min(a: f32, b: f32) -> f32 {
+    return select(b, a, a < b);
+}
+
+fn sn_max(a: f32, b: f32) -> f32 {
+    return select(b, a, a > b);
+}
+
+// ops::rgb_to_hsv (k: see sn_o; the components may be one value).
+fn sn_rgb_to_hsv(c: vec3<f32>, k: u32) -> vec3<f32> {
+    let r = c.x;
+    let g = c.y;
+    let b = c.z;
+    let mx = sn_max(r, sn_max(g, b));
+    let mn = sn_min(r, sn_min(g, b));
+    let d = mx - sn_o(mn, k);
+    var h: f32;
+    if (d == 0.0f) {
+        h = 0.0f;
+    } else if (mx == r) {
+        h = sn_mod(sn_div(g - sn_o(b, k), d), 6.0f);
+    } else if (mx == g) {
+        h = sn_div(b - sn_o(r, k), d) + 2.0f;
+    } else {
+        h = sn_div(r - sn_o(g, k), d) + 4.0f;
+    }
+    return vec3<f32>(sn_div(h, 6.0f), sn_div(d, mx), mx);
+}
+
+fn sn_hsv_to_rgb(c: vec3<f32>) -> vec3<f32> {
+    let h = c.x;
+    let s = c.y;
+    let v = c.z;
+    let h6 = sn_fract(h) * 6.0f;
+    let sector = floor(h6);
+    let f = h6 - sector;
+    let p = v * (1.0f - s);
+    let q = v * (1.0f - s * f);
+    let t = v * (1.0f - s * (1.0f - f));
+    switch (sn_f2i(sector)) {
+        case 0i: {
+            return vec3<f32>(v, t, p);
+        }
+        case 1i: {
+            return vec3<f32>(q, v, p);
+        }
+        case 2i: {
+            return vec3<f32>(p, v, t);
+        }
+        case 3i: {
+            return vec3<f32>(p, q, v);
+        }
+        case 4i: {
+            return vec3<f32>(t, p, v);
+        }
+        default: {
+            return vec3<f32>(v, p, q);
+        }
+    }
+}
