@@ -27,16 +27,19 @@ fn tmp(name: &str) -> PathBuf {
 /// fail to start the way a machine without an adapter does.
 const NO_ADAPTER: (&str, &str) = ("SHADENET_GPU_ADAPTER", "no-such-adapter-7f3a");
 
-/// Tolerance of the GPU render against the JIT render (beauty, every channel, linear
-/// radiance). The GPU computes the same f32 arithmetic in a different order where WGSL and
-/// the driver choose (fused multiply-adds, `pow`/`exp`/`sin` from the driver's library
-/// rather than the runtime's), so single values differ by a few ulps; the difference grows
-/// where a shader's result steers a traced ray (the mirror and the glass: a direction an
-/// ulp apart can hit a neighbouring triangle of the sphere) — those are rare pixels, so the
-/// RMSE bound is the tight one.
-const CORNELL_MAX_ABS: f64 = 1e-3;
+/// Tolerance of the GPU render against the JIT render, on every layer (linear radiance;
+/// the light's face is 25). Measured on lavapipe: at 64×64, 1 spp (this test) beauty max
+/// abs 0, RMSE 0 (specular 7.5e-9 / 1.2e-10); the full scene (256×256, 4 spp) beauty max
+/// abs 4.8e-7, RMSE 1.9e-9, 5 of 65 536 pixels differing: the GPU back end computes each IR
+/// value by its own op (its value barrier keeps the driver from reassociating or fusing), and
+/// only the transcendental functions of its WGSL library differ from the runtime's by an ulp
+/// or two. A gpu-core revision without that barrier, where Mesa reassociated float products,
+/// measured 1.5e-5 / 2.1e-7 here; the bounds leave about 7× (max abs) and 5× (RMSE) over
+/// that for drivers that rewrite float arithmetic, while a wrong op, a wrong hit state or a
+/// misplaced batch result moves values by far more (a Lambert term is ~0.1–1).
+const CORNELL_MAX_ABS: f64 = 1e-4;
 /// See [`CORNELL_MAX_ABS`].
-const CORNELL_RMSE: f64 = 1e-5;
+const CORNELL_RMSE: f64 = 1e-6;
 
 fn render(
     path: &Path,
@@ -106,12 +109,11 @@ fn gpu_render_of_the_cornell_box_matches_the_jit() {
             "GPU vs JIT, Cornell box, layer {:<10}: max abs {max:.3e}, RMSE {rmse:.3e}",
             lj.name
         );
-        if lj.name == "beauty" {
-            assert!(
-                max <= CORNELL_MAX_ABS && rmse <= CORNELL_RMSE,
-                "beauty: max abs {max:e} (bound {CORNELL_MAX_ABS:e}), RMSE {rmse:e} (bound {CORNELL_RMSE:e})"
-            );
-        }
+        assert!(
+            max <= CORNELL_MAX_ABS && rmse <= CORNELL_RMSE,
+            "layer {}: max abs {max:e} (bound {CORNELL_MAX_ABS:e}), RMSE {rmse:e} (bound {CORNELL_RMSE:e})",
+            lj.name
+        );
     }
 }
 

@@ -175,19 +175,9 @@ pub fn shadenet_env(args: &[&str], env: &[(&str, &str)]) -> (i32, String, String
     )
 }
 
-/// Whether the GPU back end has a device. Without one, prints `SKIPPED: <test>: <why>` to
-/// stderr and returns false (the test returns: a machine without any Vulkan or GL driver
-/// cannot run it); with `SHADENET_REQUIRE_GPU=1` in the environment (CI, which installs
-/// Mesa's lavapipe) a missing device fails the test instead.
+/// Whether the GPU back end has a device: `shadenet_gpu::testing::device_or_skip` (without
+/// one it prints `SKIPPED: <test>: <why>` and the test returns; with
+/// `SHADENET_REQUIRE_GPU=1` a missing device fails the test instead).
 pub fn gpu_or_skip(test: &str) -> bool {
-    match shadenet_gpu::GpuContext::shared() {
-        Ok(_) => true,
-        Err(e) => {
-            if std::env::var("SHADENET_REQUIRE_GPU").is_ok_and(|v| v == "1") {
-                panic!("{test}: SHADENET_REQUIRE_GPU=1 but the GPU back end cannot run: {e}");
-            }
-            eprintln!("SKIPPED: {test}: {e}");
-            false
-        }
-    }
+    shadenet_gpu::testing::device_or_skip(test).is_some()
 }
