@@ -8,11 +8,44 @@
 //! programs ([`random_programs`]; the property generator of the other branch plugs into
 //! [`check_program`]). A new back end joins the whole suite with one line in [`backends`].
 //!
-//! Parity is checked bit for bit on the output floats and on the non-finite counts. Every
-//! row says whether it is exact arithmetic (`+ - * /`, sqrt, comparisons, selects,
-//! min/max, floor/fract, …) or involves transcendental or intrinsic functions; a back end
-//! states an ulp bound for each class. The JIT calls the interpreter's own Rust functions
-//! for the latter, so both of its bounds are 0.
+//! Parity is checked on the output floats and on the non-finite counts. Every row has a
+//! [`Class`]: exact arithmetic (`+ - * /`, sqrt, comparisons, selects, min/max,
+//! floor/fract, …), intrinsics (noise, colour conversions, textures, light samples), one
+//! transcendental op, or transcendentals mixed with other ops; a back end states its
+//! [`Tolerance`] per class. The JIT calls the interpreter's own Rust functions for
+//! transcendentals and intrinsics, so it is bit-identical everywhere.
+//!
+//! # The GPU
+//!
+//! The GPU back end (`shadenet_gpu`, on the shared device; every test prints `SKIPPED: …`
+//! and leaves it out where there is no adapter, and fails instead with
+//! `SHADENET_REQUIRE_GPU=1`) shades through [`Material::shade_many`] ([`Drive::Many`]), with
+//! no fallback to the interpreter (a program it cannot compile fails the suite, and every
+//! call must have dispatched GPU passes). Its [`Tolerance::Gpu`]:
+//!
+//! - exact and intrinsic rows: bit for bit, non-finite counts included (the WGSL library
+//!   ports every op, noise, fBm, cell noise, HSV and texture lookups operation for
+//!   operation; light samples, traces and occlusion are host steps running the CPU's code);
+//! - rows of one transcendental op: the bound `shadenet_gpu::testing::documented_bound`
+//!   gives for the op's arguments (the table in `shadenet_gpu::emit`: 1–4 ulps; sin, cos and
+//!   tan beyond |x| = 10⁴ only finite where the CPU is finite);
+//! - rows mixing transcendentals with other ops: [`MIXED_ULPS`] ulps or [`MIXED_ABS`]
+//!   absolute, and at most [`MIXED_OUTLIERS`] of the outputs beyond that (a 1-ulp
+//!   difference before a comparison, `floor` or a noise lattice can move an output by a
+//!   whole step).
+//!
+//! The random programs run on the GPU for every fourth seed only (a GPU compile costs a
+//! pipeline per pass); [`gpu_pass_plans_agree`] checks that the pass partitioning (one fused
+//! kernel, or 2, 3, 5 or 8 passes) changes no bit.
+//!
+//! Exceptions the GPU cannot match (none of them is skipped silently: each is a bound
+//! above):
+//! - `sin`, `cos`, `tan` of |x| > 10⁴ (the device's argument reduction): finite where the
+//!   CPU is finite, nothing more;
+//! - rows mixing transcendentals with branches, `floor` or noise: the few outputs a
+//!   1-ulp difference moves across a step ([`MIXED_OUTLIERS`]);
+//! - "if nested" (`sin` of P.x): fragments with |P.x| > 10⁴ are not compared
+//!   ([`Class::MixedExcept`]).
 
 use shadenet_graph::ir::{BinOp, Intrinsic, Program, Space, UnOp, XformKind, parse};
 use shadenet_graph::lower::{Literal, lower_single};
@@ -20,6 +53,8 @@ use shadenet_graph::nodes::{LightDesc, LightKind, NodeLibrary};
 use shadenet_graph::ops;
 use shadenet_graph::opt::{self, Passes, Specialization};
 use shadenet_graph::types::{ConstValue, Type};
+use shadenet_gpu::testing::{Transcendental, device_or_skip, documented_bound, same, within};
+use shadenet_gpu::{GpuBackend, GpuOptions, PassMode};
 use shadenet_jit::{JitBackend, JitOptions, OptLevel};
 use shadenet_runtime::{
     Backend, Fragment, InterpBackend, Material, MaterialCache, SceneServices, ShadeCtx, ShadeEnv,
@@ -28,33 +63,45 @@ use shadenet_runtime::{
 use std::sync::Arc;
 use std::time::Duration;
 
-/// How a back end is driven: one fragment per call, or four-wide packets.
+/// How a back end is driven: one fragment per call, four-wide packets, or a whole batch
+/// through [`Material::shade_many`] (the GPU's entry).
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Drive {
     Scalar,
     Batch,
+    Many,
 }
 
-/// The largest difference a back end may show, in ulps, per class of row.
-#[derive(Clone, Copy, Debug)]
-struct Ulps {
-    /// Exact IEEE arithmetic, comparisons, selects, rounding ops, control flow.
-    exact: u32,
-    /// Transcendentals, noise, colour conversions, textures, light samples.
-    transcendental: u32,
+/// What a back end promises against the interpreter, per [`Class`] of row.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Tolerance {
+    /// At most `exact` ulps on exact rows and `other` on every other row (with a 0 bound,
+    /// equal non-finite counts too).
+    Ulps { exact: u32, other: u32 },
+    /// The GPU's documented accuracy (see the module documentation).
+    Gpu,
 }
 
 /// The JIT calls the interpreter's Rust functions for transcendentals: bit-identical.
-const BIT_IDENTICAL: Ulps = Ulps {
-    exact: 0,
-    transcendental: 0,
-};
+const BIT_IDENTICAL: Tolerance = Tolerance::Ulps { exact: 0, other: 0 };
+
+/// GPU, rows mixing transcendentals with other ops: the ulps, or the absolute difference,
+/// an output may show...
+const MIXED_ULPS: u64 = 64;
+/// ... (absolute, for outputs near zero, where a few ulps of an input are many of the
+/// output) ...
+const MIXED_ABS: f32 = 1e-5;
+/// ... and the share of outputs allowed beyond both (moved across a step by a 1-ulp
+/// difference before a comparison, `floor` or a noise lattice).
+const MIXED_OUTLIERS: f64 = 0.01;
 
 struct UnderTest {
     name: &'static str,
     backend: Box<dyn Backend>,
     drive: Drive,
-    ulps: Ulps,
+    tolerance: Tolerance,
+    /// Random programs: only seeds that are multiples of this.
+    random_every: u64,
 }
 
 fn jit(opt: OptLevel) -> JitBackend {
@@ -66,27 +113,72 @@ fn jit(opt: OptLevel) -> JitBackend {
     })
 }
 
+/// The GPU back end on the shared device, without fallback; `None` (after `SKIPPED: …` on
+/// stderr, once per test binary) without an adapter.
+fn gpu() -> Option<GpuBackend> {
+    static DEVICE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    let ok = *DEVICE.get_or_init(|| device_or_skip("the parity suite's GPU back end").is_some());
+    ok.then(|| {
+        GpuBackend::new(GpuOptions::default(), Arc::new(InterpBackend))
+            .expect("the device device_or_skip opened")
+            .without_fallback()
+    })
+}
+
 /// Every back end under test. A new back end joins the whole suite with one line here.
 fn backends() -> Vec<UnderTest> {
     let ut = |name, backend: JitBackend, drive| UnderTest {
         name,
         backend: Box::new(backend),
         drive,
-        ulps: BIT_IDENTICAL,
+        tolerance: BIT_IDENTICAL,
+        random_every: 1,
     };
-    vec![
+    let mut v = vec![
         ut("jit-scalar", jit(OptLevel::None), Drive::Scalar),
         ut("jit-batch", jit(OptLevel::None), Drive::Batch),
         ut("jit-scalar-opt", jit(OptLevel::Speed), Drive::Scalar),
         ut("jit-batch-opt", jit(OptLevel::Speed), Drive::Batch),
-    ]
+    ];
+    if let Some(gpu) = gpu() {
+        v.push(UnderTest {
+            name: "gpu",
+            backend: Box::new(gpu),
+            drive: Drive::Many,
+            tolerance: Tolerance::Gpu,
+            random_every: 4,
+        });
+    }
+    v
 }
 
-/// The class of a row: which ulp bound applies.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// The class of a row: which part of a back end's [`Tolerance`] applies.
+#[derive(Clone, Debug)]
 enum Class {
+    /// Exact IEEE arithmetic, comparisons, selects, rounding ops, control flow.
     Exact,
-    Transcendental,
+    /// Noise, fBm, cell noise, colour conversions, textures, light samples.
+    Intrinsic,
+    /// One transcendental op; `args` outputs its operands (the first, then the second) so
+    /// that the bound of their domain applies.
+    Op {
+        op: Transcendental,
+        args: Box<Program>,
+    },
+    /// Transcendentals mixed with other ops.
+    Mixed,
+    /// [`Class::Mixed`], except on the fragments `excused` accepts, where an op's argument is
+    /// outside the domain of the GPU's bound (`why`): there, nothing is compared.
+    MixedExcept {
+        why: &'static str,
+        excused: fn(&Fragment) -> bool,
+    },
+}
+
+impl Class {
+    fn is_exact(&self) -> bool {
+        matches!(self, Class::Exact)
+    }
 }
 
 /// Shades every fragment; returns the outputs (fragment after fragment) and the non-finite
@@ -118,24 +210,26 @@ fn shade_all(
             let bad = shade_batch(m, env, mask, frags, &mut out);
             (out, bad)
         }
+        Drive::Many => {
+            let r = m.shade_many(env, mask, None, frags, &mut out);
+            ran_on_the_device(m, &r);
+            (out, r.nonfinite)
+        }
     }
 }
 
-/// Distance in ulps between two floats (0 for equal bits; ±0 are 1 apart for exact rows).
-fn ulps(a: f32, b: f32) -> u64 {
-    if a.to_bits() == b.to_bits() {
-        return 0;
+/// A GPU material must have shaded on the device: passes dispatched (a device error makes it
+/// shade on its companion back end instead, which would hide everything this suite checks).
+fn ran_on_the_device(m: &dyn Material, r: &shadenet_runtime::BatchResult) {
+    if m.info().backend == "gpu" {
+        assert!(
+            r.times.passes > 0,
+            "the GPU material shaded without dispatching a pass (a device error?)"
+        );
     }
-    let key = |x: f32| {
-        let b = x.to_bits() as i64;
-        if b & 0x8000_0000 != 0 {
-            -(b & 0x7fff_ffff)
-        } else {
-            b
-        }
-    };
-    (key(a) - key(b)).unsigned_abs().max(1)
 }
+
+use shadenet_gpu::testing::ulps;
 
 /// Compiles `program` as it is with every back end and checks each against the
 /// interpreter on `frags`. Panics with the first difference.
@@ -147,12 +241,35 @@ fn check_program(
     frags: &[Fragment],
     class: Class,
 ) {
+    check_program_on(what, program, env, mask, frags, class, &|_| true)
+}
+
+/// [`check_program`] on the back ends `include` accepts.
+fn check_program_on(
+    what: &str,
+    program: &Program,
+    env: &ShadeEnv,
+    mask: u32,
+    frags: &[Fragment],
+    class: Class,
+    include: &dyn Fn(&UnderTest) -> bool,
+) {
     shadenet_graph::ir::validate(program).unwrap_or_else(|e| panic!("{what}: {e}\n{program}"));
     let reference = InterpBackend
         .compile_program(program, Duration::ZERO)
         .unwrap_or_else(|e| panic!("{what}: interp: {e}"));
     let (want, want_bad) = shade_all(&*reference, Drive::Scalar, env, mask, frags);
-    for ut in backends() {
+    // The operands of a one-op row, per fragment.
+    let args = match &class {
+        Class::Op { args, .. } => {
+            let m = InterpBackend
+                .compile_program(args, Duration::ZERO)
+                .unwrap_or_else(|e| panic!("{what}: args: {e}"));
+            Some((shade_all(&*m, Drive::Scalar, env, mask, frags).0, m.width()))
+        }
+        _ => None,
+    };
+    for ut in backends().into_iter().filter(|ut| include(ut)) {
         let m = ut
             .backend
             .compile_program(program, Duration::ZERO)
@@ -164,30 +281,166 @@ fn check_program(
             ut.name
         );
         let (got, got_bad) = shade_all(&*m, ut.drive, env, mask, frags);
-        let bound = match class {
-            Class::Exact => ut.ulps.exact,
-            Class::Transcendental => ut.ulps.transcendental,
-        } as u64;
-        let w = m.width();
-        for (i, (g, x)) in got.iter().zip(&want).enumerate() {
-            let d = ulps(*g, *x);
-            if d > bound {
-                let f = &frags[i / w.max(1)];
-                panic!(
-                    "{what}: {} differs from the interpreter at fragment {} output float {}: \
-                     got {g:?} ({:#010x}), want {x:?} ({:#010x}), {d} ulps > {bound}\n\
-                     fragment: {f:?}\n{program}",
-                    ut.name,
-                    i / w.max(1),
-                    i % w.max(1),
-                    g.to_bits(),
-                    x.to_bits()
-                );
+        let seen = Seen {
+            what,
+            program,
+            frags,
+            width: m.width().max(1),
+            got: (&got, got_bad),
+            want: (&want, want_bad),
+        };
+        verify(&ut, &class, &seen, args.as_ref());
+    }
+}
+
+/// One back end's outputs against the interpreter's, for [`verify`].
+struct Seen<'a> {
+    what: &'a str,
+    program: &'a Program,
+    frags: &'a [Fragment],
+    width: usize,
+    /// Outputs and non-finite count of the back end under test.
+    got: (&'a [f32], u64),
+    /// The interpreter's.
+    want: (&'a [f32], u64),
+}
+
+/// Checks `seen` against the back end's tolerance for `class` (`args`: the operands of a
+/// [`Class::Op`] row, per fragment, and their width). Panics with the first difference.
+fn verify(ut: &UnderTest, class: &Class, seen: &Seen, args: Option<&(Vec<f32>, usize)>) {
+    let Seen {
+        what,
+        program,
+        frags,
+        width: w,
+        got: (got, got_bad),
+        want: (want, want_bad),
+    } = *seen;
+    {
+        let differs = |i: usize, why: String| -> String {
+            let f = &frags[i / w];
+            format!(
+                "{what}: {} differs from the interpreter at fragment {} output float {}: \
+                 got {:?} ({:#010x}), want {:?} ({:#010x}): {why}\nfragment: {f:?}\n{program}",
+                ut.name,
+                i / w,
+                i % w,
+                got[i],
+                got[i].to_bits(),
+                want[i],
+                want[i].to_bits()
+            )
+        };
+        let counts_must_match = match ut.tolerance {
+            Tolerance::Ulps { exact, other } => {
+                let bound = if class.is_exact() { exact } else { other } as u64;
+                for (i, (g, x)) in got.iter().zip(want).enumerate() {
+                    let d = ulps(*g, *x);
+                    if d > bound {
+                        panic!("{}", differs(i, format!("{d} ulps > {bound}")));
+                    }
+                }
+                bound == 0
             }
-        }
-        if bound == 0 {
+            Tolerance::Gpu => match class {
+                Class::Exact | Class::Intrinsic => {
+                    for (i, (g, x)) in got.iter().zip(want).enumerate() {
+                        if g.to_bits() != x.to_bits() {
+                            panic!("{}", differs(i, "not bit-identical".into()));
+                        }
+                    }
+                    true
+                }
+                Class::Op { op, .. } => {
+                    let (args, aw) = args.expect("operands");
+                    for (i, (g, x)) in got.iter().zip(want).enumerate() {
+                        let (f, c) = (i / w, i % w);
+                        let a = &args[f * aw..(f + 1) * aw];
+                        let (ax, ay) = (a[c], a.get(w + c).copied().unwrap_or(0.0));
+                        // The CPU's value before the output guard (0 where it was not
+                        // finite): the bound's domain depends on it.
+                        let raw = raw_result(*op, ax, ay);
+                        let (domain, bound) = documented_bound(*op, ax, ay, raw);
+                        let guarded_away = !raw.is_finite() && *g == 0.0;
+                        if !(within(bound, ax, *g, *x) || guarded_away) {
+                            panic!(
+                                "{}",
+                                differs(
+                                    i,
+                                    format!("operands ({ax:?}, {ay:?}): {domain}: outside {bound:?}")
+                                )
+                            );
+                        }
+                    }
+                    false
+                }
+                Class::Mixed | Class::MixedExcept { .. } => {
+                    let excused = |i: usize| match class {
+                        Class::MixedExcept { excused, .. } => excused(&frags[i / w]),
+                        _ => false,
+                    };
+                    let mut outliers = Vec::new();
+                    for (i, (g, x)) in got.iter().zip(want).enumerate() {
+                        if !(same(*g, *x)
+                            || ulps(*g, *x) <= MIXED_ULPS
+                            || (g - x).abs() <= MIXED_ABS
+                            || excused(i))
+                        {
+                            outliers.push(i);
+                        }
+                    }
+                    let share = outliers.len() as f64 / got.len().max(1) as f64;
+                    if std::env::var("SHADENET_PARITY_REPORT").is_ok() {
+                        let differ = got.iter().zip(want).filter(|(g, x)| !same(**g, **x)).count();
+                        let worst = got.iter().zip(want).map(|(g, x)| ulps(*g, *x)).max();
+                        eprintln!(
+                            "{what}: {}: {differ} of {} outputs differ, worst {worst:?} ulps, {} \
+                             beyond the bound",
+                            ut.name,
+                            got.len(),
+                            outliers.len()
+                        );
+                    }
+                    if share > MIXED_OUTLIERS {
+                        panic!(
+                            "{}",
+                            differs(
+                                outliers[0],
+                                format!(
+                                    "{} of {} outputs ({:.2}%) beyond {MIXED_ULPS} ulps and \
+                                     {MIXED_ABS} absolute (at most {}% may be)",
+                                    outliers.len(),
+                                    got.len(),
+                                    100.0 * share,
+                                    100.0 * MIXED_OUTLIERS
+                                )
+                            )
+                        );
+                    }
+                    false
+                }
+            },
+        };
+        if counts_must_match {
             assert_eq!(got_bad, want_bad, "{what}: {}: non-finite count", ut.name);
         }
+    }
+}
+
+/// The CPU's result of a transcendental op on one component (`ops`, in f32).
+fn raw_result(op: Transcendental, x: f32, y: f32) -> f32 {
+    use shadenet_graph::ops::Val;
+    let un = |u| ops::unary(u, Val::Float(x)).as_float();
+    match op {
+        Transcendental::Exp => un(UnOp::Exp),
+        Transcendental::Log => un(UnOp::Log),
+        Transcendental::Sin => un(UnOp::Sin),
+        Transcendental::Cos => un(UnOp::Cos),
+        Transcendental::Tan => un(UnOp::Tan),
+        Transcendental::Asin => un(UnOp::Asin),
+        Transcendental::Acos => un(UnOp::Acos),
+        Transcendental::Atan2 => ops::binary(BinOp::Atan2, Val::Float(x), Val::Float(y)).as_float(),
+        Transcendental::Pow => ops::pow(x, y),
     }
 }
 
@@ -368,13 +621,15 @@ fn program(body: &str) -> Program {
     parse(&text).unwrap_or_else(|e| panic!("{e}\n{text}"))
 }
 
-fn transcendental_un(op: UnOp) -> bool {
-    use UnOp::*;
-    matches!(op, Exp | Log | Sin | Cos | Tan | Asin | Acos)
-}
-
-fn transcendental_bin(op: BinOp) -> bool {
-    matches!(op, BinOp::Pow | BinOp::Atan2)
+/// A program that outputs the given operands (for [`Class::Op`]).
+fn operands(labels: &[&str]) -> Program {
+    let outputs: Vec<String> = labels
+        .iter()
+        .enumerate()
+        .map(|(k, l)| format!("  output o{k} {l}\n"))
+        .collect();
+    let text = format!("program \"operands\" {{\n{INPUTS}\n{}}}\n", outputs.concat());
+    parse(&text).unwrap_or_else(|e| panic!("{e}\n{text}"))
 }
 
 /// One row of the op table: a name, the program, its class.
@@ -389,10 +644,12 @@ fn op_table() -> Vec<Row> {
             if let Some(rt) = ops::unary_type(op, ty) {
                 let (x, _) = inputs(ty).unwrap();
                 let body = format!("  %x = {} {x} : {}", op.name(), rt.name());
-                let class = if transcendental_un(op) {
-                    Class::Transcendental
-                } else {
-                    Class::Exact
+                let class = match Transcendental::of_unary(op) {
+                    Some(op) => Class::Op {
+                        op,
+                        args: Box::new(operands(&[x])),
+                    },
+                    None => Class::Exact,
                 };
                 rows.push((
                     format!("{} {}", op.name(), ty.name()),
@@ -406,13 +663,15 @@ fn op_table() -> Vec<Row> {
         for ty in TYPES {
             if let Some(rt) = ops::binary_type(op, ty, ty) {
                 let (x, y) = inputs(ty).unwrap();
-                let class = if transcendental_bin(op) {
-                    Class::Transcendental
-                } else {
-                    Class::Exact
-                };
                 // Both operand orders, and each operand against itself.
                 for (u, v) in [(x, y), (y, x), (x, x)] {
+                    let class = match Transcendental::of_binary(op) {
+                        Some(op) => Class::Op {
+                            op,
+                            args: Box::new(operands(&[u, v])),
+                        },
+                        None => Class::Exact,
+                    };
                     let body = format!("  %x = {} {u}, {v} : {}", op.name(), rt.name());
                     rows.push((
                         format!("{} {} ({u}, {v})", op.name(), ty.name()),
@@ -479,7 +738,7 @@ fn op_table() -> Vec<Row> {
             _ => Type::Float,
         };
         let body = format!("  %x = call {} {args} : {}", i.name(), rt.name());
-        rows.push((i.name().to_string(), program(&body), Class::Transcendental));
+        rows.push((i.name().to_string(), program(&body), Class::Intrinsic));
     }
     for kind in XformKind::ALL {
         for from in Space::ALL {
@@ -508,7 +767,7 @@ fn every_op_on_every_type() {
     let rows = op_table();
     assert!(rows.len() > 150, "{} rows", rows.len());
     for (name, p, class) in &rows {
-        check_program(name, p, &env, u32::MAX, &frags, *class);
+        check_program(name, p, &env, u32::MAX, &frags, class.clone());
     }
 }
 
@@ -519,31 +778,40 @@ fn every_op_on_every_type() {
 fn regions_and_scene_intrinsics() {
     let frags = hard_fragments();
     let env = env();
-    let rows: &[(&str, &str)] = &[
+    // (name, body, class): light samples are intrinsics, `sin` and `pow` transcendentals.
+    let rows: &[(&str, &str, Class)] = &[
         (
             "if diverging",
             "  %x0 = if %q {\n    %t = mul %a, %b : float\n    yield %t\n  } else {\n    %e = sqrt %b : float\n    yield %e\n  }\n  %x = proj %x0, 0 : float",
+            Class::Exact,
         ),
         (
             "if uniform",
             "  %u = const true : bool\n  %x0 = if %u {\n    %t = div %a, %b : float\n    yield %t, %q\n  } else {\n    %e = floor %b : float\n    yield %e, %r\n  }\n  %x1 = proj %x0, 0 : float\n  %x2 = proj %x0, 1 : bool\n  %x3 = convert %x2 : float\n  %x = add %x1, %x3 : float",
+            Class::Exact,
         ),
         (
             "if nested",
             "  %x0 = if %q {\n    %i0 = if %r {\n      %t = sin %a : float\n      %tv = splat %t : vec3\n      yield %tv, %k\n    } else {\n      %t2 = add %p, %n : vec3\n      yield %t2, %m\n    }\n    %y0 = proj %i0, 0 : vec3\n    %y1 = proj %i0, 1 : int\n    yield %y0, %y1\n  } else {\n    %e = normalize %n : vec3\n    %ei = div %k, %m : int\n    yield %e, %ei\n  }\n  %x1 = proj %x0, 0 : vec3\n  %x2 = proj %x0, 1 : int\n  %x3 = convert %x2 : float\n  %x4 = splat %x3 : vec3\n  %x = add %x1, %x4 : vec3",
+            Class::MixedExcept {
+                why: "sin of |P.x| > 1e4",
+                excused: |f| !(f.p[0].abs() <= 1e4),
+            },
         ),
         (
             "illuminance",
             "  %l0 = illuminance %p {\n    %L = light.L : vec3\n    %C = light.Cl : color\n    %d = dot %n, %L : float\n    %z = const 0.0 : float\n    %mx = max %d, %z : float\n    %s = splat %mx : color\n    %y = mul %C, %s : color\n    yield %y, %d\n  }\n  %l1 = proj %l0, 0 : color\n  %l2 = proj %l0, 1 : float\n  %amb = ambient : color\n  %s2 = splat %l2 : color\n  %x3 = add %l1, %amb : color\n  %x = add %x3, %s2 : color",
+            Class::Intrinsic,
         ),
         (
             "if inside illuminance, illuminance inside if",
             "  %x0 = if %r {\n    %l0 = illuminance %n {\n      %L = light.L : vec3\n      %C = light.Cl : color\n      %d = dot %p, %L : float\n      %z = const 0.0 : float\n      %g = gt %d, %z : bool\n      %i0 = if %g {\n        %w = pow %d, %b : float\n        %ws = splat %w : color\n        %y = mul %C, %ws : color\n        yield %y\n      } else {\n        %y2 = const (0.0, -0.0, 1.0) : color\n        yield %y2\n      }\n      %yy = proj %i0, 0 : color\n      yield %yy\n    }\n    %l1 = proj %l0, 0 : color\n    yield %l1\n  } else {\n    yield %nc\n  }\n  %x = proj %x0, 0 : color",
+            Class::Mixed,
         ),
     ];
-    for (name, body) in rows {
+    for (name, body, class) in rows {
         let p = program(body);
-        check_program(name, &p, &env, u32::MAX, &frags, Class::Transcendental);
+        check_program(name, &p, &env, u32::MAX, &frags, class.clone());
     }
     // Without lights, the loop runs zero times; with only an ambient light, it skips it.
     let p = program(rows[3].1);
@@ -625,7 +893,7 @@ fn textures() {
         &env(),
         u32::MAX,
         &hard_fragments(),
-        Class::Transcendental,
+        Class::Intrinsic,
     );
 }
 
@@ -691,7 +959,7 @@ fn every_example_network() {
                 &env,
                 spec.components,
                 &frags,
-                Class::Transcendental,
+                Class::Mixed,
             );
         }
         check_program(
@@ -700,7 +968,7 @@ fn every_example_network() {
             &env,
             u32::MAX,
             &frags,
-            Class::Transcendental,
+            Class::Mixed,
         );
     }
 }
@@ -926,13 +1194,14 @@ fn random_programs() {
     let env = env();
     for seed in 1..=60 {
         let p = random_program(seed);
-        check_program(
+        check_program_on(
             &format!("random program {seed}"),
             &p,
             &env,
             u32::MAX,
             &frags,
-            Class::Transcendental,
+            Class::Mixed,
+            &|ut| seed % ut.random_every == 0,
         );
     }
 }
@@ -1118,9 +1387,16 @@ fn shade_with_scene(
 }
 
 /// Every back end against the interpreter with a scene: the scalar entry with the scene
-/// (bit for bit), the batch entry (no scene) against the interpreter without one. Returns
-/// whether the scene changed the interpreter's results.
-fn check_scene(what: &str, program: &Program, env: &ShadeEnv, frags: &[Fragment]) -> bool {
+/// (bit for bit), the batch entry (no scene) against the interpreter without one, the
+/// GPU's `shade_many` with the scene (its host steps ask it) within its tolerance for
+/// `class`. Returns whether the scene changed the interpreter's results.
+fn check_scene(
+    what: &str,
+    program: &Program,
+    env: &ShadeEnv,
+    frags: &[Fragment],
+    class: &Class,
+) -> bool {
     shadenet_graph::ir::validate(program).unwrap_or_else(|e| panic!("{what}: {e}\n{program}"));
     let scene = HashScene::default();
     let reference = InterpBackend
@@ -1141,25 +1417,38 @@ fn check_scene(what: &str, program: &Program, env: &ShadeEnv, frags: &[Fragment]
                 let bad = shade_batch(&*m, env, u32::MAX, frags, &mut out);
                 ((out, bad), &without)
             }
+            Drive::Many => {
+                let mut out = vec![f32::NAN; m.width() * frags.len()];
+                let r = m.shade_many(env, u32::MAX, Some(&scene), frags, &mut out);
+                ran_on_the_device(&*m, &r);
+                ((out, r.nonfinite), &with)
+            }
         };
-        let w = m.width();
-        for (i, (g, x)) in got.0.iter().zip(&want.0).enumerate() {
-            assert!(
-                g.to_bits() == x.to_bits(),
-                "{what}: {} differs from the interpreter at fragment {} output float {}: \
-                 got {g:?}, want {x:?}\nfragment: {:?}",
-                ut.name,
-                i / w,
-                i % w,
-                frags[i / w]
-            );
-        }
-        assert_eq!(got.1, want.1, "{what}: {}: non-finite count", ut.name);
+        let seen = Seen {
+            what,
+            program,
+            frags,
+            width: m.width().max(1),
+            got: (&got.0, got.1),
+            want: (&want.0, want.1),
+        };
+        verify(&ut, class, &seen, None);
     }
     with.0
         .iter()
         .zip(&without.0)
         .any(|(a, b)| a.to_bits() != b.to_bits())
+}
+
+/// The class of a scene program of [`scene_services_match_the_interpreter`]: phong (mirror,
+/// glass) and blinn raise to a power for their highlights; the others are exact on the GPU
+/// (light samples, traces and occlusion are host steps).
+fn scene_class(name: &str) -> Class {
+    match name {
+        "mirror" | "glass" | "blinn" => Class::Mixed,
+        "lambert" | "ambient occlusion" => Class::Intrinsic,
+        _ => Class::Exact,
+    }
 }
 
 fn surface(name: &str, inputs: &[(&str, ConstValue)]) -> Program {
@@ -1310,11 +1599,93 @@ fn scene_services_match_the_interpreter() {
         ),
     ];
     for (name, p) in &programs {
+        let class = &scene_class(name);
         assert!(
-            check_scene(&format!("{name} (unoptimized)"), p, &env, &frags),
+            check_scene(&format!("{name} (unoptimized)"), p, &env, &frags, class),
             "{name}: the scene changes nothing"
         );
         let (o, _) = opt::run(p, &Specialization::default());
-        check_scene(&format!("{name} (optimized)"), &o, &env, &frags);
+        check_scene(&format!("{name} (optimized)"), &o, &env, &frags, class);
     }
+}
+
+// ---- the GPU's pass partitioning ----
+
+/// The same programs partitioned into one fused kernel and into 2, 3, 5 and 8 passes give
+/// the same bits: values cross passes through the device's temporary buffer unchanged, and
+/// no plan lets the shader compiler rewrite arithmetic across ops differently. Programs:
+/// every example network (optimized) and random programs. (The cost model's own plans are
+/// `gpu/tests/backend.rs`'s.)
+#[test]
+fn gpu_pass_plans_agree() {
+    let Some(_) = gpu() else {
+        return;
+    };
+    let frags: Vec<Fragment> = hard_fragments().into_iter().step_by(3).collect();
+    let env = env();
+    let mut programs: Vec<(String, Program)> = Vec::new();
+    for path in examples() {
+        let c = shadenet::load_network(&path).unwrap();
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        let (o, _) = opt::run(&c.program, &Specialization::default());
+        programs.push((format!("{name} (optimized)"), o));
+    }
+    for seed in [3, 7, 11, 19, 23, 42] {
+        programs.push((format!("random program {seed}"), random_program(seed)));
+    }
+    let plans = [
+        ("fused", PassMode::Fused, GpuOptions::default().op_budget),
+        ("2 passes", PassMode::Count(2), GpuOptions::default().op_budget),
+        ("3 passes", PassMode::Count(3), GpuOptions::default().op_budget),
+        ("5 passes", PassMode::Count(5), GpuOptions::default().op_budget),
+        ("8 passes", PassMode::Count(8), GpuOptions::default().op_budget),
+    ];
+    let mut partitioned = 0;
+    for (what, program) in &programs {
+        let mut reference: Option<(Vec<f32>, u64)> = None;
+        let mut counts = Vec::new();
+        for (label, passes, op_budget) in plans {
+            let backend = GpuBackend::new(
+                GpuOptions {
+                    passes,
+                    op_budget,
+                    ..GpuOptions::default()
+                },
+                Arc::new(InterpBackend),
+            )
+            .expect("the device")
+            .without_fallback();
+            let m = backend
+                .compile_gpu(program, Duration::ZERO)
+                .unwrap_or_else(|e| panic!("{what} ({label}): {e}\n{program}"));
+            counts.push((label, m.plan().passes()));
+            let (got, bad) = shade_all(&m, Drive::Many, &env, u32::MAX, &frags);
+            match &reference {
+                None => reference = Some((got, bad)),
+                Some((want, want_bad)) => {
+                    let w = m.width().max(1);
+                    for (i, (g, x)) in got.iter().zip(want).enumerate() {
+                        assert!(
+                            g.to_bits() == x.to_bits(),
+                            "{what}: {label} differs from the fused kernel at fragment {} \
+                             output float {}: {g:?} vs {x:?}\n{}",
+                            i / w,
+                            i % w,
+                            m.plan()
+                        );
+                    }
+                    assert_eq!(bad, *want_bad, "{what} ({label}): non-finite count");
+                }
+            }
+        }
+        if counts.iter().any(|(_, n)| *n != counts[0].1) {
+            partitioned += 1;
+        }
+    }
+    // The plans must actually cut the programs differently for the check to mean anything.
+    assert!(
+        partitioned * 2 >= programs.len(),
+        "only {partitioned} of {} programs were cut differently by different plans",
+        programs.len()
+    );
 }

@@ -79,7 +79,9 @@
 //! | `pow` | finite non-zero base ≠ ±1, finite exponent ≠ 0 (normal, subnormal, overflowing or vanishing result) | 2 ulps | 1 ulp |
 //! | `pow` | base or exponent 0, ±1, ±inf, NaN (signaling NaN: NaN, as glibc); negative base with a non-integer exponent (0) | exact | exact |
 //!
-//! (r is the CPU's result; ulps count representable floats between the two results.)
+//! (r is the CPU's result; ulps count representable floats between the two results.) The
+//! same bounds as code: [`crate::testing::documented_bound`], which the op table and the
+//! parity suite (`tests/backends.rs`) apply.
 //! Everything else — noise, fBm, cell noise, HSV, texture lookups included — is exact.
 //! A device that contracts into FMA, flushes subnormals or has other `sin`/`cos`/`tan`
 //! needs its own measurement: run the op table there (`SHADENET_GPU_ADAPTER`).

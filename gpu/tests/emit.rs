@@ -16,7 +16,9 @@ use shadenet_gpu::emit::{
     self, columns, float_literal, literal, load_columns, op_expr, output_columns, store_columns,
     wgsl_type,
 };
-use shadenet_gpu::testing::device_or_skip;
+use shadenet_gpu::testing::{
+    Bound, Transcendental as Trans, device_or_skip, documented_bound, ulps, within,
+};
 use shadenet_graph::ir::{BinOp, Expr, Intrinsic, Op, Program, UnOp, Value};
 use shadenet_graph::ops::{self, Val};
 use shadenet_graph::types::{ConstValue, Type};
@@ -268,20 +270,6 @@ enum Class {
     Transcendental(Trans),
 }
 
-/// The ops that call the device's own functions.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-enum Trans {
-    Exp,
-    Log,
-    Sin,
-    Cos,
-    Tan,
-    Asin,
-    Acos,
-    Atan2,
-    Pow,
-}
-
 /// One row: an op over operands of the given types (operand `k` is value `k`, a
 /// placeholder), its result type, its class.
 struct Row {
@@ -341,27 +329,6 @@ const TYPES: [Type; 6] = [
     Type::Bool,
 ];
 
-fn trans_un(op: UnOp) -> Option<Trans> {
-    Some(match op {
-        UnOp::Exp => Trans::Exp,
-        UnOp::Log => Trans::Log,
-        UnOp::Sin => Trans::Sin,
-        UnOp::Cos => Trans::Cos,
-        UnOp::Tan => Trans::Tan,
-        UnOp::Asin => Trans::Asin,
-        UnOp::Acos => Trans::Acos,
-        _ => return None,
-    })
-}
-
-fn trans_bin(op: BinOp) -> Option<Trans> {
-    Some(match op {
-        BinOp::Pow => Trans::Pow,
-        BinOp::Atan2 => Trans::Atan2,
-        _ => return None,
-    })
-}
-
 fn v(k: usize) -> Value {
     Value::new(k)
 }
@@ -387,7 +354,7 @@ fn op_table() -> Vec<Row> {
     for &op in UnOp::ALL {
         for ty in TYPES {
             if let Some(rt) = ops::unary_type(op, ty) {
-                let class = trans_un(op).map_or(Class::Exact, Class::Transcendental);
+                let class = Trans::of_unary(op).map_or(Class::Exact, Class::Transcendental);
                 let name = format!("{} {}", op.name(), ty.name());
                 row(name, vec![ty], Op::Unary(op, v(0)), rt, class);
             }
@@ -396,7 +363,7 @@ fn op_table() -> Vec<Row> {
     for &op in BinOp::ALL {
         for ty in TYPES {
             if let Some(rt) = ops::binary_type(op, ty, ty) {
-                let class = trans_bin(op).map_or(Class::Exact, Class::Transcendental);
+                let class = Trans::of_binary(op).map_or(Class::Exact, Class::Transcendental);
                 let name = format!("{} {}", op.name(), ty.name());
                 row(name, vec![ty, ty], Op::Binary(op, v(0), v(1)), rt, class);
             }
@@ -864,22 +831,6 @@ fn exact_eq(ty: Type, got: u32, want: f32, flush: bool) -> bool {
         || (flush && want.is_subnormal() && g == 0.0)
 }
 
-/// Distance in ulps (0 for equal bits; ±0 are 1 apart).
-fn ulps(a: f32, b: f32) -> u64 {
-    if a.to_bits() == b.to_bits() {
-        return 0;
-    }
-    let key = |x: f32| {
-        let b = x.to_bits() as i64;
-        if b & 0x8000_0000 != 0 {
-            -(b & 0x7fff_ffff)
-        } else {
-            b
-        }
-    };
-    (key(a) - key(b)).unsigned_abs().max(1)
-}
-
 #[test]
 fn op_table_on_the_device() {
     let Some(ctx) = device_or_skip("op_table_on_the_device") else {
@@ -1066,7 +1017,7 @@ impl std::fmt::Display for Stats {
 impl Stats {
     /// Records one comparison; `Err` when it breaks the op's documented bound.
     fn record(&mut self, t: Trans, x: f32, y: f32, got: f32, want: f32) -> Result<(), String> {
-        let (d, bound) = domain(t, x, y, want);
+        let (d, bound) = documented_bound(t, x, y, want);
         let w = match self.domains.iter_mut().find(|(n, _)| *n == d) {
             Some((_, w)) => w,
             None => {
@@ -1093,133 +1044,11 @@ impl Stats {
                 (got as f64 - want as f64).abs() / (x.abs() as f64 * (1.0 + (want as f64).powi(2)));
             w.reduced = w.reduced.max(e);
         }
-        within(bound, x, got, want)
-    }
-}
-
-/// What a transcendental result must satisfy on a domain.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Bound {
-    /// The same bits (NaN equals NaN).
-    Exact,
-    /// At most this many ulps from the CPU.
-    Ulps(u64),
-    /// At most `ulps` ulps from the CPU, or (the device reduces the argument of sin, cos and
-    /// tan modulo π/2 with a π/2 of about 48 bits, so the error near their zeros is absolute)
-    /// an error at most `2^-log2_per_x · |x| · (1 + want²)` (the error of the reduced
-    /// argument times the derivative: 1 for sin and cos, 1 + tan² for tan).
-    Reduced { ulps: u64, log2_per_x: i32 },
-    /// Finite exactly where the CPU's is, and of magnitude at most 1 (sin, cos) or anything
-    /// (tan): the device reduces the argument with too few bits of pi.
-    FiniteIffFinite { unit: bool },
-}
-
-/// The input domain a comparison falls in and the bound documented for it in
-/// `gpu/src/emit.rs` (keep the two in step).
-fn domain(t: Trans, x: f32, y: f32, want: f32) -> (&'static str, Bound) {
-    use Bound::*;
-    let special = |v: f32| !v.is_finite();
-    match t {
-        Trans::Exp => match want {
-            _ if special(x) => ("x non-finite", Exact),
-            w if w.is_infinite() => ("overflow (x > 88.72)", Ulps(2)),
-            0.0 => ("underflow to 0 (x < -103.97)", Ulps(2)),
-            w if w.is_subnormal() => ("subnormal result (-103.97 <= x < -87.34)", Ulps(2)),
-            _ => ("normal result (-87.34 <= x <= 88.72)", Ulps(2)),
-        },
-        Trans::Log => match x {
-            x if x.is_nan() || x <= 0.0 || special(x) => ("x <= 0, inf or NaN", Exact),
-            x if x.is_subnormal() => ("x subnormal", Ulps(2)),
-            x if (0.5..=2.0).contains(&x) => ("x in [0.5, 2]", Ulps(2)),
-            _ => ("x normal, outside [0.5, 2]", Ulps(2)),
-        },
-        Trans::Sin | Trans::Cos | Trans::Tan => {
-            let ulps = if t == Trans::Tan { 4 } else { 2 };
-            match x.abs() {
-                a if !a.is_finite() => ("x non-finite", Exact),
-                a if a <= std::f32::consts::PI => ("|x| <= pi", Ulps(ulps)),
-                a if a <= 100.0 => (
-                    "pi < |x| <= 100",
-                    Reduced {
-                        ulps,
-                        log2_per_x: 46,
-                    },
-                ),
-                a if a <= 1e4 => (
-                    "100 < |x| <= 1e4",
-                    Reduced {
-                        ulps,
-                        log2_per_x: 46,
-                    },
-                ),
-                _ => (
-                    "|x| > 1e4",
-                    FiniteIffFinite {
-                        unit: t != Trans::Tan,
-                    },
-                ),
-            }
+        if within(bound, x, got, want) {
+            Ok(())
+        } else {
+            Err(format!("outside the bound {bound:?}"))
         }
-        Trans::Asin | Trans::Acos => {
-            let ulps = if t == Trans::Asin { 4 } else { 2 };
-            match x.abs() {
-                a if a.is_nan() => ("NaN", Exact),
-                a if a < 1.0 => ("|x| < 1", Ulps(ulps)),
-                _ => ("|x| >= 1 (clamped)", Exact),
-            }
-        }
-        Trans::Atan2 => {
-            if special(x) || special(y) || x == 0.0 || y == 0.0 {
-                ("a zero, inf or NaN operand", Exact)
-            } else if x.is_subnormal() || y.is_subnormal() {
-                ("finite non-zero, a subnormal operand", Ulps(4))
-            } else {
-                ("finite non-zero normal operands", Ulps(4))
-            }
-        }
-        Trans::Pow => {
-            if special(x) || special(y) || x == 0.0 || y == 0.0 || x.abs() == 1.0 {
-                ("base or exponent 0, ±1, ±inf or NaN", Exact)
-            } else if x < 0.0 && y.trunc() != y {
-                ("negative base, non-integer exponent (0)", Exact)
-            } else if want.is_infinite() {
-                ("overflow", Ulps(2))
-            } else if want == 0.0 {
-                ("underflow to 0", Ulps(2))
-            } else if want.is_subnormal() {
-                ("subnormal result", Ulps(2))
-            } else if x.is_subnormal() {
-                ("subnormal base, normal result", Ulps(2))
-            } else if (x.abs().ln() as f64 * y as f64).abs() <= 10.0 {
-                ("normal result, |y ln |x|| <= 10", Ulps(2))
-            } else {
-                ("normal result, |y ln |x|| > 10", Ulps(2))
-            }
-        }
-    }
-}
-
-/// Whether `got` is within `bound` of `want`.
-fn within(bound: Bound, x: f32, got: f32, want: f32) -> Result<(), String> {
-    let ok = match bound {
-        Bound::Exact => exact_eq(Type::Float, got.to_bits(), want, false),
-        Bound::Ulps(n) => (got.is_nan() && want.is_nan()) || ulps(got, want) <= n,
-        Bound::Reduced {
-            ulps: n,
-            log2_per_x,
-        } => {
-            let err = (got as f64 - want as f64).abs();
-            let per_x = 2f64.powi(-log2_per_x) * (x.abs() as f64) * (1.0 + (want as f64).powi(2));
-            ulps(got, want) <= n || err <= per_x
-        }
-        Bound::FiniteIffFinite { unit } => {
-            got.is_finite() == want.is_finite() && (!unit || got.abs() <= 1.0 || got.is_nan())
-        }
-    };
-    if ok {
-        Ok(())
-    } else {
-        Err(format!("outside the bound {bound:?}"))
     }
 }
 
