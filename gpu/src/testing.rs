@@ -185,10 +185,12 @@ pub fn within(bound: Bound, x: f32, got: f32, want: f32) -> bool {
     match bound {
         Bound::Exact => same(got, want),
         Bound::Ulps(n) => same(got, want) || ulps(got, want) <= n,
-        Bound::Reduced { ulps: n, log2_per_x } => {
+        Bound::Reduced {
+            ulps: n,
+            log2_per_x,
+        } => {
             let err = (got as f64 - want as f64).abs();
-            let per_x =
-                2f64.powi(-log2_per_x) * (x.abs() as f64) * (1.0 + (want as f64).powi(2));
+            let per_x = 2f64.powi(-log2_per_x) * (x.abs() as f64) * (1.0 + (want as f64).powi(2));
             same(got, want) || ulps(got, want) <= n || err <= per_x
         }
         Bound::FiniteIffFinite { unit } => {

@@ -858,7 +858,11 @@ fn every_example_network_matches_the_interpreter() {
                 eprintln!("{name} ({label}) at {:?}", std::time::SystemTime::now());
             }
             // Every plan for the default specialization, the fused one for the others.
-            let modes = if label == "default" { &some[..] } else { &some[..1] };
+            let modes = if label == "default" {
+                &some[..]
+            } else {
+                &some[..1]
+            };
             check_modes(
                 &format!("{name} ({label})"),
                 &p,
