@@ -5,8 +5,9 @@
 //! the scalar companion material), and running a batch ([`Material::shade_many`]): the
 //! buffers of each call, the uploads (streams and seed as structure of arrays, uniforms,
 //! light samples computed on the host with rayon), the passes and host steps in order (a
-//! host step reads the columns it needs back, asks the scene per fragment whose guard holds,
-//! and writes the results into `sn_tmp`), the readback of `sn_out`, the output guard
+//! host step reads the columns it needs back, asks each fragment's own services
+//! (`SceneServices::fragment`) where its guard holds, and writes the results into
+//! `sn_tmp`), the readback of `sn_out`, the output guard
 //! (non-finite → 0, counted) and the time split ([`BatchTimes`]). Single fragments
 //! ([`Material::shade`], [`Material::shade_x4`]) go to the companion: a dispatch per fragment
 //! would cost more than the shading.
@@ -593,6 +594,44 @@ impl HostValues<'_> {
     }
 }
 
+/// The services of fragment `i` of a batch: its own where the renderer has per-fragment
+/// services ([`SceneServices::fragment`]), else the batch's.
+fn fragment_scene(scene: Option<&dyn SceneServices>, i: usize) -> Option<&dyn SceneServices> {
+    scene.map(|s| s.fragment(i).unwrap_or(s))
+}
+
+/// A chunk of a `shade_many` call's fragments: fragment `i` of the chunk is fragment
+/// `base + i` of the call.
+struct ChunkServices<'a> {
+    inner: &'a dyn SceneServices,
+    base: usize,
+}
+
+impl SceneServices for ChunkServices<'_> {
+    fn trace(&self, origin: [f32; 3], dir: [f32; 3], ray_type: i32, depth: i32) -> [f32; 3] {
+        self.inner.trace(origin, dir, ray_type, depth)
+    }
+
+    fn occluded(&self, from: [f32; 3], to: [f32; 3]) -> bool {
+        self.inner.occluded(from, to)
+    }
+
+    fn occlusion(
+        &self,
+        p: [f32; 3],
+        n: [f32; 3],
+        samples: u32,
+        max_distance: f32,
+        seed: u32,
+    ) -> f32 {
+        self.inner.occlusion(p, n, samples, max_distance, seed)
+    }
+
+    fn fragment(&self, index: usize) -> Option<&dyn SceneServices> {
+        self.inner.fragment(self.base + index)
+    }
+}
+
 /// Light samples of every fragment as seen from `point(i)` (`None`: no samples, zeros),
 /// structure of arrays: column `7 j + c` of sample `j`.
 fn light_samples(
@@ -623,7 +662,7 @@ fn light_samples(
                         return;
                     }
                     let vis = if visible && scene.is_some() {
-                        interp::sample_visible(scene, p, s.to)
+                        interp::sample_visible(fragment_scene(scene, i), p, s.to)
                     } else {
                         true
                     };
@@ -862,7 +901,7 @@ impl GpuMaterial {
                     if hv.holds(&step.guard, i) {
                         let f = &frags[i];
                         *d = interp::trace_radiance(
-                            scene,
+                            fragment_scene(scene, i),
                             f.p,
                             hv.vec3(*dir, i),
                             *ray_type,
@@ -892,7 +931,7 @@ impl GpuMaterial {
                     if hv.holds(&step.guard, i) {
                         let f = &frags[i];
                         *d = interp::occlusion_value(
-                            scene,
+                            fragment_scene(scene, i),
                             f.p,
                             hv.vec3(*nv, i),
                             hv.int(*sv, i),
@@ -1130,7 +1169,16 @@ impl Material for GpuMaterial {
             return result;
         }
         let cap = self.plan.max_batch(sample_total(env));
-        for (chunk, dst) in frags.chunks(cap).zip(out.chunks_mut(cap * w)) {
+        for (k, (chunk, dst)) in frags.chunks(cap).zip(out.chunks_mut(cap * w)).enumerate() {
+            // Fragment `i` of the chunk is fragment `base + i` of the call.
+            let offset = scene.map(|inner| ChunkServices {
+                inner,
+                base: k * cap,
+            });
+            let scene = match &offset {
+                Some(o) if o.base > 0 => Some(o as &dyn SceneServices),
+                _ => scene,
+            };
             let ok = if self.failed.load(Ordering::Relaxed) {
                 None
             } else {

@@ -759,6 +759,83 @@ fn scene_services_match_the_interpreter() {
     );
 }
 
+/// Services that answer with a tag: the batch's own (-1) or fragment `i`'s (`i`).
+struct Tagged {
+    tag: f32,
+    parts: Vec<Tagged>,
+}
+
+impl SceneServices for Tagged {
+    fn trace(&self, _: [f32; 3], _: [f32; 3], _: i32, _: i32) -> [f32; 3] {
+        [self.tag, 0.5, 0.25]
+    }
+    fn occluded(&self, _: [f32; 3], _: [f32; 3]) -> bool {
+        self.tag < 0.0 || self.tag as u32 % 3 == 1
+    }
+    fn occlusion(&self, _: [f32; 3], _: [f32; 3], _: u32, _: f32, _: u32) -> f32 {
+        self.tag / 1000.0
+    }
+    fn fragment(&self, index: usize) -> Option<&dyn SceneServices> {
+        self.parts.get(index).map(|t| t as &dyn SceneServices)
+    }
+}
+
+/// Host steps ask each fragment's own services (`SceneServices::fragment`, the tracer's
+/// per-hit state) for its traces, occlusion and light visibility, in every batch of a call
+/// (fragment `i` of the third batch is fragment `2 × batch + i` of the call).
+#[test]
+fn host_steps_ask_each_fragment_for_its_own_services() {
+    if device_or_skip("host_steps_ask_each_fragment_for_its_own_services").is_none() {
+        return;
+    }
+    let p = program(
+        "per-fragment services",
+        "  %ii = stream I : vec3\n  %t = trace reflection %ii : color\n  \
+         %ns = const 4 : int\n  %md = const 2.0 : float\n  %o = occlusion %n, %ns, %md : float\n  %l = illuminance %p {\n    \
+         %v = light.visible : float\n    yield %v\n  }\n  %vis = proj %l, 0 : float",
+        "  output t %t\n  output o %o\n  output vis %vis",
+    );
+    let e = env();
+    let frags = fragments(100);
+    let scene = Tagged {
+        tag: -1.0,
+        parts: (0..frags.len())
+            .map(|i| Tagged {
+                tag: i as f32,
+                parts: Vec::new(),
+            })
+            .collect(),
+    };
+    let options = GpuOptions {
+        batch: 37,
+        ..GpuOptions::default()
+    };
+    let m = compile(&backend(options.clone()), "per-fragment services", &p);
+    let (got, _, _) = shade(&m, &e, u32::MAX, Some(&scene), &frags);
+    let w = m.width();
+    for (i, row) in got.chunks(w).enumerate() {
+        assert_eq!(row[..3], [i as f32, 0.5, 0.25], "fragment {i}: trace");
+        assert_eq!(row[3], i as f32 / 1000.0, "fragment {i}: occlusion");
+    }
+    // The batch's own services see every light occluded; fragments 0 and 2 see theirs.
+    assert!(
+        got[4] > 0.0 && got[2 * w + 4] > 0.0,
+        "visibility: {:?}",
+        &got[..3 * w]
+    );
+    // Visibility too: the interpreter asks each fragment's services as well.
+    check_modes(
+        "per-fragment services",
+        &p,
+        &e,
+        u32::MAX,
+        Some(&scene),
+        &frags,
+        Tol::Exact,
+        &[("batches of 37", options)],
+    );
+}
+
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
 }

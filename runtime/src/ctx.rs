@@ -214,11 +214,10 @@ pub trait SceneServices: Send + Sync {
     /// The services of fragment `index` of the batch a `Material::shade_many` call shades
     /// with these services, for a renderer whose services carry per-hit state (the tracer's:
     /// the hit's point, facing normals, seed and ray differentials). `None` (the default):
-    /// these services serve every fragment alike. A back end shading a batch fragment by
-    /// fragment asks once per fragment (the default `shade_many` does); one that calls the
-    /// batch's services directly passes the fragment's own `P` as the origin of `trace`,
-    /// `occluded` and `occlusion`, as the runtime's helpers do, which lets such a renderer
-    /// find the fragment.
+    /// these services serve every fragment alike. Every back end's `shade_many` asks for
+    /// fragment `i`'s services before it traces, tests visibility or samples occlusion for
+    /// it (the default `shade_many` and the GPU's host steps do); the batch's own methods
+    /// then serve only rays that belong to no fragment of the batch.
     fn fragment(&self, index: usize) -> Option<&dyn SceneServices> {
         let _ = index;
         None

@@ -36,9 +36,8 @@
 //! The tracer's scene services carry per-hit state (the hit point the robust ray offset
 //! starts from, the facing normals, the seed secondary rays hash, the ray differentials
 //! they carry). A batch gets `BatchServices`: fragment `i`'s own services through
-//! `SceneServices::fragment(i)`, and for a back end that calls the batch's services
-//! directly, the fragment whose `P` has the bits of the call's origin (a batch never holds
-//! two fragments with the same `P`: such a fragment goes to a second batch).
+//! `SceneServices::fragment(i)`, which every back end's `shade_many` asks for (a ray that
+//! belongs to no fragment starts detached, where asked).
 
 use crate::accel::{Accel, Hit, orthonormal};
 use crate::camera::Camera;
@@ -896,39 +895,36 @@ impl Renderer {
                 }
             }
         }
-        // 2. Shade: one `shade_many` call per batch (more where two hits share a `P`).
+        // 2. Shade: one `shade_many` call per batch.
         let mut results = vec![(0usize, 0usize); jobs.len()]; // (start in `arena`, width)
         let mut arena: Vec<f32> = Vec::new();
         let mut out = Vec::new();
         let mut frags = Vec::new();
         for b in &batches {
             let env = &self.envs[b.instance];
-            for part in unique_points(&b.jobs, &jobs) {
-                frags.clear();
-                frags.extend(part.iter().map(|&j| jobs[j].frag));
-                let services = BatchServices::new(part.iter().map(|&j| jobs[j].hit).collect());
-                let r = b.shader.shader.shade_many(
-                    env,
-                    b.shader.mask,
-                    Some(&services),
-                    &frags,
-                    &mut out,
-                );
-                let n = part.len() as u64;
-                stats.shading_calls.fetch_add(n, Ordering::Relaxed);
-                stats.nonfinite.fetch_add(r.nonfinite, Ordering::Relaxed);
-                stats.batches.fetch_add(1, Ordering::Relaxed);
-                stats.batched.fetch_add(n, Ordering::Relaxed);
-                stats.largest.fetch_max(n, Ordering::Relaxed);
-                if let Ok(mut t) = stats.times.lock() {
-                    t.add(&r.times);
-                }
-                let width = out.len() / part.len().max(1);
-                for (i, &j) in part.iter().enumerate() {
-                    results[j] = (arena.len() + i * width, width);
-                }
-                arena.extend_from_slice(&out[..width * part.len()]);
+            frags.clear();
+            frags.extend(b.jobs.iter().map(|&j| jobs[j].frag));
+            let services = BatchServices {
+                hits: b.jobs.iter().map(|&j| jobs[j].hit).collect(),
+            };
+            let r =
+                b.shader
+                    .shader
+                    .shade_many(env, b.shader.mask, Some(&services), &frags, &mut out);
+            let n = b.jobs.len() as u64;
+            stats.shading_calls.fetch_add(n, Ordering::Relaxed);
+            stats.nonfinite.fetch_add(r.nonfinite, Ordering::Relaxed);
+            stats.batches.fetch_add(1, Ordering::Relaxed);
+            stats.batched.fetch_add(n, Ordering::Relaxed);
+            stats.largest.fetch_max(n, Ordering::Relaxed);
+            if let Ok(mut t) = stats.times.lock() {
+                t.add(&r.times);
             }
+            let width = out.len() / b.jobs.len().max(1);
+            for (i, &j) in b.jobs.iter().enumerate() {
+                results[j] = (arena.len() + i * width, width);
+            }
+            arena.extend_from_slice(&out[..width * b.jobs.len()]);
         }
         // 3. Finish: apply each job's outputs to its sample, in the order the immediate
         //    path applies them.
@@ -1284,25 +1280,6 @@ fn group_tiles(
     groups
 }
 
-/// Splits a batch's jobs (in order) into parts in which no two fragments have the same `P`
-/// bits, so that [`BatchServices`] can find a fragment by its point. Nearly always one
-/// part: two camera hits share a point only when two rays' directions differ below f32
-/// resolution.
-fn unique_points(batch: &[usize], jobs: &[Job]) -> Vec<Vec<usize>> {
-    let mut parts: Vec<(Vec<usize>, std::collections::HashSet<[u32; 3]>)> = Vec::new();
-    for &j in batch {
-        let key = jobs[j].frag.p.map(f32::to_bits);
-        match parts.iter_mut().find(|(_, seen)| !seen.contains(&key)) {
-            Some((list, seen)) => {
-                list.push(j);
-                seen.insert(key);
-            }
-            None => parts.push((vec![j], [key].into_iter().collect())),
-        }
-    }
-    parts.into_iter().map(|(list, _)| list).collect()
-}
-
 /// One deferred shading call: which sample it finishes and how, its fragment and its hit's
 /// scene services.
 struct Job<'a> {
@@ -1332,55 +1309,39 @@ struct BatchKey {
 }
 
 /// The scene services of a batch (see the module documentation): fragment `i`'s own
-/// services through [`SceneServices::fragment`], and for direct calls the services of the
-/// fragment whose `P` has the origin's bits (a ray from elsewhere starts where asked, with
-/// a seed hashed from the origin and no differentials).
+/// services through [`SceneServices::fragment`]; a direct call (a ray that belongs to no
+/// fragment of the batch) gets detached services: the ray starts where asked, with a seed
+/// hashed from the origin and no differentials.
 struct BatchServices<'a> {
     hits: Vec<HitServices<'a>>,
-    by_point: HashMap<[u32; 3], usize>,
 }
 
 impl<'a> BatchServices<'a> {
-    fn new(hits: Vec<HitServices<'a>>) -> BatchServices<'a> {
-        let by_point = hits
-            .iter()
-            .enumerate()
-            .map(|(i, h)| (h.p.to_array().map(f32::to_bits), i))
-            .collect();
-        BatchServices { hits, by_point }
-    }
-
-    /// The services of the fragment at `origin`, or detached ones.
-    fn at(&self, origin: [f32; 3]) -> HitServices<'a> {
-        match self.by_point.get(&origin.map(f32::to_bits)) {
-            Some(&i) => self.hits[i],
-            None => {
-                let any = self.hits[0];
-                HitServices {
-                    p: Vec3::NAN,
-                    ng_facing: Vec3::ZERO,
-                    n_facing: Vec3::ZERO,
-                    d_in: Vec3::ZERO,
-                    diffs: None,
-                    seed: hash3(
-                        origin[0].to_bits(),
-                        origin[1].to_bits(),
-                        origin[2].to_bits(),
-                    ),
-                    ..any
-                }
-            }
+    /// Services for a ray from `origin` that belongs to no fragment.
+    fn detached(&self, origin: [f32; 3]) -> HitServices<'a> {
+        HitServices {
+            p: Vec3::NAN,
+            ng_facing: Vec3::ZERO,
+            n_facing: Vec3::ZERO,
+            d_in: Vec3::ZERO,
+            diffs: None,
+            seed: hash3(
+                origin[0].to_bits(),
+                origin[1].to_bits(),
+                origin[2].to_bits(),
+            ),
+            ..self.hits[0]
         }
     }
 }
 
 impl SceneServices for BatchServices<'_> {
     fn trace(&self, origin: [f32; 3], dir: [f32; 3], ray_type: i32, depth: i32) -> [f32; 3] {
-        self.at(origin).trace(origin, dir, ray_type, depth)
+        self.detached(origin).trace(origin, dir, ray_type, depth)
     }
 
     fn occluded(&self, from: [f32; 3], to: [f32; 3]) -> bool {
-        self.at(from).occluded(from, to)
+        self.detached(from).occluded(from, to)
     }
 
     fn occlusion(
@@ -1391,7 +1352,8 @@ impl SceneServices for BatchServices<'_> {
         max_distance: f32,
         seed: u32,
     ) -> f32 {
-        self.at(p).occlusion(p, n, samples, max_distance, seed)
+        self.detached(p)
+            .occlusion(p, n, samples, max_distance, seed)
     }
 
     fn fragment(&self, index: usize) -> Option<&dyn SceneServices> {
@@ -2177,31 +2139,25 @@ samples = 3
             .program
     }
 
-    /// A batch's services find each fragment by its point (direct calls) and by index
-    /// (`fragment`); a point no fragment has gets detached services: the ray starts where
-    /// asked.
+    /// A batch's services give each fragment its own services by index (`fragment`); a
+    /// direct call gets detached services (no hit point, a seed from the origin).
     #[test]
-    fn batch_services_find_the_fragment_by_point_and_index() {
+    fn batch_services_give_each_fragment_its_own() {
         let r = Renderer::new(scene(ROOM), vec![lambert([0.5; 3])], &InterpBackend).unwrap();
         let stats = TileStats::default();
         let a = services(&r, &stats, Vec3::ZERO, Vec3::Y);
         let mut b = services(&r, &stats, Vec3::new(0.2, 0.0, 0.1), Vec3::Y);
         b.seed = 99;
-        let bs = BatchServices::new(vec![a, b]);
-        let hit = |s: &HitServices| (s.p, s.seed);
-        assert_eq!(hit(&bs.at([0.2, 0.0, 0.1])), (b.p, 99));
-        assert_eq!(hit(&bs.at([0.0, 0.0, 0.0])), (Vec3::ZERO, 7));
-        assert!(bs.at([0.5, 0.0, 0.0]).p.is_nan());
+        let bs = BatchServices { hits: vec![a, b] };
         assert!(bs.fragment(1).is_some() && bs.fragment(2).is_none());
-        // From the fragment's own point the ray is offset (the floor does not shadow its own
-        // point at a grazing angle); the same point through detached services is not.
-        let direct = bs.occluded([0.0, 0.0, 0.0], [5.0, 0.01, 0.0]);
-        assert!(!direct);
-        assert_eq!(
-            bs.fragment(0)
+        assert!(bs.detached([0.2, 0.0, 0.1]).p.is_nan());
+        assert_ne!(bs.detached([0.2, 0.0, 0.1]).seed, 99);
+        // From the fragment's own point the ray is offset: the floor does not shadow its own
+        // point at a grazing angle.
+        assert!(
+            !bs.fragment(0)
                 .unwrap()
-                .occluded([0.0, 0.0, 0.0], [5.0, 0.01, 0.0]),
-            direct
+                .occluded([0.0, 0.0, 0.0], [5.0, 0.01, 0.0])
         );
     }
 
