@@ -1,5 +1,5 @@
 //! The `shadenet` command line: `render`, `shade`, `compile`, `check`, `nodes`, `gen`,
-//! `bench`, `gpu-info`.
+//! `bench`, `gpu-info`, `diff`.
 
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand, ValueEnum};
@@ -62,6 +62,23 @@ enum Cmd {
     /// List the GPU adapters (best first) and describe the one the GPU back end uses; exit 1
     /// when there is none.
     GpuInfo,
+    /// Compare two EXR images layer by layer (max abs difference, RMSE, worst pixel, samples
+    /// that differ); exit 1 when a bound given is exceeded.
+    Diff(DiffArgs),
+}
+
+#[derive(clap::Args)]
+struct DiffArgs {
+    /// The reference image (.exr).
+    a: PathBuf,
+    /// The image to compare with it (.exr): same size, same channels.
+    b: PathBuf,
+    /// Fail when a layer's largest absolute difference is above this.
+    #[arg(long)]
+    max_abs: Option<f64>,
+    /// Fail when a layer's root mean square difference is above this.
+    #[arg(long)]
+    rmse: Option<f64>,
 }
 
 #[derive(clap::Args)]
@@ -388,6 +405,7 @@ fn main() {
         Cmd::Gen { what } => generate(what),
         Cmd::Bench(args) => bench(args),
         Cmd::GpuInfo => gpu_info(),
+        Cmd::Diff(args) => diff(&args),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
@@ -1148,6 +1166,68 @@ fn bench(args: BenchArgs) -> Result<()> {
             .collect::<Vec<_>>()
             .join(",")
     );
+    Ok(())
+}
+
+fn diff(args: &DiffArgs) -> Result<()> {
+    for (name, bound) in [("--max-abs", args.max_abs), ("--rmse", args.rmse)] {
+        if let Some(x) = bound
+            && !(x.is_finite() && x >= 0.0)
+        {
+            bail!("{name} {x}: expected a finite bound ≥ 0");
+        }
+    }
+    let a = shadenet::output::read_exr(&args.a)?;
+    let b = shadenet::output::read_exr(&args.b)?;
+    let layers = shadenet::output::compare(&a, &b)
+        .map_err(|e| anyhow::anyhow!("{} and {}: {e}", args.a.display(), args.b.display()))?;
+    say!(
+        "{} vs {} ({}×{}, {} channels)",
+        args.a.display(),
+        args.b.display(),
+        a.width,
+        a.height,
+        a.channels.len()
+    );
+    say!(
+        "{:<24} {:>12} {:>12} {:>18}  worst (x, y, channel)",
+        "layer",
+        "max abs",
+        "RMSE",
+        "differing"
+    );
+    let mut over = Vec::new();
+    for d in &layers {
+        let worst = if d.differing == 0 {
+            "—".to_string()
+        } else {
+            format!("({}, {}, {})", d.worst.0, d.worst.1, d.worst.2)
+        };
+        say!(
+            "{:<24} {:>12.3e} {:>12.3e} {:>18}  {worst}",
+            d.layer,
+            d.max_abs,
+            d.rmse,
+            format!("{}/{}", d.differing, d.samples),
+        );
+        let bad = |v: f64, bound: Option<f64>| bound.is_some_and(|b| !(v <= b));
+        if bad(d.max_abs, args.max_abs) || bad(d.rmse, args.rmse) {
+            over.push(d.layer.as_str());
+        }
+    }
+    if !over.is_empty() {
+        bail!(
+            "{} beyond the bound (--max-abs {}, --rmse {}): {}",
+            if over.len() == 1 {
+                "a layer is"
+            } else {
+                "layers are"
+            },
+            args.max_abs.map_or("none".into(), |x| format!("{x:e}")),
+            args.rmse.map_or("none".into(), |x| format!("{x:e}")),
+            over.join(", ")
+        );
+    }
     Ok(())
 }
 

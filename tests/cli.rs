@@ -114,3 +114,51 @@ fn nodes_reference_matches_docs() {
         "docs/nodes.md is stale: run `cargo run -- nodes > docs/nodes.md`"
     );
 }
+
+/// `diff` prints each layer's max abs difference and RMSE, fails (exit 1) naming the layers
+/// beyond a bound, and names a missing file or a bad bound.
+#[test]
+fn diff_reports_layers_and_enforces_bounds() {
+    let (a, b) = (tmp("diff-a.exr"), tmp("diff-b.exr"));
+    for (exr, spp) in [(&a, "1"), (&b, "2")] {
+        let (code, out, err) = shadenet(&[
+            "render",
+            "-o",
+            exr.to_str().unwrap(),
+            "--res",
+            "16x12",
+            "--spp",
+            spp,
+            "-q",
+        ]);
+        assert_eq!(code, 0, "{out}\n{err}");
+    }
+    let (a, b) = (a.to_str().unwrap(), b.to_str().unwrap());
+    // An image against itself: no difference, any bound holds.
+    let (code, out, err) = shadenet(&["diff", a, a, "--max-abs", "0", "--rmse", "0"]);
+    assert_eq!(code, 0, "{out}\n{err}");
+    let beauty = out
+        .lines()
+        .find(|l| l.starts_with("beauty"))
+        .unwrap_or_else(|| panic!("{out}"));
+    assert!(
+        beauty.contains("0.000e0") && beauty.contains(" 0/"),
+        "{beauty}"
+    );
+    // 1 spp against 2 spp: the beauty differs; a zero bound fails naming it.
+    let (code, out, err) = shadenet(&["diff", a, b]);
+    assert_eq!(code, 0, "{out}\n{err}");
+    let (code, _, err) = shadenet(&["diff", a, b, "--max-abs", "0"]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("beyond the bound") && err.contains("beauty"),
+        "{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+    let (code, _, err) = shadenet(&["diff", a, "no/such.exr"]);
+    assert_eq!(code, 1);
+    assert!(err.contains("no/such.exr"), "{err}");
+    let (code, _, err) = shadenet(&["diff", a, b, "--rmse", "NaN"]);
+    assert_eq!(code, 1);
+    assert!(err.contains("--rmse"), "{err}");
+}

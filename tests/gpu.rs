@@ -117,10 +117,55 @@ fn gpu_render_of_the_cornell_box_matches_the_jit() {
     }
 }
 
+/// What a user runs: `render --backend gpu` and `render --backend jit` of the Cornell box,
+/// then `shadenet diff` with the documented bounds: exit 0 and every layer's max abs and
+/// RMSE printed.
+#[test]
+fn cli_cornell_gpu_render_diffs_within_the_bounds() {
+    if !gpu_or_skip("cli_cornell_gpu_render_diffs_within_the_bounds") {
+        return;
+    }
+    let mut files = Vec::new();
+    for backend in ["jit", "gpu"] {
+        let exr = tmp(&format!("cornell-{backend}.exr"));
+        let (code, out, err) = shadenet(&[
+            "render",
+            "examples/scenes/cornell.toml",
+            "-o",
+            exr.to_str().unwrap(),
+            "--res",
+            "48x48",
+            "--spp",
+            "1",
+            "--backend",
+            backend,
+            "-q",
+        ]);
+        assert_eq!(code, 0, "{backend}\n{out}\n{err}");
+        files.push(exr);
+    }
+    let (max_abs, rmse) = (format!("{CORNELL_MAX_ABS:e}"), format!("{CORNELL_RMSE:e}"));
+    let (code, out, err) = shadenet(&[
+        "diff",
+        files[0].to_str().unwrap(),
+        files[1].to_str().unwrap(),
+        "--max-abs",
+        &max_abs,
+        "--rmse",
+        &rmse,
+    ]);
+    assert_eq!(code, 0, "{out}\n{err}");
+    eprintln!("{out}");
+    for layer in ["beauty", "diffuse", "specular", "shadow", "occlusion"] {
+        assert!(
+            out.lines().any(|l| l.starts_with(layer)),
+            "no row for {layer} in\n{out}"
+        );
+    }
+}
+
 /// `shade --backend gpu` writes the image the JIT writes (8-bit PNG, every channel within
-/// one step), prints the time split, and honours `--gpu-passes`. (Cell noise: lavapipe
-/// compiles its kernels in a fraction of a second; the fBm-heavy marble takes it minutes on
-/// a cold shader cache.)
+/// one step), prints the time split, and honours `--gpu-passes`.
 #[test]
 fn shade_backend_gpu_writes_the_jit_image() {
     if !gpu_or_skip("shade_backend_gpu_writes_the_jit_image") {

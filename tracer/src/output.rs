@@ -1,4 +1,6 @@
-//! Writing images: PNG previews (8-bit sRGB) and multi-layer f32 EXR, always atomically.
+//! Writing images: PNG previews (8-bit sRGB) and multi-layer f32 EXR, always atomically;
+//! reading EXR back ([`read_exr`], for `shadenet diff`) and comparing two images'
+//! channels ([`compare`]).
 //!
 //! Every writer fills a temporary file beside the destination and renames it into place, so
 //! an existing file is either replaced whole or left untouched — a failed render never
@@ -32,6 +34,14 @@ pub enum OutputError {
     /// The pixels do not match the image size, or there is nothing to write.
     #[error("{0}")]
     Shape(String),
+    /// Reading an image failed (missing file, not an EXR, no f32 samples).
+    #[error("cannot read {}: {message}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        message: String,
+    },
 }
 
 /// Writes `path` atomically: `write` fills a temporary file in the same directory, which is
@@ -165,9 +175,208 @@ pub fn write_exr(path: &Path, w: u32, h: u32, channels: Vec<Channel>) -> Result<
     })
 }
 
+/// An EXR image read back: its size and its channels (first part), sorted by name.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExrImage {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Every channel, as f32 (f16 and u32 samples converted), sorted by name.
+    pub channels: Vec<Channel>,
+}
+
+/// Reads the first part of an EXR file, every channel as f32.
+pub fn read_exr(path: &Path) -> Result<ExrImage, OutputError> {
+    let err = |message: String| OutputError::Read {
+        path: path.to_path_buf(),
+        message,
+    };
+    let image =
+        exr::prelude::read_first_flat_layer_from_file(path).map_err(|e| err(e.to_string()))?;
+    let size = image.layer_data.size;
+    let mut channels: Vec<Channel> = image
+        .layer_data
+        .channel_data
+        .list
+        .iter()
+        .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
+        .collect();
+    channels.sort_by(|a, b| a.0.cmp(&b.0));
+    Ok(ExrImage {
+        width: size.0 as u32,
+        height: size.1 as u32,
+        channels,
+    })
+}
+
+/// How two images' channel groups differ (`shadenet diff`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LayerDiff {
+    /// The layer: the channel names' part before the last `.` (`beauty` of `beauty.R`), or
+    /// the channel name when it has none.
+    pub layer: String,
+    /// Samples compared (pixels × channels).
+    pub samples: usize,
+    /// Largest absolute difference (NaN against a number, or infinities of different
+    /// sign, count as infinite).
+    pub max_abs: f64,
+    /// Root mean square of the differences (infinite when `max_abs` is).
+    pub rmse: f64,
+    /// Pixel (x, y) and channel of the largest difference.
+    pub worst: (u32, u32, String),
+    /// Samples whose bits differ.
+    pub differing: usize,
+}
+
+/// Compares two images channel by channel and sums per layer. Errors when their sizes or
+/// channel names differ.
+pub fn compare(a: &ExrImage, b: &ExrImage) -> Result<Vec<LayerDiff>, String> {
+    if (a.width, a.height) != (b.width, b.height) {
+        return Err(format!(
+            "the images differ in size: {}×{} and {}×{}",
+            a.width, a.height, b.width, b.height
+        ));
+    }
+    let names = |i: &ExrImage| i.channels.iter().map(|c| c.0.clone()).collect::<Vec<_>>();
+    if names(a) != names(b) {
+        return Err(format!(
+            "the images have different channels: [{}] and [{}]",
+            names(a).join(", "),
+            names(b).join(", ")
+        ));
+    }
+    let mut out: Vec<(LayerDiff, f64)> = Vec::new();
+    for ((name, x), (_, y)) in a.channels.iter().zip(&b.channels) {
+        let layer = name
+            .rsplit_once('.')
+            .map_or(name.as_str(), |s| s.0)
+            .to_string();
+        if out.last().is_none_or(|(d, _)| d.layer != layer) {
+            out.push((
+                LayerDiff {
+                    layer,
+                    samples: 0,
+                    max_abs: 0.0,
+                    rmse: 0.0,
+                    worst: (0, 0, name.clone()),
+                    differing: 0,
+                },
+                0.0,
+            ));
+        }
+        let (d, sq) = out.last_mut().expect("pushed above");
+        for (i, (p, q)) in x.iter().zip(y).enumerate() {
+            d.samples += 1;
+            if p.to_bits() == q.to_bits() {
+                continue;
+            }
+            d.differing += 1;
+            let e = if p.is_nan() || q.is_nan() {
+                if p.is_nan() && q.is_nan() {
+                    0.0
+                } else {
+                    f64::INFINITY
+                }
+            } else if p == q {
+                0.0
+            } else {
+                (*p as f64 - *q as f64).abs()
+            };
+            *sq += e * e;
+            if e > d.max_abs {
+                d.max_abs = e;
+                d.worst = (i as u32 % a.width, i as u32 / a.width, name.clone());
+            }
+        }
+    }
+    Ok(out
+        .into_iter()
+        .map(|(mut d, sq)| {
+            d.rmse = (sq / d.samples.max(1) as f64).sqrt();
+            d
+        })
+        .collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn exr_round_trips_and_compares_per_layer() {
+        let dir = std::env::temp_dir().join(format!("shadenet-diff-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (a, b) = (dir.join("a.exr"), dir.join("b.exr"));
+        let ch = |n: &str, v: Vec<f32>| (n.to_string(), v);
+        write_exr(
+            &a,
+            2,
+            2,
+            vec![
+                ch("beauty.R", vec![0.0, 1.0, 2.0, 3.0]),
+                ch("beauty.G", vec![0.5; 4]),
+                ch("depth.Z", vec![1.0, f32::NAN, 2.0, 2.0]),
+            ],
+        )
+        .unwrap();
+        write_exr(
+            &b,
+            2,
+            2,
+            vec![
+                ch("beauty.R", vec![0.0, 1.0, 2.0, 3.5]),
+                ch("beauty.G", vec![0.5, 0.5, 0.25, 0.5]),
+                ch("depth.Z", vec![1.0, f32::NAN, 2.0, 2.0]),
+            ],
+        )
+        .unwrap();
+        let (ia, ib) = (read_exr(&a).unwrap(), read_exr(&b).unwrap());
+        assert_eq!((ia.width, ia.height), (2, 2));
+        assert_eq!(ia.channels[0], ch("beauty.G", vec![0.5; 4]));
+        let d = compare(&ia, &ib).unwrap();
+        assert_eq!(d.len(), 2);
+        assert_eq!(d[0].layer, "beauty");
+        assert_eq!((d[0].samples, d[0].differing), (8, 2));
+        assert_eq!(d[0].max_abs, 0.5);
+        assert_eq!(d[0].worst, (1, 1, "beauty.R".to_string()));
+        assert_eq!(d[0].rmse, ((0.25f64 * 0.25 + 0.5 * 0.5) / 8.0).sqrt());
+        assert_eq!(
+            (d[1].layer.as_str(), d[1].max_abs, d[1].differing),
+            ("depth", 0.0, 0)
+        );
+        // NaN against a number is an infinite difference.
+        write_exr(
+            &b,
+            2,
+            2,
+            vec![
+                ch("beauty.R", vec![f32::NAN, 1.0, 2.0, 3.0]),
+                ch("beauty.G", vec![0.5; 4]),
+                ch("depth.Z", vec![1.0, f32::NAN, 2.0, 2.0]),
+            ],
+        )
+        .unwrap();
+        let d = compare(&ia, &read_exr(&b).unwrap()).unwrap();
+        assert!(d[0].max_abs.is_infinite() && d[0].rmse.is_infinite());
+        // Different channels or sizes are errors that say so.
+        write_exr(&b, 1, 1, vec![ch("beauty.R", vec![0.0])]).unwrap();
+        assert!(
+            compare(&ia, &read_exr(&b).unwrap())
+                .unwrap_err()
+                .contains("size")
+        );
+        write_exr(&b, 2, 2, vec![ch("beauty.R", vec![0.0; 4])]).unwrap();
+        assert!(
+            compare(&ia, &read_exr(&b).unwrap())
+                .unwrap_err()
+                .contains("channels")
+        );
+        // A missing file names the file.
+        let e = read_exr(&dir.join("missing.exr")).unwrap_err().to_string();
+        assert!(e.contains("missing.exr"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn tonemap_keeps_dark_pixels_and_compresses_bright_ones() {
