@@ -1210,7 +1210,7 @@ fn diff(args: &DiffArgs) -> Result<()> {
             d.rmse,
             format!("{}/{}", d.differing, d.samples),
         );
-        let bad = |v: f64, bound: Option<f64>| bound.is_some_and(|b| !(v <= b));
+        let bad = |v: f64, bound: Option<f64>| bound.is_some_and(|b| v.is_nan() || v > b);
         if bad(d.max_abs, args.max_abs) || bad(d.rmse, args.rmse) {
             over.push(d.layer.as_str());
         }

@@ -56,6 +56,7 @@ use shadenet_graph::ops;
 use shadenet_graph::opt::{self, Passes, Specialization};
 use shadenet_graph::types::{ConstValue, Type};
 use shadenet_jit::{JitBackend, JitOptions, OptLevel};
+use shadenet_runtime::testing::{HARD_FLOATS, HARD_INTS, HashScene};
 use shadenet_runtime::{
     Backend, Fragment, InterpBackend, Material, MaterialCache, SceneServices, ShadeCtx, ShadeEnv,
     Transform, shade_batch,
@@ -459,40 +460,8 @@ fn raw_result(op: Transcendental, x: f32, y: f32) -> f32 {
 
 // ---- inputs ----
 
-/// Ordinary and hard floats.
-const HARD: &[f32] = &[
-    0.0,
-    -0.0,
-    1.0,
-    -1.0,
-    0.5,
-    -2.5,
-    3.0,
-    0.1,
-    1.5,
-    100.25,
-    -7.75,
-    std::f32::consts::PI,
-    1e-45,             // smallest denormal
-    -3e-41,            // a negative denormal
-    f32::MIN_POSITIVE, // smallest normal
-    1e-30,             // tiny
-    1e30,              // huge
-    -1e30,
-    f32::MAX,
-    f32::MIN,
-    f32::INFINITY,
-    f32::NEG_INFINITY,
-    f32::NAN,
-    1e-7,       // grazing
-    0.99999994, // just below 1
-    1.0000001,  // just above 1
-    16777216.0, // 2^24
-    -16777217.0,
-];
-
-/// Ordinary and extreme ints.
-const INTS: &[i32] = &[0, 1, -1, 2, -2, 7, -7, 31, 100, -100, i32::MAX, i32::MIN];
+const HARD: &[f32] = HARD_FLOATS;
+const INTS: &[i32] = HARD_INTS;
 
 /// Fragments covering every pair of hard floats in (P.x, P.y), every pair of ints in
 /// (raydepth, raytype), hard vectors in P, N, I, uv, and a few grazing configurations; the
@@ -1311,67 +1280,6 @@ fn the_cache_compiles_each_material_once() {
 }
 
 // ---- scene services: trace, occlusion, light visibility ----
-
-/// A scene whose every answer is a hash of all its arguments' bits (so any argument the
-/// compiled code passes differently shows), with out-of-range and NaN occlusion answers;
-/// it counts its calls.
-#[derive(Default)]
-struct HashScene {
-    calls: std::sync::atomic::AtomicUsize,
-}
-
-impl HashScene {
-    fn hash(&self, xs: impl IntoIterator<Item = u32>) -> u64 {
-        self.calls
-            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        let mut h = 0xcbf2_9ce4_8422_2325u64;
-        for x in xs {
-            h = (h ^ x as u64).wrapping_mul(0x0100_0000_01b3);
-        }
-        h ^ (h >> 29)
-    }
-
-    fn calls(&self) -> usize {
-        self.calls.load(std::sync::atomic::Ordering::Relaxed)
-    }
-}
-
-fn unit(h: u64, k: u32) -> f32 {
-    ((h >> (k * 16)) & 0xffff) as f32 / 65536.0
-}
-
-fn bits(v: [f32; 3]) -> [u32; 3] {
-    v.map(f32::to_bits)
-}
-
-impl SceneServices for HashScene {
-    fn trace(&self, origin: [f32; 3], dir: [f32; 3], ray_type: i32, depth: i32) -> [f32; 3] {
-        let h = self.hash(
-            bits(origin)
-                .into_iter()
-                .chain(bits(dir))
-                .chain([ray_type as u32, depth as u32]),
-        );
-        [2.0 * unit(h, 0), 2.0 * unit(h, 1), 2.0 * unit(h, 2)]
-    }
-    fn occluded(&self, from: [f32; 3], to: [f32; 3]) -> bool {
-        self.hash(bits(from).into_iter().chain(bits(to))) & 1 == 1
-    }
-    fn occlusion(&self, p: [f32; 3], n: [f32; 3], samples: u32, max: f32, seed: u32) -> f32 {
-        let h = self.hash(
-            bits(p)
-                .into_iter()
-                .chain(bits(n))
-                .chain([samples, max.to_bits(), seed]),
-        );
-        match h % 8 {
-            0 => f32::NAN,
-            1 => -0.5,
-            2 => 1.5,
-            _ => unit(h, 1),
-        }
-    }
-}
 
 /// Shades every fragment through the scalar entry with `scene`.
 fn shade_with_scene(

@@ -262,35 +262,6 @@ fn ill_typed(what: &str, ty: Type) -> EmitError {
     EmitError::Type(format!("{ty} (operand of {what})"))
 }
 
-/// The name of an op that [`op_expr`] does not write, for [`EmitError::NotPure`].
-fn op_name(op: &Op) -> &'static str {
-    match op {
-        Op::Param(_) => "param",
-        Op::Stream(_) => "stream",
-        Op::Transform { .. } => "transform",
-        Op::ComponentEnabled(_) => "component_enabled",
-        Op::If { .. } => "if",
-        Op::Illuminance { .. } => "illuminance",
-        Op::LightL => "light.L",
-        Op::LightCl => "light.Cl",
-        Op::LightVisible => "light.visible",
-        Op::Ambient => "ambient",
-        Op::Proj(..) => "proj",
-        Op::Texture { .. } => "texture",
-        Op::Trace { .. } => "trace",
-        Op::Occlusion { .. } => "occlusion",
-        Op::Const(_) => "const",
-        Op::Unary(..) => "unary",
-        Op::Binary(..) => "binary",
-        Op::Select { .. } => "select",
-        Op::Construct(_) => "construct",
-        Op::Extract(..) => "extract",
-        Op::Splat(_) => "splat",
-        Op::Convert(_) => "convert",
-        Op::Call(..) => "call",
-    }
-}
-
 /// The WGSL expression computing `v` from its operands, for the pure ops (`Const`, `Unary`,
 /// `Binary` incl. `mulpoint`/`mulvector`, `Select`, `Construct`, `Extract`, `Splat`,
 /// `Convert`, `Call`). `arg` names an operand's WGSL expression (a variable the kernel
@@ -307,7 +278,7 @@ pub fn op_expr(
     arg: &mut dyn FnMut(Value) -> String,
 ) -> Result<String, EmitError> {
     let expr = program.expr(v);
-    let not_pure = || EmitError::NotPure(format!("{v:?} ({})", op_name(&expr.op)));
+    let not_pure = || EmitError::NotPure(format!("{v:?} ({})", expr.op.short_name()));
     let ty = expr.ty.ok_or_else(not_pure)?;
     match &expr.op {
         Op::Const(c) => {

@@ -24,7 +24,7 @@
 use crate::emit;
 use crate::plan::{
     ItemKind, LIGHT_COLUMNS, Plan, Step, U_AMBIENT, U_CAMERA, U_CAMERA_INV, U_KEEP, U_MASK, U_N,
-    U_OBJECT, U_OBJECT_INV, U_SAMPLES, is_remat, op_name, value_name,
+    U_OBJECT, U_OBJECT_INV, U_SAMPLES, is_remat, value_name,
 };
 use shadenet_graph::ir::{Block, Op, Program, Space, Value, XformKind};
 use shadenet_graph::types::{ConstValue, Type};
@@ -299,7 +299,7 @@ impl Writer<'_> {
             op: format!(
                 "{} = {}",
                 value_name(&self.plan.names, v),
-                op_name(self.p.op(v))
+                self.p.op(v).short_name()
             ),
             reason,
         }
@@ -672,7 +672,7 @@ impl Writer<'_> {
             return Err(self.codegen(format!(
                 "it reads {} ({}), which no earlier step stored",
                 value_name(&self.plan.names, v),
-                op_name(self.p.op(v))
+                self.p.op(v).short_name()
             )));
         };
         let ty = self.p.ty(v);

@@ -338,35 +338,6 @@ fn number_values(p: &Program) -> Vec<Option<u32>> {
     names
 }
 
-/// A short name of an op for messages and the plan listing.
-pub fn op_name(op: &Op) -> String {
-    match op {
-        Op::Const(_) => "const".into(),
-        Op::Param(i) => format!("param {i}"),
-        Op::Stream(s) => format!("stream {}", s.name()),
-        Op::Transform { .. } => "transform".into(),
-        Op::ComponentEnabled(k) => format!("component_enabled {k}"),
-        Op::Unary(u, _) => u.name().into(),
-        Op::Binary(b, ..) => b.name().into(),
-        Op::Select { .. } => "select".into(),
-        Op::Construct(_) => "construct".into(),
-        Op::Extract(..) => "extract".into(),
-        Op::Splat(_) => "splat".into(),
-        Op::Convert(_) => "convert".into(),
-        Op::Call(i, _) => format!("call {}", i.name()),
-        Op::If { .. } => "if".into(),
-        Op::Illuminance { .. } => "illuminance".into(),
-        Op::LightL => "light.L".into(),
-        Op::LightCl => "light.Cl".into(),
-        Op::LightVisible => "light.visible".into(),
-        Op::Trace { .. } => "trace".into(),
-        Op::Occlusion { .. } => "occlusion".into(),
-        Op::Ambient => "ambient".into(),
-        Op::Proj(..) => "proj".into(),
-        Op::Texture { .. } => "texture".into(),
-    }
-}
-
 /// How values are encoded in `f32` buffer columns (`sn_uni`, `sn_tmp`): floats as they are,
 /// ints as their bits, bools as 0/1, strings as 0; matrices as 16 floats, row-major.
 pub fn encode_const(c: &ConstValue) -> Vec<f32> {
@@ -444,7 +415,7 @@ fn unsupported(p: &Program, names: &[Option<u32>], v: Value, reason: String) -> 
     BackendError::Unsupported {
         backend: "gpu",
         material: p.name.clone(),
-        op: format!("{} = {}", value_name(names, v), op_name(p.op(v))),
+        op: format!("{} = {}", value_name(names, v), p.op(v).short_name()),
         reason,
     }
 }
@@ -881,7 +852,7 @@ pub fn plan(
                         message: format!(
                             "step {s} uses {} ({}) before any step computes it",
                             value_name(&names, *v),
-                            op_name(p.op(*v))
+                            p.op(*v).short_name()
                         ),
                     });
                 }

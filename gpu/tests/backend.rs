@@ -25,13 +25,13 @@ use shadenet_gpu::{GpuBackend, GpuMaterial, GpuOptions, PassMode, Plan, plan};
 use shadenet_graph::ir::{Program, parse};
 use shadenet_graph::nodes::{LightDesc, LightKind, NodeLibrary};
 use shadenet_graph::opt::{self, Passes, Specialization};
+use shadenet_runtime::testing::HashScene;
 use shadenet_runtime::{
     Backend, BackendError, Fragment, InterpBackend, Light, Material, SceneServices, ShadeEnv,
     Transform,
 };
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Duration;
 
 // ---- environment, fragments, scene ----
@@ -180,61 +180,6 @@ fn hard_fragments() -> Vec<Fragment> {
         }
     }
     v
-}
-
-/// A scene whose every answer is a hash of all its arguments' bits (so an argument passed
-/// differently shows), with out-of-range and NaN occlusion answers; it counts its calls.
-#[derive(Default)]
-struct HashScene {
-    calls: AtomicUsize,
-}
-
-impl HashScene {
-    fn hash(&self, xs: impl IntoIterator<Item = u32>) -> u64 {
-        self.calls.fetch_add(1, Ordering::Relaxed);
-        let mut h = 0xcbf2_9ce4_8422_2325u64;
-        for x in xs {
-            h = (h ^ x as u64).wrapping_mul(0x0100_0000_01b3);
-        }
-        h ^ (h >> 29)
-    }
-}
-
-fn unit(h: u64, k: u32) -> f32 {
-    ((h >> (k * 16)) & 0xffff) as f32 / 65536.0
-}
-
-fn bits(v: [f32; 3]) -> [u32; 3] {
-    v.map(f32::to_bits)
-}
-
-impl SceneServices for HashScene {
-    fn trace(&self, origin: [f32; 3], dir: [f32; 3], ray_type: i32, depth: i32) -> [f32; 3] {
-        let h = self.hash(
-            bits(origin)
-                .into_iter()
-                .chain(bits(dir))
-                .chain([ray_type as u32, depth as u32]),
-        );
-        [2.0 * unit(h, 0), 2.0 * unit(h, 1), 2.0 * unit(h, 2)]
-    }
-    fn occluded(&self, from: [f32; 3], to: [f32; 3]) -> bool {
-        self.hash(bits(from).into_iter().chain(bits(to))) & 1 == 1
-    }
-    fn occlusion(&self, p: [f32; 3], n: [f32; 3], samples: u32, max: f32, seed: u32) -> f32 {
-        let h = self.hash(
-            bits(p)
-                .into_iter()
-                .chain(bits(n))
-                .chain([samples, max.to_bits(), seed]),
-        );
-        match h % 8 {
-            0 => f32::NAN,
-            1 => -0.5,
-            2 => 1.5,
-            _ => unit(h, 1),
-        }
-    }
 }
 
 // ---- running and comparing ----
@@ -734,7 +679,7 @@ fn scene_services_match_the_interpreter() {
         &frags,
         Tol::Exact,
     );
-    assert!(scene.calls.load(Ordering::Relaxed) > 0);
+    assert!(scene.calls() > 0);
     let hosts = plan.host_steps();
     assert_eq!(hosts, 5, "3 traces, 1 occlusion, 1 light set at N\n{plan}");
     // Without a scene: black traces, occlusion 1, every light visible.
@@ -1197,53 +1142,4 @@ fn limits_shape_batches_and_reject_what_does_not_fit() {
         ..GpuOptions::default()
     };
     assert!(plan(&p, &bad, &wgpu::Limits::default()).is_err());
-}
-
-/// Throughput on this machine's device (run with `cargo test --release -p shadenet-gpu
-/// --test backend -- --ignored --nocapture throughput`): fragments per second of every
-/// example network, fused and by the cost model, against the interpreter on one thread,
-/// with the time split of the GPU runs.
-#[test]
-#[ignore]
-fn throughput() {
-    let Some(ctx) = device_or_skip("throughput") else {
-        return;
-    };
-    println!("device: {}", ctx.info.name);
-    let frags = fragments(256 * 256);
-    for (name, c) in examples() {
-        let (p, _) = opt::run(&c.program, &Specialization::default());
-        let mut e = env();
-        e.lights.extend(c.lights.iter().map(Light::from_desc));
-        let interp = InterpBackend.compile_program(&p, Duration::ZERO).unwrap();
-        let t = std::time::Instant::now();
-        let _ = shade(&*interp, &e, u32::MAX, None, &frags[..4096]);
-        let interp_rate = 4096.0 / t.elapsed().as_secs_f64();
-        for (label, passes) in [("fused", PassMode::Fused), ("auto", PassMode::Auto)] {
-            let b = backend(GpuOptions {
-                passes,
-                ..GpuOptions::default()
-            });
-            let m = compile(&b, &name, &p);
-            let _ = shade(&m, &e, u32::MAX, None, &frags[..1024]); // first dispatch
-            let t = std::time::Instant::now();
-            let (_, _, times) = shade(&m, &e, u32::MAX, None, &frags);
-            let rate = frags.len() as f64 / t.elapsed().as_secs_f64();
-            println!(
-                "{name:>14} {label:>5}: {} passes, {} host steps, {:.2} M fragments/s \
-                 (interp 1 thread {:.2} M/s); upload {:?} kernels {:?} host {:?} readback {:?}; \
-                 compile: plan+WGSL {:?}, pipelines {:?}",
-                m.plan().passes(),
-                m.plan().host_steps(),
-                rate / 1e6,
-                interp_rate / 1e6,
-                times.upload,
-                times.kernels,
-                times.host,
-                times.readback,
-                m.info().stats.lower,
-                m.info().stats.codegen
-            );
-        }
-    }
 }

@@ -147,36 +147,7 @@ fn float_literals_parse_back_to_the_same_bits_in_naga() {
 // ---- inputs ----
 
 /// Ordinary and hard floats (the parity suite's list).
-const HARD: &[f32] = &[
-    0.0,
-    -0.0,
-    1.0,
-    -1.0,
-    0.5,
-    -2.5,
-    3.0,
-    0.1,
-    1.5,
-    100.25,
-    -7.75,
-    std::f32::consts::PI,
-    1e-45,
-    -3e-41,
-    f32::MIN_POSITIVE,
-    1e-30,
-    1e30,
-    -1e30,
-    f32::MAX,
-    f32::MIN,
-    f32::INFINITY,
-    f32::NEG_INFINITY,
-    f32::NAN,
-    1e-7,
-    0.99999994,
-    1.0000001,
-    16777216.0,
-    -16777217.0,
-];
+const HARD: &[f32] = shadenet_runtime::testing::HARD_FLOATS;
 
 /// Ordinary and extreme ints.
 const INTS: &[i32] = &[0, 1, -1, 2, -2, 7, -7, 31, 100, -100, i32::MAX, i32::MIN];

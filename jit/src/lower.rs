@@ -489,7 +489,7 @@ impl<'a, 'b> Lowerer<'a, 'b> {
     fn unsupported(&self, v: Value, reason: &str) -> Unsupported {
         Unsupported {
             value: v,
-            op: format!("{:?} = {}", v, op_name(self.p.op(v))),
+            op: format!("{:?} = {}", v, self.p.op(v).short_name()),
             reason: reason.to_string(),
         }
     }
@@ -1545,34 +1545,5 @@ fn stream_field(s: Stream) -> ((i32, i32), i32) {
         Stream::Time => f!(time, 1),
         Stream::RayType => f!(ray_type, 1),
         Stream::RayDepth => f!(ray_depth, 1),
-    }
-}
-
-/// A short name of an op for messages.
-pub fn op_name(op: &Op) -> String {
-    match op {
-        Op::Const(_) => "const".into(),
-        Op::Param(i) => format!("param {i}"),
-        Op::Stream(s) => format!("stream {}", s.name()),
-        Op::Transform { .. } => "transform".into(),
-        Op::ComponentEnabled(k) => format!("component_enabled {k}"),
-        Op::Unary(u, _) => u.name().into(),
-        Op::Binary(b, ..) => b.name().into(),
-        Op::Select { .. } => "select".into(),
-        Op::Construct(_) => "construct".into(),
-        Op::Extract(..) => "extract".into(),
-        Op::Splat(_) => "splat".into(),
-        Op::Convert(_) => "convert".into(),
-        Op::Call(i, _) => format!("call {}", i.name()),
-        Op::If { .. } => "if".into(),
-        Op::Illuminance { .. } => "illuminance".into(),
-        Op::LightL => "light.L".into(),
-        Op::LightCl => "light.Cl".into(),
-        Op::LightVisible => "light.visible".into(),
-        Op::Trace { .. } => "trace".into(),
-        Op::Occlusion { .. } => "occlusion".into(),
-        Op::Ambient => "ambient".into(),
-        Op::Proj(..) => "proj".into(),
-        Op::Texture { .. } => "texture".into(),
     }
 }

@@ -572,6 +572,36 @@ pub enum Op {
 }
 
 impl Op {
+    /// A short name of the op for messages and listings (`add`, `call noise`, `stream P`,
+    /// `light.Cl`): what a back end names when it cannot compile or run an op.
+    pub fn short_name(&self) -> String {
+        match self {
+            Op::Const(_) => "const".into(),
+            Op::Param(i) => format!("param {i}"),
+            Op::Stream(s) => format!("stream {}", s.name()),
+            Op::Transform { .. } => "transform".into(),
+            Op::ComponentEnabled(k) => format!("component_enabled {k}"),
+            Op::Unary(u, _) => u.name().into(),
+            Op::Binary(b, ..) => b.name().into(),
+            Op::Select { .. } => "select".into(),
+            Op::Construct(_) => "construct".into(),
+            Op::Extract(..) => "extract".into(),
+            Op::Splat(_) => "splat".into(),
+            Op::Convert(_) => "convert".into(),
+            Op::Call(i, _) => format!("call {}", i.name()),
+            Op::If { .. } => "if".into(),
+            Op::Illuminance { .. } => "illuminance".into(),
+            Op::LightL => "light.L".into(),
+            Op::LightCl => "light.Cl".into(),
+            Op::LightVisible => "light.visible".into(),
+            Op::Trace { .. } => "trace".into(),
+            Op::Occlusion { .. } => "occlusion".into(),
+            Op::Ambient => "ambient".into(),
+            Op::Proj(..) => "proj".into(),
+            Op::Texture { .. } => "texture".into(),
+        }
+    }
+
     /// Calls `f` on every operand of this op (not on values inside nested blocks).
     pub fn for_each_operand(&self, mut f: impl FnMut(Value)) {
         match self {

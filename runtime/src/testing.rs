@@ -1,0 +1,125 @@
+//! Fixtures for the back ends' parity tests (the root crate's `tests/backends.rs`, the GPU
+//! crate's tests): inputs that reach the corners of the numeric rules, and a scene whose
+//! answers depend on every bit of every argument.
+//!
+//! Owns nothing a renderer uses; must not depend on a back end.
+
+use crate::ctx::SceneServices;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// Ordinary and hard floats: zeros of both signs, denormals, the smallest normal, tiny and
+/// huge values, the extremes, infinities, NaN, values next to 1 and around 2²⁴.
+pub const HARD_FLOATS: &[f32] = &[
+    0.0,
+    -0.0,
+    1.0,
+    -1.0,
+    0.5,
+    -2.5,
+    3.0,
+    0.1,
+    1.5,
+    100.25,
+    -7.75,
+    std::f32::consts::PI,
+    1e-45,             // smallest denormal
+    -3e-41,            // a negative denormal
+    f32::MIN_POSITIVE, // smallest normal
+    1e-30,             // tiny
+    1e30,              // huge
+    -1e30,
+    f32::MAX,
+    f32::MIN,
+    f32::INFINITY,
+    f32::NEG_INFINITY,
+    f32::NAN,
+    1e-7,       // grazing
+    0.99999994, // just below 1
+    1.0000001,  // just above 1
+    16777216.0, // 2^24
+    -16777217.0,
+];
+
+/// Ordinary and extreme ints.
+pub const HARD_INTS: &[i32] = &[0, 1, -1, 2, -2, 7, -7, 31, 100, -100, i32::MAX, i32::MIN];
+
+/// A scene whose every answer is a hash of all its arguments' bits (so any argument a back
+/// end passes differently shows), with out-of-range and NaN occlusion answers; it counts its
+/// calls.
+#[derive(Debug, Default)]
+pub struct HashScene {
+    calls: AtomicUsize,
+}
+
+impl HashScene {
+    fn hash(&self, xs: impl IntoIterator<Item = u32>) -> u64 {
+        self.calls.fetch_add(1, Ordering::Relaxed);
+        let mut h = 0xcbf2_9ce4_8422_2325u64;
+        for x in xs {
+            h = (h ^ x as u64).wrapping_mul(0x0100_0000_01b3);
+        }
+        h ^ (h >> 29)
+    }
+
+    /// How many questions it has answered.
+    pub fn calls(&self) -> usize {
+        self.calls.load(Ordering::Relaxed)
+    }
+}
+
+fn unit(h: u64, k: u32) -> f32 {
+    ((h >> (k * 16)) & 0xffff) as f32 / 65536.0
+}
+
+fn bits(v: [f32; 3]) -> [u32; 3] {
+    v.map(f32::to_bits)
+}
+
+impl SceneServices for HashScene {
+    fn trace(&self, origin: [f32; 3], dir: [f32; 3], ray_type: i32, depth: i32) -> [f32; 3] {
+        let h = self.hash(
+            bits(origin)
+                .into_iter()
+                .chain(bits(dir))
+                .chain([ray_type as u32, depth as u32]),
+        );
+        [2.0 * unit(h, 0), 2.0 * unit(h, 1), 2.0 * unit(h, 2)]
+    }
+
+    fn occluded(&self, from: [f32; 3], to: [f32; 3]) -> bool {
+        self.hash(bits(from).into_iter().chain(bits(to))) & 1 == 1
+    }
+
+    fn occlusion(&self, p: [f32; 3], n: [f32; 3], samples: u32, max: f32, seed: u32) -> f32 {
+        let h = self.hash(
+            bits(p)
+                .into_iter()
+                .chain(bits(n))
+                .chain([samples, max.to_bits(), seed]),
+        );
+        match h % 8 {
+            0 => f32::NAN,
+            1 => -0.5,
+            2 => 1.5,
+            _ => unit(h, 1),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_hash_scene_answers_every_bit_and_counts() {
+        let s = HashScene::default();
+        let a = s.trace([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], 0, 0);
+        assert_ne!(a, s.trace([-0.0, 0.0, 0.0], [0.0, 0.0, 1.0], 0, 0));
+        assert_eq!(a, s.trace([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], 0, 0));
+        let occ: Vec<f32> = (0..64)
+            .map(|k| s.occlusion([k as f32, 0.0, 0.0], [0.0; 3], 4, 1.0, 0))
+            .collect();
+        assert!(occ.iter().any(|x| x.is_nan()) && occ.iter().any(|x| *x > 1.0));
+        assert_eq!(s.calls(), 67);
+    }
+}
