@@ -651,13 +651,6 @@ fn parse_light(spec: &str, index: usize) -> Result<LightDesc> {
         let c = color.map(|c| vec3(c)).transpose()?.unwrap_or([1.0; 3]);
         Ok(c.map(|x| x * i))
     };
-    let unit = |d: [f64; 3]| -> Result<[f64; 3]> {
-        let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-        if l == 0.0 {
-            bail!("--light {spec}: the direction is zero");
-        }
-        Ok(d.map(|x| x / l))
-    };
     let name = format!("light{index}");
     let (kind, pw) = match (parts[0], parts.len()) {
         ("point", 3 | 4) => (
@@ -668,14 +661,14 @@ fn parse_light(spec: &str, index: usize) -> Result<LightDesc> {
         ),
         ("distant", 3 | 4) => (
             LightKind::Distant {
-                direction: unit(vec3(parts[1])?)?,
+                direction: vec3(parts[1])?,
             },
             power(num(parts[2])?, parts.get(3))?,
         ),
         ("spot", 5 | 6) => (
             LightKind::Spot {
                 position: vec3(parts[1])?,
-                direction: unit(vec3(parts[2])?)?,
+                direction: vec3(parts[2])?,
                 cone_angle: num(parts[4])?.to_radians(),
                 penumbra_angle: 0.0,
                 dropoff: 0.0,
@@ -688,11 +681,7 @@ fn parse_light(spec: &str, index: usize) -> Result<LightDesc> {
              spot:X,Y,Z:DX,DY,DZ:I:CONE_DEG[:R,G,B] or ambient:I[:R,G,B]"
         ),
     };
-    Ok(LightDesc {
-        name,
-        kind,
-        power: pw,
-    })
+    LightDesc::new(name, kind, pw).map_err(|e| anyhow::anyhow!("--light {spec}: {e}"))
 }
 
 fn shade(args: ShadeArgs) -> Result<()> {

@@ -162,3 +162,41 @@ fn diff_reports_layers_and_enforces_bounds() {
     assert_eq!(code, 1);
     assert!(err.contains("--rmse"), "{err}");
 }
+
+/// `shade --light` builds lights under the rules the light nodes and the scene file follow
+/// (`LightDesc::new`): a bad one is an error naming the option and the field, before
+/// anything is written; a good one lights the image.
+#[test]
+fn shade_light_option_is_checked_like_light_nodes() {
+    let png = tmp("light.png");
+    let run = |light: &str| {
+        shadenet(&[
+            "shade",
+            "examples/networks/marble.json",
+            "-o",
+            png.to_str().unwrap(),
+            "--res",
+            "8x8",
+            "--light",
+            light,
+        ])
+    };
+    for (light, want) in [
+        ("spot:0,0,2:0,0,-1:10:400", "cone_angle"),
+        ("distant:0,0,0:1", "direction is zero"),
+        ("point:0,0,2:inf", "not a finite number"),
+        ("laser:1", "expected point:"),
+    ] {
+        let _ = std::fs::remove_file(&png);
+        let (code, out, err) = run(light);
+        assert_eq!(code, 1, "{light}: {out}\n{err}");
+        assert!(
+            err.contains(&format!("--light {light}")) && err.contains(want),
+            "{light}: `{want}` not in {err}"
+        );
+        assert!(!png.exists(), "{light}: wrote an image");
+    }
+    let (code, out, err) = run("spot:0,0,2:0,0,-2:10:60");
+    assert_eq!(code, 0, "{out}\n{err}");
+    assert!(png.exists());
+}

@@ -1148,3 +1148,90 @@ fn every_surface_and_light_node_is_documented() {
     assert!(reference.contains("## surface") && reference.contains("## light"));
     assert!(reference.contains("(n+2)/(2π)"));
 }
+
+/// The rules every source of lights shares (`LightDesc::new`): the field it names, and the
+/// direction normalized as the light nodes normalize it.
+#[test]
+fn light_desc_new_checks_every_kind() {
+    use shadenet_graph::nodes::{LightDesc, LightKind, MAX_LIGHT_SAMPLES};
+    let field =
+        |kind: LightKind, power: [f64; 3]| LightDesc::new("l", kind, power).map_err(|e| e.field);
+    let spot = |cone_angle: f64, dropoff: f64, direction: [f64; 3]| LightKind::Spot {
+        position: [0.0; 3],
+        direction,
+        cone_angle,
+        penumbra_angle: 0.1,
+        dropoff,
+    };
+    let quad = |edge_v: [f64; 3], samples: u32| LightKind::Quad {
+        corner: [0.0; 3],
+        edge_u: [1.0, 0.0, 0.0],
+        edge_v,
+        samples,
+    };
+    let ok = [1.0; 3];
+    assert_eq!(
+        field(spot(3.5, 0.0, [0.0, 0.0, 1.0]), ok),
+        Err("cone_angle")
+    );
+    assert_eq!(
+        field(spot(-0.1, 0.0, [0.0, 0.0, 1.0]), ok),
+        Err("cone_angle")
+    );
+    assert_eq!(
+        field(spot(f64::NAN, 0.0, [0.0, 0.0, 1.0]), ok),
+        Err("cone_angle")
+    );
+    assert_eq!(field(spot(1.0, -1.0, [0.0, 0.0, 1.0]), ok), Err("dropoff"));
+    assert_eq!(field(spot(1.0, 0.0, [0.0; 3]), ok), Err("direction"));
+    assert_eq!(
+        field(
+            LightKind::Distant {
+                direction: [0.0, f64::INFINITY, 0.0]
+            },
+            ok
+        ),
+        Err("direction")
+    );
+    assert_eq!(
+        field(
+            LightKind::Point {
+                position: [0.0, 0.0, f64::NAN]
+            },
+            ok
+        ),
+        Err("position")
+    );
+    assert_eq!(
+        field(LightKind::Ambient, [1.0, f64::NAN, 1.0]),
+        Err("power")
+    );
+    assert_eq!(field(quad([2.0, 0.0, 0.0], 4), ok), Err("edge_v"));
+    assert_eq!(field(quad([0.0, 1.0, 0.0], 0), ok), Err("samples"));
+    assert_eq!(
+        field(
+            LightKind::Environment {
+                samples: MAX_LIGHT_SAMPLES + 1
+            },
+            ok
+        ),
+        Err("samples")
+    );
+    // Accepted: the full cone, negative power, a quad, directions normalized (x / |x|).
+    assert!(field(spot(std::f64::consts::PI, 0.0, [0.0, 0.0, 1.0]), [-1.0; 3]).is_ok());
+    assert!(field(quad([0.0, 1.0, 0.0], MAX_LIGHT_SAMPLES), ok).is_ok());
+    let l = LightDesc::new(
+        "d",
+        LightKind::Distant {
+            direction: [3.0, 0.0, 4.0],
+        },
+        ok,
+    )
+    .unwrap();
+    assert_eq!(
+        l.kind,
+        LightKind::Distant {
+            direction: [3.0 / 5.0, 0.0, 4.0 / 5.0]
+        }
+    );
+}

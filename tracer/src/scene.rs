@@ -746,6 +746,7 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
     // Lights.
     let mut lights = Vec::new();
     let mut emitters = Vec::new();
+    let mut quads = Vec::new();
     let mut background = [0.0; 3];
     for (i, l) in file.lights.iter().enumerate() {
         let key = format!("lights[{i}]");
@@ -762,7 +763,7 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
                 color,
             } => (
                 LightKind::Point {
-                    position: cx.vec3(&format!("{key}.position"), *position)?.to_array(),
+                    position: *position,
                 },
                 power(*intensity, *color)?,
             ),
@@ -774,29 +775,23 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
                 dropoff,
                 intensity,
                 color,
-            } => {
-                cx.finite(
-                    &format!("{key}.cone_angle"),
-                    &[*cone_angle, *penumbra_angle, *dropoff],
-                )?;
-                (
-                    LightKind::Spot {
-                        position: cx.vec3(&format!("{key}.position"), *position)?.to_array(),
-                        direction: cx.unit(&format!("{key}.direction"), *direction)?.to_array(),
-                        cone_angle: cone_angle.to_radians(),
-                        penumbra_angle: penumbra_angle.to_radians(),
-                        dropoff: *dropoff,
-                    },
-                    power(*intensity, *color)?,
-                )
-            }
+            } => (
+                LightKind::Spot {
+                    position: *position,
+                    direction: *direction,
+                    cone_angle: cone_angle.to_radians(),
+                    penumbra_angle: penumbra_angle.to_radians(),
+                    dropoff: *dropoff,
+                },
+                power(*intensity, *color)?,
+            ),
             LightSpec::Distant {
                 direction,
                 intensity,
                 color,
             } => (
                 LightKind::Distant {
-                    direction: cx.unit(&format!("{key}.direction"), *direction)?.to_array(),
+                    direction: *direction,
                 },
                 power(*intensity, *color)?,
             ),
@@ -809,32 +804,17 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
                 samples,
                 visible,
             } => {
-                let c = cx.vec3(&format!("{key}.corner"), *corner)?;
-                let u = cx.vec3(&format!("{key}.edge_u"), *edge_u)?;
-                let v = cx.vec3(&format!("{key}.edge_v"), *edge_v)?;
-                if u.cross(v).length_squared() == 0.0 {
-                    return Err(cx.invalid(format!("{key}.edge_v"), "the quad has no area"));
-                }
-                if *samples == 0 || *samples > 65536 {
-                    return Err(cx.invalid(format!("{key}.samples"), "must be 1 to 65536"));
-                }
-                let p = power(*intensity, *color)?;
                 if *visible {
-                    emitters.push(Emitter {
-                        corner: c,
-                        edge_u: u,
-                        edge_v: v,
-                        radiance: p,
-                    });
+                    quads.push(lights.len());
                 }
                 (
                     LightKind::Quad {
-                        corner: c.to_array(),
-                        edge_u: u.to_array(),
-                        edge_v: v.to_array(),
+                        corner: *corner,
+                        edge_u: *edge_u,
+                        edge_v: *edge_v,
                         samples: *samples,
                     },
-                    p,
+                    power(*intensity, *color)?,
                 )
             }
             LightSpec::Ambient { intensity, color } => {
@@ -845,9 +825,6 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
                 color,
                 samples,
             } => {
-                if *samples == 0 || *samples > 65536 {
-                    return Err(cx.invalid(format!("{key}.samples"), "must be 1 to 65536"));
-                }
                 let p = power(*intensity, *color)?;
                 for (b, x) in background.iter_mut().zip(p) {
                     *b += x;
@@ -855,7 +832,33 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
                 (LightKind::Environment { samples: *samples }, p)
             }
         };
-        lights.push(LightDesc { name, kind, power });
+        let light = LightDesc::new(name, kind, power).map_err(|e| {
+            let field = if e.field == "power" {
+                "intensity"
+            } else {
+                e.field
+            };
+            cx.invalid(format!("{key}.{field}"), e.reason)
+        })?;
+        lights.push(light);
+    }
+    // Visible quad lights are also emitters (what camera and traced rays see), with the
+    // checked corner, edges and radiance.
+    for i in quads {
+        if let LightKind::Quad {
+            corner,
+            edge_u,
+            edge_v,
+            ..
+        } = lights[i].kind
+        {
+            emitters.push(Emitter {
+                corner: DVec3::from_array(corner),
+                edge_u: DVec3::from_array(edge_u),
+                edge_v: DVec3::from_array(edge_v),
+                radiance: lights[i].power,
+            });
+        }
     }
 
     let settings = resolve_settings(&cx, &file.render)?;
@@ -1060,6 +1063,12 @@ mod tests {
             ("[[render.pass]]\nname = \"x\"\noverride = \"curvature\"\n".to_string(), "render.pass[0].override"),
             ("[[lights]]\ntype = \"quad\"\ncorner = [0, 0, 0]\nedge_u = [1, 0, 0]\nedge_v = [2, 0, 0]\n".to_string(), "no area"),
             ("[[lights]]\ntype = \"laser\"\n".to_string(), "laser"),
+            // The rules every source of lights shares (LightDesc::new), named by the key.
+            ("[[lights]]\ntype = \"spot\"\nposition = [0, 0, 1]\ndirection = [0, 0, -1]\ncone_angle = 400\n".to_string(), "lights[0].cone_angle"),
+            ("[[lights]]\ntype = \"spot\"\nposition = [0, 0, 1]\ndirection = [0, 0, -1]\ndropoff = -1\n".to_string(), "lights[0].dropoff"),
+            ("[[lights]]\ntype = \"distant\"\ndirection = [0, 0, 0]\n".to_string(), "lights[0].direction"),
+            ("[[lights]]\ntype = \"environment\"\nsamples = 0\n".to_string(), "lights[0].samples"),
+            ("[[lights]]\ntype = \"point\"\nposition = [0, nan, 1]\n".to_string(), "lights[0].position"),
             ("[[lights]]\ntype = \"point\"\nposition = [0, 0, 1]\nintensty = 3\n".to_string(), "intensty"),
             ("[meshes.s]\ntype = \"sphere\"\nsegments = 2\n".to_string(), "meshes.s.segments"),
             ("[materials.n]\nnetwork = \"a.json\"\njson = '{}'\n".to_string(), "exactly one"),

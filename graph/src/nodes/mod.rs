@@ -301,6 +301,141 @@ pub enum LightKind {
     },
 }
 
+/// What is wrong with a light's parameters ([`LightDesc::new`]): the field, named as
+/// [`LightKind`]'s fields are (`direction`, `cone_angle`, `samples`, …, and `power`), and
+/// why. Each source of lights maps the field to its own names (a node's port, a scene file's
+/// key, the `--light` option).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{field}: {reason}")]
+pub struct LightError {
+    /// The offending field.
+    pub field: &'static str,
+    /// Why it is rejected.
+    pub reason: String,
+}
+
+/// Most samples per shaded point an area or environment light may take.
+pub const MAX_LIGHT_SAMPLES: u32 = 65536;
+
+impl LightDesc {
+    /// A light whose parameters obey the rules every source of lights shares (the light
+    /// nodes, the scene file, `shadenet shade --light`): every number finite; directions
+    /// nonzero (normalized here); a spot's cone in [0, π] and its dropoff ≥ 0; a quad's
+    /// edges spanning an area; area and environment lights 1 to [`MAX_LIGHT_SAMPLES`]
+    /// samples. Negative power is allowed (a light that removes light, as Maya allows).
+    pub fn new(
+        name: impl Into<String>,
+        kind: LightKind,
+        power: [f64; 3],
+    ) -> Result<LightDesc, LightError> {
+        let err = |field: &'static str, reason: String| LightError { field, reason };
+        let finite = |field: &'static str, v: &[f64]| match v.iter().find(|x| !x.is_finite()) {
+            Some(x) => Err(err(field, format!("{x} is not a finite number"))),
+            None => Ok(()),
+        };
+        let direction = |field: &'static str, d: [f64; 3]| {
+            finite(field, &d)?;
+            let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            if len > 0.0 && len.is_finite() {
+                Ok(d.map(|x| x / len))
+            } else {
+                Err(err(
+                    field,
+                    "the direction is zero: a light direction must be nonzero".into(),
+                ))
+            }
+        };
+        let samples = |n: u32| {
+            if (1..=MAX_LIGHT_SAMPLES).contains(&n) {
+                Ok(n)
+            } else {
+                Err(err(
+                    "samples",
+                    format!("{n} samples: must be 1 to {MAX_LIGHT_SAMPLES}"),
+                ))
+            }
+        };
+        finite("power", &power)?;
+        let kind = match kind {
+            LightKind::Point { position } => {
+                finite("position", &position)?;
+                LightKind::Point { position }
+            }
+            LightKind::Spot {
+                position,
+                direction: d,
+                cone_angle,
+                penumbra_angle,
+                dropoff,
+            } => {
+                finite("position", &position)?;
+                finite("cone_angle", &[cone_angle])?;
+                finite("penumbra_angle", &[penumbra_angle])?;
+                finite("dropoff", &[dropoff])?;
+                if !(0.0..=std::f64::consts::PI).contains(&cone_angle) {
+                    return Err(err(
+                        "cone_angle",
+                        format!(
+                            "{} degrees: must lie in [0, 180] degrees",
+                            cone_angle.to_degrees()
+                        ),
+                    ));
+                }
+                if dropoff < 0.0 {
+                    return Err(err("dropoff", format!("{dropoff}: must be ≥ 0")));
+                }
+                LightKind::Spot {
+                    position,
+                    direction: direction("direction", d)?,
+                    cone_angle,
+                    penumbra_angle,
+                    dropoff,
+                }
+            }
+            LightKind::Distant { direction: d } => LightKind::Distant {
+                direction: direction("direction", d)?,
+            },
+            LightKind::Ambient => LightKind::Ambient,
+            LightKind::Quad {
+                corner,
+                edge_u,
+                edge_v,
+                samples: n,
+            } => {
+                finite("corner", &corner)?;
+                finite("edge_u", &edge_u)?;
+                finite("edge_v", &edge_v)?;
+                let [a, b] = [edge_u, edge_v];
+                let c = [
+                    a[1] * b[2] - a[2] * b[1],
+                    a[2] * b[0] - a[0] * b[2],
+                    a[0] * b[1] - a[1] * b[0],
+                ];
+                if c.iter().all(|x| *x == 0.0) {
+                    return Err(err(
+                        "edge_v",
+                        "the quad has no area (parallel or zero edges)".into(),
+                    ));
+                }
+                LightKind::Quad {
+                    corner,
+                    edge_u,
+                    edge_v,
+                    samples: samples(n)?,
+                }
+            }
+            LightKind::Environment { samples: n } => LightKind::Environment {
+                samples: samples(n)?,
+            },
+        };
+        Ok(LightDesc {
+            name: name.into(),
+            kind,
+            power,
+        })
+    }
+}
+
 /// Builds a light from a light node's inputs (all constants, in `def.inputs` order).
 pub type LightFn = fn(name: &str, inputs: &[ConstValue]) -> Result<LightDesc, String>;
 

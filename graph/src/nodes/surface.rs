@@ -881,18 +881,18 @@ impl LightArgs<'_> {
     }
 
     /// A unit direction; the zero vector is an error naming the port.
-    fn direction(&self, i: usize) -> Result<[f64; 3], String> {
-        let v = self.triple(i)?;
-        let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-        if len > 0.0 && len.is_finite() {
-            Ok(v.map(|x| x / len))
-        } else {
-            Err(format!(
-                "input `{}` of {} is the zero vector: a light direction must be nonzero",
-                self.name(i),
-                self.node
-            ))
-        }
+    /// The light, checked by [`LightDesc::new`]; a rejected field is named by its port
+    /// (the power by `intensity`).
+    fn build(&self, name: &str, kind: LightKind, power: [f64; 3]) -> Result<LightDesc, String> {
+        LightDesc::new(name, kind, power).map_err(|e| {
+            let port = match e.field {
+                "power" => "intensity",
+                "cone_angle" => "coneAngle",
+                "penumbra_angle" => "penumbraAngle",
+                other => other,
+            };
+            format!("input `{port}` of {}: {}", self.node, e.reason)
+        })
     }
 
     /// `color · intensity` from the inputs at `color` and `intensity`.
@@ -938,13 +938,10 @@ fn point_light(name: &str, inputs: &[ConstValue]) -> Result<LightDesc, String> {
         names: POINT_PORTS,
         values: inputs,
     };
-    Ok(LightDesc {
-        name: name.to_string(),
-        power: a.power(0, 1)?,
-        kind: LightKind::Point {
-            position: a.triple(2)?,
-        },
-    })
+    let kind = LightKind::Point {
+        position: a.triple(2)?,
+    };
+    a.build(name, kind, a.power(0, 1)?)
 }
 
 const SPOT_PORTS: &[&str] = &[
@@ -1012,29 +1009,14 @@ fn spot_light(name: &str, inputs: &[ConstValue]) -> Result<LightDesc, String> {
         names: SPOT_PORTS,
         values: inputs,
     };
-    let cone = a.float(4)?;
-    if !(0.0..=180.0).contains(&cone) {
-        return Err(format!(
-            "input `coneAngle` of spotLight must lie in [0, 180] degrees, got {cone}"
-        ));
-    }
-    let dropoff = a.float(6)?;
-    if dropoff < 0.0 {
-        return Err(format!(
-            "input `dropoff` of spotLight must be ≥ 0, got {dropoff}"
-        ));
-    }
-    Ok(LightDesc {
-        name: name.to_string(),
-        power: a.power(0, 1)?,
-        kind: LightKind::Spot {
-            position: a.triple(2)?,
-            direction: a.direction(3)?,
-            cone_angle: cone.to_radians(),
-            penumbra_angle: a.float(5)?.to_radians(),
-            dropoff,
-        },
-    })
+    let kind = LightKind::Spot {
+        position: a.triple(2)?,
+        direction: a.triple(3)?,
+        cone_angle: a.float(4)?.to_radians(),
+        penumbra_angle: a.float(5)?.to_radians(),
+        dropoff: a.float(6)?,
+    };
+    a.build(name, kind, a.power(0, 1)?)
 }
 
 const DIRECTIONAL_PORTS: &[&str] = &["color", "intensity", "direction"];
@@ -1072,13 +1054,10 @@ fn directional_light(name: &str, inputs: &[ConstValue]) -> Result<LightDesc, Str
         names: DIRECTIONAL_PORTS,
         values: inputs,
     };
-    Ok(LightDesc {
-        name: name.to_string(),
-        power: a.power(0, 1)?,
-        kind: LightKind::Distant {
-            direction: a.direction(2)?,
-        },
-    })
+    let kind = LightKind::Distant {
+        direction: a.triple(2)?,
+    };
+    a.build(name, kind, a.power(0, 1)?)
 }
 
 const AMBIENT_PORTS: &[&str] = &["color", "intensity"];
@@ -1112,9 +1091,5 @@ fn ambient_light(name: &str, inputs: &[ConstValue]) -> Result<LightDesc, String>
         names: AMBIENT_PORTS,
         values: inputs,
     };
-    Ok(LightDesc {
-        name: name.to_string(),
-        power: a.power(0, 1)?,
-        kind: LightKind::Ambient,
-    })
+    a.build(name, LightKind::Ambient, a.power(0, 1)?)
 }
