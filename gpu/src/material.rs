@@ -542,14 +542,17 @@ impl HostValues<'_> {
             let w = cols.len() / n.max(1);
             return (0..w).map(|c| cols[c * n + i]).collect();
         }
-        if let Some(&slot) = self.m.plan.layout.prelude.get(&v.index()) {
+        // A uniform slot's value (prelude values and parameters), as the kernels read it.
+        let uniform = |slot: usize| {
             let w = crate::emit::columns(p.ty(v));
             let s = slot - U_VALUES;
-            return self
-                .m
+            self.m
                 .statics
                 .get(s..s + w)
-                .map_or(vec![0.0; w], |x| x.to_vec());
+                .map_or(vec![0.0; w], |x| x.to_vec())
+        };
+        if let Some(&slot) = self.m.plan.layout.prelude.get(&v.index()) {
+            return uniform(slot);
         }
         match p.op(v) {
             Op::Const(c) => encode_const(c),
@@ -557,13 +560,7 @@ impl HostValues<'_> {
                 if let Op::Param(k) = p.op(v)
                     && let Some(&slot) = self.m.plan.layout.params.get(k)
                 {
-                    let w = crate::emit::columns(p.ty(v));
-                    let s = slot - U_VALUES;
-                    return self
-                        .m
-                        .statics
-                        .get(s..s + w)
-                        .map_or(vec![0.0; w], |x| x.to_vec());
+                    return uniform(slot);
                 }
                 let b = self.m.uniform_bool(v, self.mask).unwrap_or(false);
                 vec![if b { 1.0 } else { 0.0 }]
