@@ -7,8 +7,9 @@ use shadenet_graph::lower::{Literal, lower_single};
 use shadenet_graph::nodes::{LightDesc, LightKind, NodeLibrary};
 use shadenet_graph::opt::{self, Specialization};
 use shadenet_graph::types::{ConstValue, Type};
-use shadenet_runtime::{Fragment, Interpreter, SceneServices, ShadeCtx, ShadeEnv};
+use shadenet_runtime::{Backend, Fragment, Interpreter, SceneServices, ShadeCtx, ShadeEnv};
 use std::sync::Mutex;
+use std::time::Duration;
 
 // ---- the fake scene ----
 
@@ -624,6 +625,39 @@ fn each_sample_is_tested_once_per_shading_call() {
     let scene = Fake::new(SKY);
     shade(&p, &frag, &three_lights(), u32::MAX, Some(&scene));
     assert_eq!(scene.shadow_rays.lock().unwrap().len(), 2 * 18);
+    // The JIT (its visibility memo) and the GPU (one light set at P, computed by the host)
+    // ask as often as the interpreter: the same images with the same number of shadow rays.
+    let env = ShadeEnv::with_lights(&three_lights());
+    let (opt, _) = opt::run(&p, &Specialization::default());
+    let jit = shadenet_jit::JitBackend::with_options(shadenet_jit::JitOptions {
+        fallback: false,
+        ..Default::default()
+    });
+    let mut backends: Vec<(&str, Box<dyn Backend>)> = vec![("jit", Box::new(jit))];
+    if shadenet_gpu::testing::device_or_skip("each_sample_is_tested_once_per_shading_call (GPU)")
+        .is_some()
+    {
+        let gpu = shadenet_gpu::GpuBackend::new(
+            shadenet_gpu::GpuOptions::default(),
+            std::sync::Arc::new(shadenet_runtime::InterpBackend),
+        )
+        .unwrap()
+        .without_fallback();
+        backends.push(("gpu", Box::new(gpu)));
+    }
+    for (name, b) in backends {
+        for program in [&p, &opt] {
+            let m = b.compile_program(program, Duration::ZERO).unwrap();
+            scene.clear();
+            let mut out = vec![0.0; m.width() * 2];
+            m.shade_many(&env, u32::MAX, Some(&scene), &[frag, frag], &mut out);
+            assert_eq!(
+                scene.shadow_rays.lock().unwrap().len(),
+                2 * 18,
+                "{name}: two fragments, 18 samples each"
+            );
+        }
+    }
 }
 
 // ---- inactive components cost nothing ----

@@ -22,6 +22,7 @@ use shadenet_runtime::interp;
 use shadenet_runtime::lights;
 use shadenet_runtime::texture::TextureSet;
 use shadenet_runtime::{FragmentX4, LANES};
+use std::cell::Cell;
 
 /// What every compiled entry point reads besides the fragment: `#[repr(C)]`, built by the
 /// material for each call (a few stores).
@@ -45,6 +46,57 @@ pub struct CallCtx {
     /// no scene); read only by the scene helpers (`sn_trace`, `sn_occlusion`, `sn_visible`)
     /// through [`CallCtx::scene`].
     pub scene: *const SceneRef,
+    /// The answers of `light.visible` so far in this call ([`VisibilityMemo`]), or null (no
+    /// memo: every question goes to the scene).
+    pub visibility: *const VisibilityMemo,
+}
+
+/// Light samples per call whose visibility [`VisibilityMemo`] remembers; later sample slots
+/// ask the scene every time.
+pub const MEMO_SLOTS: usize = 64;
+
+/// The `light.visible` answers of one shading call, by light-sample slot, for one point:
+/// every light loop at the point asks the scene once per sample, as the interpreter does
+/// (the scene's answers are pure, so this saves shadow rays and changes no result). A
+/// question at another point forgets the answers.
+pub struct VisibilityMemo {
+    at: Cell<Option<[u32; 3]>>,
+    /// 0 not asked, 1 open, 2 blocked.
+    answers: [Cell<u8>; MEMO_SLOTS],
+}
+
+impl Default for VisibilityMemo {
+    fn default() -> Self {
+        VisibilityMemo {
+            at: Cell::new(None),
+            answers: std::array::from_fn(|_| Cell::new(0)),
+        }
+    }
+}
+
+impl VisibilityMemo {
+    /// The answer for sample `slot` seen from `p`, asking `ask` the first time.
+    fn get_or_ask(&self, slot: u32, p: [f32; 3], ask: impl FnOnce() -> bool) -> bool {
+        let Some(cell) = self.answers.get(slot as usize) else {
+            return ask();
+        };
+        let at = Some(p.map(f32::to_bits));
+        if self.at.get() != at {
+            self.at.set(at);
+            for a in &self.answers {
+                a.set(0);
+            }
+        }
+        match cell.get() {
+            1 => true,
+            2 => false,
+            _ => {
+                let open = ask();
+                cell.set(if open { 1 } else { 2 });
+                open
+            }
+        }
+    }
 }
 
 /// The pointee of [`CallCtx::scene`]: the shading context's `scene` field (its real lifetime
@@ -52,6 +104,12 @@ pub struct CallCtx {
 pub type SceneRef = Option<&'static dyn SceneServices>;
 
 impl CallCtx {
+    /// This call's visibility memo, if any.
+    pub fn visibility(&self) -> Option<&VisibilityMemo> {
+        // SAFETY: a non-null `visibility` points at a memo on the stack of the running call.
+        unsafe { self.visibility.as_ref() }
+    }
+
     /// The scene this call may ask, if any.
     pub fn scene(&self) -> Option<&dyn SceneServices> {
         if self.scene.is_null() {
@@ -236,11 +294,17 @@ fn occlusion(ctx: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
     let seed = a[8].to_bits();
     o[0] = interp::occlusion_value(ctx.scene(), p, n, samples, a[4], seed);
 }
-/// `light.visible`: the light loop's point in `a[0..3]`, the sample's `to` in `a[3..6]`;
-/// `out[0]` = 1.0 if nothing blocks the segment (`runtime::interp::sample_visible`: always
-/// without a scene), else 0.0.
-fn visible(ctx: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
-    let open = interp::sample_visible(ctx.scene(), [a[0], a[1], a[2]], [a[3], a[4], a[5]]);
+/// `light.visible` of light-sample slot `slot`: the light loop's point in `a[0..3]`, the
+/// sample's `to` in `a[3..6]`; `out[0]` = 1.0 if nothing blocks the segment
+/// (`runtime::interp::sample_visible`: always without a scene), else 0.0. Asked once per
+/// sample and call at the same point (the call's [`VisibilityMemo`]).
+fn visible(ctx: &CallCtx, slot: u32, a: &[f32], o: &mut [f32]) {
+    let p = [a[0], a[1], a[2]];
+    let ask = || interp::sample_visible(ctx.scene(), p, [a[3], a[4], a[5]]);
+    let open = match ctx.visibility() {
+        Some(memo) if ctx.scene().is_some() => memo.get_or_ask(slot, p, ask),
+        _ => ask(),
+    };
     o[0] = if open { 1.0 } else { 0.0 };
 }
 

@@ -291,8 +291,10 @@ impl JitMaterial {
         env: &ShadeEnv,
         mask: u32,
         scene: Option<&Option<&dyn SceneServices>>,
+        visibility: Option<&abi::VisibilityMemo>,
     ) -> CallCtx {
         CallCtx {
+            visibility: visibility.map_or(std::ptr::null(), |m| m as *const _),
             env,
             textures: &*self.textures,
             uniforms: self.uniforms.as_ptr(),
@@ -316,7 +318,8 @@ impl Material for JitMaterial {
 
     fn shade(&self, ctx: &ShadeCtx, out: &mut [f32]) -> u32 {
         assert!(out.len() >= self.width, "output buffer too small");
-        let cc = self.call_ctx(ctx.env, ctx.mask, Some(&ctx.scene));
+        let memo = abi::VisibilityMemo::default();
+        let cc = self.call_ctx(ctx.env, ctx.mask, Some(&ctx.scene), Some(&memo));
         match (self.scalar, self.batch) {
             // SAFETY: the function was compiled for this material's layout; `out` holds
             // `width` floats; the context's pointers live for the call.
@@ -344,7 +347,7 @@ impl Material for JitMaterial {
         out: &mut [f32],
     ) -> u32 {
         assert!(out.len() >= self.width * LANES, "output buffer too small");
-        let cc = self.call_ctx(env, mask, None);
+        let cc = self.call_ctx(env, mask, None, None);
         match (self.batch, self.scalar) {
             // SAFETY: the function was compiled for this material's layout; `out` holds
             // `width * 4` floats; the context's pointers live for the call.
@@ -494,6 +497,7 @@ fn compile(
             mask: u32::MAX,
             n_lights: 0,
             scene: std::ptr::null(),
+            visibility: std::ptr::null(),
         };
         // SAFETY: the prelude reads parameters and writes prelude slots of this block, both
         // inside it (the layout sized it); it reads neither fragment nor environment.

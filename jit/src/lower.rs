@@ -947,9 +947,9 @@ impl<'a, 'b> Lowerer<'a, 'b> {
         self.b.ins().brif(ok, body_blk, &[], next, &[]);
 
         self.b.switch_to_block(body_blk);
-        // Shadow test, as the interpreter: only for a body that reads `light.visible`. The
-        // scene's answers are pure, so asking again for the same sample (another light loop
-        // at the same point) gives the interpreter's memoized answer.
+        // Shadow test, as the interpreter: only for a body that reads `light.visible`, and
+        // once per sample slot `i` and call at the same point (the helper's memo: another
+        // light loop at the point gets the answer without a second shadow ray).
         let mut reads_visible = false;
         self.p.walk(body, &mut |x| {
             reads_visible |= *self.p.op(x) == Op::LightVisible
@@ -957,8 +957,7 @@ impl<'a, 'b> Lowerer<'a, 'b> {
         let vis = if reads_visible {
             let mut args = pt.clone();
             args.extend_from_slice(&out[7..10]);
-            let imm = self.b.ins().iconst(I32, 0);
-            self.call_mem("sn_visible", imm, &args, 1)[0]
+            self.call_mem("sn_visible", i, &args, 1)[0]
         } else {
             self.fconst(1.0)
         };
