@@ -59,7 +59,7 @@ use shadenet_jit::{JitBackend, JitOptions, OptLevel};
 use shadenet_runtime::testing::{HARD_FLOATS, HARD_INTS, HashScene};
 use shadenet_runtime::{
     Backend, Fragment, InterpBackend, Material, MaterialCache, SceneServices, ShadeCtx, ShadeEnv,
-    Transform, shade_batch,
+    shade_batch,
 };
 use std::sync::Arc;
 use std::time::Duration;
@@ -510,50 +510,10 @@ fn hard_fragments() -> Vec<Fragment> {
     v
 }
 
+/// The parity environment (`runtime::testing::parity_env`): point, ambient, distant, spot,
+/// quad and environment lights, a camera and an object transform.
 fn env() -> ShadeEnv {
-    let light = |name: &str, kind, power| LightDesc {
-        name: name.into(),
-        kind,
-        power,
-    };
-    let lights = [
-        light(
-            "key",
-            LightKind::Point {
-                position: [1.0, 1.0, 2.0],
-            },
-            [20.0, 18.0, 15.0],
-        ),
-        light("fill", LightKind::Ambient, [0.1, 0.2, 0.3]),
-        light(
-            "sun",
-            LightKind::Distant {
-                direction: [0.3, -0.5, -0.8],
-            },
-            [1.5, 1.5, 1.2],
-        ),
-        light(
-            "spot",
-            LightKind::Spot {
-                position: [0.0, 0.0, 3.0],
-                direction: [0.0, 0.0, -1.0],
-                cone_angle: 0.8,
-                penumbra_angle: 0.1,
-                dropoff: 2.0,
-            },
-            [30.0, 30.0, 30.0],
-        ),
-    ];
-    let mut env = ShadeEnv::with_lights(&lights);
-    env.camera = Transform::look_at([0.5, 0.2, 1.5], [0.0; 3], [0.0, 1.0, 0.0]).expect("camera");
-    env.object = Transform::new([
-        2.0, 0.0, 0.0, 0.5, //
-        0.0, 0.5, 0.1, -1.0, //
-        0.0, 0.0, 1.0, 0.25, //
-        0.0, 0.0, 0.0, 1.0,
-    ])
-    .expect("object");
-    env
+    shadenet_runtime::testing::parity_env()
 }
 
 /// The inputs every op row reads, as IR text: two values of each type, all varying.

@@ -23,12 +23,11 @@ use shadenet_gpu::plan::{HostKind, ItemKind, Step};
 use shadenet_gpu::testing::device_or_skip;
 use shadenet_gpu::{GpuBackend, GpuMaterial, GpuOptions, PassMode, Plan, plan};
 use shadenet_graph::ir::{Program, parse};
-use shadenet_graph::nodes::{LightDesc, LightKind, NodeLibrary};
+use shadenet_graph::nodes::NodeLibrary;
 use shadenet_graph::opt::{self, Passes, Specialization};
 use shadenet_runtime::testing::HashScene;
 use shadenet_runtime::{
     Backend, BackendError, Fragment, InterpBackend, Light, Material, SceneServices, ShadeEnv,
-    Transform,
 };
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -36,70 +35,10 @@ use std::time::Duration;
 
 // ---- environment, fragments, scene ----
 
-fn light(name: &str, kind: LightKind, power: [f64; 3]) -> LightDesc {
-    LightDesc {
-        name: name.into(),
-        kind,
-        power,
-    }
-}
-
-/// Point, ambient, distant, spot, quad (5 samples) and environment (3 samples) lights, a
-/// look-at camera and a skewed object transform.
+/// The parity environment (`runtime::testing::parity_env`): six kinds of light, a camera
+/// and an object transform.
 fn env() -> ShadeEnv {
-    let lights = [
-        light(
-            "key",
-            LightKind::Point {
-                position: [1.0, 1.0, 2.0],
-            },
-            [20.0, 18.0, 15.0],
-        ),
-        light("fill", LightKind::Ambient, [0.1, 0.2, 0.3]),
-        light(
-            "sun",
-            LightKind::Distant {
-                direction: [0.3, -0.5, -0.8],
-            },
-            [1.5, 1.5, 1.2],
-        ),
-        light(
-            "spot",
-            LightKind::Spot {
-                position: [0.0, 0.0, 3.0],
-                direction: [0.0, 0.0, -1.0],
-                cone_angle: 0.8,
-                penumbra_angle: 0.1,
-                dropoff: 2.0,
-            },
-            [30.0, 30.0, 30.0],
-        ),
-        light(
-            "quad",
-            LightKind::Quad {
-                corner: [-1.0, -1.0, 2.0],
-                edge_u: [0.0, 2.0, 0.0],
-                edge_v: [2.0, 0.0, 0.0],
-                samples: 5,
-            },
-            [1.5; 3],
-        ),
-        light(
-            "sky",
-            LightKind::Environment { samples: 3 },
-            [0.2, 0.3, 0.5],
-        ),
-    ];
-    let mut env = ShadeEnv::with_lights(&lights);
-    env.camera = Transform::look_at([0.5, 0.2, 1.5], [0.0; 3], [0.0, 1.0, 0.0]).expect("camera");
-    env.object = Transform::new([
-        2.0, 0.0, 0.0, 0.5, //
-        0.0, 0.5, 0.1, -1.0, //
-        0.0, 0.0, 1.0, 0.25, //
-        0.0, 0.0, 0.0, 1.0,
-    ])
-    .expect("object");
-    env
+    shadenet_runtime::testing::parity_env()
 }
 
 /// Ordinary fragments: a grid on a bumpy surface with varied normals, incident directions,

@@ -4,7 +4,8 @@
 //!
 //! Owns nothing a renderer uses; must not depend on a back end.
 
-use crate::ctx::SceneServices;
+use crate::ctx::{SceneServices, ShadeEnv, Transform};
+use shadenet_graph::nodes::{LightDesc, LightKind};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Ordinary and hard floats: zeros of both signs, denormals, the smallest normal, tiny and
@@ -39,6 +40,65 @@ pub const HARD_FLOATS: &[f32] = &[
     16777216.0, // 2^24
     -16777217.0,
 ];
+
+/// The parity environment: point, ambient, distant, spot, quad (5 samples) and environment
+/// (3 samples) lights, a look-at camera and a skewed object transform.
+pub fn parity_env() -> ShadeEnv {
+    let light = |name: &str, kind, power| LightDesc::new(name, kind, power).expect("a valid light");
+    let lights = [
+        light(
+            "key",
+            LightKind::Point {
+                position: [1.0, 1.0, 2.0],
+            },
+            [20.0, 18.0, 15.0],
+        ),
+        light("fill", LightKind::Ambient, [0.1, 0.2, 0.3]),
+        light(
+            "sun",
+            LightKind::Distant {
+                direction: [0.3, -0.5, -0.8],
+            },
+            [1.5, 1.5, 1.2],
+        ),
+        light(
+            "spot",
+            LightKind::Spot {
+                position: [0.0, 0.0, 3.0],
+                direction: [0.0, 0.0, -1.0],
+                cone_angle: 0.8,
+                penumbra_angle: 0.1,
+                dropoff: 2.0,
+            },
+            [30.0, 30.0, 30.0],
+        ),
+        light(
+            "quad",
+            LightKind::Quad {
+                corner: [-1.0, -1.0, 2.0],
+                edge_u: [0.0, 2.0, 0.0],
+                edge_v: [2.0, 0.0, 0.0],
+                samples: 5,
+            },
+            [1.5; 3],
+        ),
+        light(
+            "sky",
+            LightKind::Environment { samples: 3 },
+            [0.2, 0.3, 0.5],
+        ),
+    ];
+    let mut env = ShadeEnv::with_lights(&lights);
+    env.camera = Transform::look_at([0.5, 0.2, 1.5], [0.0; 3], [0.0, 1.0, 0.0]).expect("camera");
+    env.object = Transform::new([
+        2.0, 0.0, 0.0, 0.5, //
+        0.0, 0.5, 0.1, -1.0, //
+        0.0, 0.0, 1.0, 0.25, //
+        0.0, 0.0, 0.0, 1.0,
+    ])
+    .expect("object");
+    env
+}
 
 /// Ordinary and extreme ints.
 pub const HARD_INTS: &[i32] = &[0, 1, -1, 2, -2, 7, -7, 31, 100, -100, i32::MAX, i32::MIN];
