@@ -3,7 +3,7 @@
 //! Every function here is pure text: [`op_expr`] writes the expression of a pure op over its
 //! operands' expressions, [`literal`] writes constants exactly, [`store_columns`] /
 //! [`load_columns`] / [`output_columns`] say how values sit in the `f32` buffers (docs/gpu.md),
-//! and [`LIBRARY`] / [`TEXTURE_LIBRARY`] hold the `sn_*` functions the expressions call.
+//! and [`library`] / [`TEXTURE_LIBRARY`] hold the `sn_*` functions the expressions call.
 //!
 //! # Numeric rules
 //!
@@ -90,9 +90,27 @@ use shadenet_graph::ir::{BinOp, Intrinsic, UnOp};
 use shadenet_graph::ir::{Op, Program, Value};
 use shadenet_graph::types::{ConstValue, Type};
 
-/// The WGSL intrinsic library: every `sn_*` function the expressions of [`op_expr`] call.
-/// Included once at the top of every kernel.
-pub const LIBRARY: &str = include_str!("wgsl/lib.wgsl");
+/// `wgsl/lib.wgsl` as written: [`library`] fills in the noise permutation.
+const LIBRARY_SOURCE: &str = include_str!("wgsl/lib.wgsl");
+
+/// The WGSL intrinsic library: every `sn_*` function the expressions of [`op_expr`] call
+/// (each kernel includes the declarations it uses). `wgsl/lib.wgsl` with the noise's
+/// permutation table taken from the CPU's (`shadenet_graph::ops::noise::PERM`), so the two
+/// cannot drift apart.
+pub fn library() -> &'static str {
+    static LIBRARY: std::sync::LazyLock<String> = std::sync::LazyLock::new(|| {
+        let rows: Vec<String> = shadenet_graph::ops::noise::PERM
+            .chunks(16)
+            .map(|row| {
+                let row: Vec<String> = row.iter().map(u8::to_string).collect();
+                format!("    {},", row.join(", "))
+            })
+            .collect();
+        let entries = format!("(\n{}\n)", rows.join("\n"));
+        LIBRARY_SOURCE.replacen("(SN_PERM_ENTRIES)", &entries, 1)
+    });
+    &LIBRARY
+}
 
 /// Texture lookup (`sn_texture(tex: u32, uv: vec2<f32>) -> vec4<f32>`), which reads the
 /// bindings `sn_texels: array<vec4<f32>>` and `sn_tex_info: array<vec4<u32>>` (base, width,

@@ -883,7 +883,7 @@ pub(crate) fn write(
         "// shadenet: material `{}`, pass {pass_no}",
         p.name.replace(['\n', '\r'], " ")
     );
-    s.push_str(&library_for(emit::LIBRARY, &format!("{extra}{entry}")));
+    s.push_str(&library_for(emit::library(), &format!("{extra}{entry}")));
     if !s.ends_with('\n') {
         s.push('\n');
     }
@@ -912,7 +912,7 @@ mod tests {
 
     #[test]
     fn the_library_splits_into_declarations() {
-        let (_, items) = library_items(emit::LIBRARY).expect("lib.wgsl splits");
+        let (_, items) = library_items(emit::library()).expect("lib.wgsl splits");
         assert!(items.iter().any(|i| i.name == "sn_sqrt"));
         let (_, tex) = library_items(emit::TEXTURE_LIBRARY).expect("texture.wgsl splits");
         assert!(tex.iter().any(|i| i.name == "sn_texture"));

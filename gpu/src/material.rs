@@ -591,12 +591,6 @@ impl HostValues<'_> {
     }
 }
 
-/// The services of fragment `i` of a batch: its own where the renderer has per-fragment
-/// services ([`SceneServices::fragment`]), else the batch's.
-fn fragment_scene(scene: Option<&dyn SceneServices>, i: usize) -> Option<&dyn SceneServices> {
-    scene.map(|s| s.fragment(i).unwrap_or(s))
-}
-
 /// A chunk of a `shade_many` call's fragments: fragment `i` of the chunk is fragment
 /// `base + i` of the call.
 struct ChunkServices<'a> {
@@ -659,7 +653,11 @@ fn light_samples(
                         return;
                     }
                     let vis = if visible && scene.is_some() {
-                        interp::sample_visible(fragment_scene(scene, i), p, s.to)
+                        interp::sample_visible(
+                            shadenet_runtime::fragment_services(scene, i),
+                            p,
+                            s.to,
+                        )
                     } else {
                         true
                     };
@@ -898,7 +896,7 @@ impl GpuMaterial {
                     if hv.holds(&step.guard, i) {
                         let f = &frags[i];
                         *d = interp::trace_radiance(
-                            fragment_scene(scene, i),
+                            shadenet_runtime::fragment_services(scene, i),
                             f.p,
                             hv.vec3(*dir, i),
                             *ray_type,
@@ -928,7 +926,7 @@ impl GpuMaterial {
                     if hv.holds(&step.guard, i) {
                         let f = &frags[i];
                         *d = interp::occlusion_value(
-                            fragment_scene(scene, i),
+                            shadenet_runtime::fragment_services(scene, i),
                             f.p,
                             hv.vec3(*nv, i),
                             hv.int(*sv, i),

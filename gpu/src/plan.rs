@@ -247,6 +247,18 @@ impl Plan {
         out
     }
 
+    /// Ops the passes compute in all (the cost model's unit; host steps count none). Every
+    /// partition of a program computes the same ops.
+    pub fn ops(&self) -> usize {
+        self.steps
+            .iter()
+            .map(|s| match s {
+                Step::Pass(p) => p.cost,
+                Step::Host(_) => 0,
+            })
+            .sum()
+    }
+
     /// Number of passes.
     pub fn passes(&self) -> usize {
         self.steps
@@ -1175,14 +1187,7 @@ impl fmt::Display for Plan {
                 }
             }
         }
-        let cost: usize = self
-            .steps
-            .iter()
-            .map(|s| match s {
-                Step::Pass(p) => p.cost,
-                Step::Host(_) => 0,
-            })
-            .sum();
+        let cost = self.ops();
         writeln!(
             f,
             "  sn_tmp: {} columns ({} without reuse); at most {} fragments per batch \

@@ -936,14 +936,7 @@ fn every_example_network_plans_and_validates_without_a_device() {
                         .unwrap_or_else(|e| panic!("{what}: pass {}: {e}", k.pass));
                 }
                 // Every plan computes the same ops.
-                let ops: usize = pl
-                    .steps
-                    .iter()
-                    .map(|s| match s {
-                        Step::Pass(p) => p.cost,
-                        Step::Host(_) => 0,
-                    })
-                    .sum();
+                let ops = pl.ops();
                 assert_eq!(*fused_ops.get_or_insert(ops), ops, "{what}\n{pl}");
                 if let PassMode::Count(n) = options.passes {
                     let runs = pl.host_steps() + 1;

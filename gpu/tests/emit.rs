@@ -46,15 +46,15 @@ const TEXTURE_BINDINGS: &str = "
 
 #[test]
 fn the_libraries_validate() {
-    validate(emit::LIBRARY).unwrap_or_else(|e| panic!("LIBRARY:\n{e}"));
+    validate(emit::library()).unwrap_or_else(|e| panic!("LIBRARY:\n{e}"));
     let src = format!(
         "{}{TEXTURE_BINDINGS}{}",
-        emit::LIBRARY,
+        emit::library(),
         emit::TEXTURE_LIBRARY
     );
     validate(&src).unwrap_or_else(|e| panic!("TEXTURE_LIBRARY:\n{e}"));
     // Every function of the library is named sn_*.
-    for lib in [emit::LIBRARY, emit::TEXTURE_LIBRARY] {
+    for lib in [emit::library(), emit::TEXTURE_LIBRARY] {
         for line in lib.lines() {
             if let Some(rest) = line.strip_prefix("fn ") {
                 assert!(rest.starts_with("sn_"), "{line}");
@@ -94,7 +94,7 @@ fn constant_expressions_are_not_folded_by_naga() {
     }
     let src = format!(
         "{}\nfn f(sn_keep: u32) -> f32 {{\n{body}    return v{sq} + f32(v{q} + v{r} + v{c}) + v{e} + w{sq} + f32(w{q} + w{r} + w{c}) + w{e};\n}}\n",
-        emit::LIBRARY,
+        emit::library(),
         sq = sq.index(),
         q = q.index(),
         r = r.index(),
@@ -149,8 +149,8 @@ fn float_literals_parse_back_to_the_same_bits_in_naga() {
 /// Ordinary and hard floats (the parity suite's list).
 const HARD: &[f32] = shadenet_runtime::testing::HARD_FLOATS;
 
-/// Ordinary and extreme ints.
-const INTS: &[i32] = &[0, 1, -1, 2, -2, 7, -7, 31, 100, -100, i32::MAX, i32::MIN];
+/// Ordinary and extreme ints (the parity suite's list).
+const INTS: &[i32] = shadenet_runtime::testing::HARD_INTS;
 
 /// A small deterministic generator (xorshift).
 struct Rng(u64);
@@ -623,7 +623,7 @@ fn row_kernel(row: &Row, n: usize) -> String {
     let mut s = String::new();
     s.push_str("@group(0) @binding(0) var<storage, read> sn_in: array<f32>;\n");
     s.push_str("@group(0) @binding(1) var<storage, read_write> sn_res: array<f32>;\n");
-    s.push_str(emit::LIBRARY);
+    s.push_str(emit::library());
     s.push_str("\n@compute @workgroup_size(64)\n");
     s.push_str("fn main(@builtin(global_invocation_id) gid: vec3<u32>) {\n");
     writeln!(
@@ -1081,7 +1081,7 @@ fn main() {{
     let sn_keep = bitcast<u32>(sn_in[0]);
 {body}}}
 ",
-        emit::LIBRARY
+        emit::library()
     );
     let got = run(&ctx, &src, &[0.0], &[], want.len(), 1);
     for (k, ((ty, w), g)) in want.iter().zip(&got).enumerate() {
@@ -1212,7 +1212,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {{
     }}
 }}
 ",
-        emit::LIBRARY,
+        emit::library(),
         emit::TEXTURE_LIBRARY,
         textures.len(),
         textures.len()
@@ -1301,7 +1301,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {{
     let x = sn_in[i];
 {body}}}
 ",
-        emit::LIBRARY,
+        emit::library(),
         n = xs.len()
     );
     let input: Vec<f32> = xs.iter().copied().chain([0.0]).collect();

@@ -234,7 +234,7 @@ pub trait Material: Send + Sync {
                         frag: *f,
                         env,
                         mask,
-                        scene: Some(scene.fragment(i).unwrap_or(scene)),
+                        scene: crate::ctx::fragment_services(Some(scene), i),
                     };
                     bad += self.shade(&ctx, dst) as u64;
                 }

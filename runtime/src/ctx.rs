@@ -215,13 +215,24 @@ pub trait SceneServices: Send + Sync {
     /// with these services, for a renderer whose services carry per-hit state (the tracer's:
     /// the hit's point, facing normals, seed and ray differentials). `None` (the default):
     /// these services serve every fragment alike. Every back end's `shade_many` asks for
-    /// fragment `i`'s services before it traces, tests visibility or samples occlusion for
-    /// it (the default `shade_many` and the GPU's host steps do); the batch's own methods
+    /// fragment `i`'s services ([`fragment_services`]) before it traces, tests visibility or
+    /// samples occlusion for it (the default `shade_many` and the GPU's host steps do); the batch's own methods
     /// then serve only rays that belong to no fragment of the batch.
     fn fragment(&self, index: usize) -> Option<&dyn SceneServices> {
         let _ = index;
         None
     }
+}
+
+/// The services of fragment `index` of a batch shaded with `scene`: its own where the
+/// renderer gives per-fragment services ([`SceneServices::fragment`]), else the batch's.
+/// Every back end's `shade_many` asks through this before it traces, tests visibility or
+/// samples occlusion for a fragment.
+pub fn fragment_services(
+    scene: Option<&dyn SceneServices>,
+    index: usize,
+) -> Option<&dyn SceneServices> {
+    scene.map(|s| s.fragment(index).unwrap_or(s))
 }
 
 /// One shading call's input: the fragment, its environment, the active components and the

@@ -18,7 +18,7 @@ pub use backend::{
     Backend, BackendError, BatchResult, BatchTimes, CompileStats, FragmentX4, InterpBackend,
     InterpMaterial, LANES, Material, MaterialCache, MaterialInfo, shade_batch,
 };
-pub use ctx::{Fragment, SceneServices, ShadeCtx, ShadeEnv, Transform};
+pub use ctx::{Fragment, SceneServices, ShadeCtx, ShadeEnv, Transform, fragment_services};
 pub use interp::{Interpreter, OutputSlot, Scratch, ShadeOut, output_layout};
 pub use lights::Light;
 pub use texture::{Texture, TextureError, TextureSet};

@@ -53,7 +53,7 @@ pub trait Shader: Send + Sync {
                 frag: *f,
                 env,
                 mask,
-                scene: scene.map(|s| s.fragment(i).unwrap_or(s)),
+                scene: shadenet_runtime::fragment_services(scene, i),
             };
             self.shade(&ctx, &mut one);
             nonfinite += one.nonfinite as u64;
