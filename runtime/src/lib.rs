@@ -3,12 +3,13 @@
 //! This crate owns the shading context ABI ([`ctx`]), the intrinsics that need the scene
 //! (light samples: [`lights`], textures: [`texture`]), the interpreter ([`interp`]), the
 //! reference every other back end is tested against, and the back-end traits with the
-//! material cache ([`backend`]), and the fixtures of the back ends' parity tests
-//! ([`testing`]). It depends on `shadenet-graph` for the IR and the op
+//! material cache ([`backend`]), the fixtures of the back ends' parity tests
+//! ([`testing`]), and the bounded gate every input file passes ([`input`]). It depends on `shadenet-graph` for the IR and the op
 //! semantics and must not know about networks' file formats, Cranelift, wgpu or the tracer.
 
 pub mod backend;
 pub mod ctx;
+pub mod input;
 pub mod interp;
 pub mod lights;
 pub mod testing;
