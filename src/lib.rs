@@ -28,16 +28,11 @@ use std::path::{Path, PathBuf};
 /// A network file that could not be loaded.
 #[derive(Debug, thiserror::Error)]
 pub enum LoadError {
-    /// The file could not be read.
-    #[error("cannot read network {}: {source}", path.display())]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The I/O error.
-        source: std::io::Error,
-    },
+    /// The file could not be read (missing, not a regular file, over the size limit).
+    #[error(transparent)]
+    Input(#[from] shadenet_runtime::input::InputError),
     /// The file is not a valid network.
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     Compile {
         /// The file.
         path: PathBuf,
@@ -50,10 +45,11 @@ pub enum LoadError {
 /// after the file's stem unless the network names it, and relative texture paths are made
 /// relative to the file's directory.
 pub fn load_network(path: &Path) -> Result<Compiled, LoadError> {
-    let src = std::fs::read_to_string(path).map_err(|source| LoadError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let src = shadenet_runtime::input::read_to_string(
+        path,
+        shadenet_runtime::input::FileKind::Text,
+        "network",
+    )?;
     let mut compiled =
         compile_json(&src, &NodeLibrary::standard()).map_err(|source| LoadError::Compile {
             path: path.to_path_buf(),

@@ -12,7 +12,8 @@
 use shadenet_gpu::{GpuBackend, GpuOptions};
 use shadenet_graph::ir::Program;
 use shadenet_graph::network::Network;
-use shadenet_graph::{NodeLibrary, link, lower};
+use shadenet_graph::{NodeLibrary, error_chain, link, lower};
+use shadenet_runtime::input::{self, FileKind, InputError};
 use shadenet_tracer::passes::PassDef;
 use shadenet_tracer::scene::{self, MaterialRef, MaterialSource, Scene, SceneError};
 use shadenet_tracer::shader::{BatchedBackend, InterpBackend, RuntimeBackend, ShaderBackend};
@@ -123,20 +124,22 @@ pub enum Files {
 }
 
 impl Files {
-    fn read(self, path: &Path) -> std::io::Result<String> {
+    fn read(self, path: &Path) -> Result<String, InputError> {
         match self {
-            Files::Disk => std::fs::read_to_string(path),
+            Files::Disk => input::read_to_string(path, FileKind::Text, "network"),
             Files::Embedded => {
                 let want = normalize(path);
                 EMBEDDED
                     .iter()
                     .find(|(p, _)| normalize(Path::new(p)) == want)
                     .map(|(_, text)| text.to_string())
-                    .ok_or_else(|| {
-                        std::io::Error::new(
+                    .ok_or_else(|| InputError::Io {
+                        role: "network",
+                        path: path.to_path_buf(),
+                        source: std::io::Error::new(
                             std::io::ErrorKind::NotFound,
                             "not among the embedded files",
-                        )
+                        ),
                     })
             }
         }
@@ -223,9 +226,7 @@ pub fn compile_material(
     };
     let mut network: Network = match &m.source {
         MaterialSource::File(p) => {
-            let text = files
-                .read(p)
-                .map_err(|e| fail(format!("cannot read the network: {e}")))?;
+            let text = files.read(p).map_err(|e| fail(error_chain(&e)))?;
             Network::from_json(&text).map_err(|e| fail(format!("malformed network: {e}")))?
         }
         MaterialSource::Inline(v) => serde_json::from_value(v.clone())
@@ -274,8 +275,12 @@ pub fn backend(kind: BackendKind) -> Result<Box<dyn ShaderBackend>, SetupError> 
 /// prefers batches (the renderer shades camera hits deferred). Fails, naming the cause,
 /// when no adapter exists or no device opens on it.
 pub fn gpu_backend(options: GpuOptions) -> Result<Box<dyn ShaderBackend>, SetupError> {
-    let gpu = GpuBackend::new(options, Arc::new(shadenet_jit::JitBackend::new()))
-        .map_err(|e| SetupError::Backend(format!("the GPU back end cannot start: {e}")))?;
+    let gpu = GpuBackend::new(options, Arc::new(shadenet_jit::JitBackend::new())).map_err(|e| {
+        SetupError::Backend(format!(
+            "the GPU back end cannot start: {}",
+            error_chain(&e)
+        ))
+    })?;
     Ok(Box::new(BatchedBackend(Arc::new(gpu))))
 }
 

@@ -21,3 +21,17 @@ pub use lower::{CompileError, Compiled, compile_json, lower};
 pub use network::Network;
 pub use nodes::NodeLibrary;
 pub use types::{ConstValue, Type};
+
+/// An error and its causes, outermost first, joined by `": "`: how the CLI prints an error,
+/// for code that must put a whole error into a message (each level's `Display` says its own
+/// level only, so `to_string()` alone would drop the causes).
+pub fn error_chain(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        text.push_str(": ");
+        text.push_str(&c.to_string());
+        cause = c.source();
+    }
+    text
+}

@@ -597,10 +597,10 @@ pub struct Compiled {
 #[derive(Debug, thiserror::Error)]
 pub enum CompileError {
     /// The text is not a valid network file.
-    #[error("malformed network: {0}")]
+    #[error("malformed network")]
     Parse(#[from] crate::network::ParseError),
     /// Linking or lowering found problems.
-    #[error("{0}")]
+    #[error(transparent)]
     Link(#[from] LinkErrors),
 }
 

@@ -82,7 +82,15 @@ pub struct CompoundInput {
 /// A network file that is not valid JSON or not of the expected shape.
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
-pub struct ParseError(#[from] serde_json::Error);
+pub struct ParseError(serde_json::Error);
+
+impl From<serde_json::Error> for ParseError {
+    fn from(e: serde_json::Error) -> ParseError {
+        // Not a `#[source]`: the message above is the JSON error's own text, so a chain
+        // printed level by level would say it twice.
+        ParseError(e)
+    }
+}
 
 impl ParseError {
     /// 1-based line of the error.

@@ -84,8 +84,10 @@ fn parse_bytes(s: &str) -> Option<u64> {
 #[derive(Debug, thiserror::Error)]
 pub enum InputError {
     /// The file is missing or unreadable.
-    #[error("cannot read {}", path.display())]
+    #[error("cannot read {role} {}", path.display())]
     Io {
+        /// What the file is to the reader: `network`, `scene`, `texture`, `mesh`…
+        role: &'static str,
         /// The file.
         path: PathBuf,
         /// Why.
@@ -137,10 +139,12 @@ pub enum InputError {
     },
 }
 
-/// Checks that `path` is a regular file within its kind's limit; returns its size.
-pub fn check(path: &Path, kind: FileKind) -> Result<u64, InputError> {
+/// Checks that `path` is a regular file within its kind's limit; returns its size. `role`
+/// says what the file is to the reader (`network`, `scene`, `texture`…) in messages.
+pub fn check(path: &Path, kind: FileKind, role: &'static str) -> Result<u64, InputError> {
     let limit = kind.limit()?;
     let meta = std::fs::metadata(path).map_err(|source| InputError::Io {
+        role,
         path: path.to_path_buf(),
         source,
     })?;
@@ -197,10 +201,11 @@ fn file_type_name(meta: &std::fs::Metadata) -> &'static str {
 }
 
 /// Reads a whole file after [`check`], through a reader bounded at the limit.
-pub fn read(path: &Path, kind: FileKind) -> Result<Vec<u8>, InputError> {
-    let size = check(path, kind)?;
+pub fn read(path: &Path, kind: FileKind, role: &'static str) -> Result<Vec<u8>, InputError> {
+    let size = check(path, kind, role)?;
     let limit = kind.limit()?;
     let io = |source| InputError::Io {
+        role,
         path: path.to_path_buf(),
         source,
     };
@@ -213,8 +218,12 @@ pub fn read(path: &Path, kind: FileKind) -> Result<Vec<u8>, InputError> {
 }
 
 /// Reads a UTF-8 text file after [`check`], through a reader bounded at the limit.
-pub fn read_to_string(path: &Path, kind: FileKind) -> Result<String, InputError> {
-    let bytes = read(path, kind)?;
+pub fn read_to_string(
+    path: &Path,
+    kind: FileKind,
+    role: &'static str,
+) -> Result<String, InputError> {
+    let bytes = read(path, kind, role)?;
     String::from_utf8(bytes).map_err(|e| InputError::NotUtf8 {
         path: path.to_path_buf(),
         offset: e.utf8_error().valid_up_to(),
@@ -239,17 +248,17 @@ mod tests {
 
     #[test]
     fn missing_file_directory_and_device() {
-        let e = read(Path::new("/nonexistent/x.json"), FileKind::Text).unwrap_err();
+        let e = read(Path::new("/nonexistent/x.json"), FileKind::Text, "network").unwrap_err();
         assert!(matches!(e, InputError::Io { .. }), "{e}");
-        assert_eq!(e.to_string(), "cannot read /nonexistent/x.json");
-        let e = read(Path::new("/"), FileKind::Text).unwrap_err();
+        assert_eq!(e.to_string(), "cannot read network /nonexistent/x.json");
+        let e = read(Path::new("/"), FileKind::Text, "network").unwrap_err();
         assert_eq!(
             e.to_string(),
             "/: not a regular file (a directory); text input must be a regular file"
         );
         #[cfg(unix)]
         {
-            let e = read(Path::new("/dev/zero"), FileKind::Text).unwrap_err();
+            let e = read(Path::new("/dev/zero"), FileKind::Text, "network").unwrap_err();
             assert_eq!(
                 e.to_string(),
                 "/dev/zero: not a regular file (a character device); text input must be a regular file"
@@ -263,22 +272,28 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let small = dir.join("small.json");
         std::fs::write(&small, "{}").unwrap();
-        assert_eq!(read_to_string(&small, FileKind::Text).unwrap(), "{}");
+        assert_eq!(
+            read_to_string(&small, FileKind::Text, "network").unwrap(),
+            "{}"
+        );
         // A sparse file just over the text limit: rejected from its size, nothing read.
         let big = dir.join("big.json");
         let f = std::fs::File::create(&big).unwrap();
         f.set_len(FileKind::Text.default_limit() + 1).unwrap();
-        let e = check(&big, FileKind::Text).unwrap_err();
+        let e = check(&big, FileKind::Text, "network").unwrap_err();
         assert!(
-            e.to_string().ends_with(&format!(
+            e.to_string().ends_with(
                 "big.json: 67108865 bytes is over the 67108864-byte limit for text files (set SHADENET_MAX_TEXT_BYTES to raise it)"
-            )),
+            ),
             "{e}"
         );
         let bad = dir.join("bad.txt");
         std::fs::write(&bad, b"ab\xffc").unwrap();
-        let e = read_to_string(&bad, FileKind::Text).unwrap_err();
-        assert!(e.to_string().ends_with("bad.txt: not UTF-8 text (byte 2)"), "{e}");
+        let e = read_to_string(&bad, FileKind::Text, "network").unwrap_err();
+        assert!(
+            e.to_string().ends_with("bad.txt: not UTF-8 text (byte 2)"),
+            "{e}"
+        );
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -20,6 +20,9 @@ pub enum TextureError {
         /// Why.
         reason: String,
     },
+    /// The file cannot be read as input (missing, not a regular file, over the size limit).
+    #[error(transparent)]
+    Input(#[from] crate::input::InputError),
 }
 
 /// One decoded image: linear RGBA, rows top to bottom.
@@ -48,6 +51,8 @@ impl Texture {
             path: path.to_path_buf(),
             reason,
         };
+        // A device, a FIFO or an oversized file never reaches the decoder.
+        crate::input::check(path, crate::input::FileKind::Image, "texture")?;
         let img = image::open(path).map_err(|e| err(e.to_string()))?;
         let rgba = img.to_rgba32f();
         let (width, height) = rgba.dimensions();
