@@ -1,0 +1,245 @@
+//! The subcommands of the `shadenet` command line, one file each, and the option groups
+//! they share (specialization flags, back-end choice, GPU pass partitioning, threads).
+//!
+//! This module owns argument checking and what the commands print; the work itself is the
+//! library's (`shadenet::render`, `shadenet::shade`, `shadenet::bench`…). It must not hold
+//! rendering or shading logic of its own.
+
+/// `println!` through [`print_out`]: a closed pipe ends the output quietly instead of
+/// panicking.
+macro_rules! say {
+    ($($arg:tt)*) => {
+        print_out(&format!("{}\n", format_args!($($arg)*)))
+    };
+}
+
+pub mod bench;
+pub mod check;
+pub mod compile;
+pub mod diff;
+pub mod generate;
+pub mod gpu_info;
+pub mod render;
+pub mod shade;
+
+use anyhow::{Context, Result, bail};
+use clap::ValueEnum;
+use shadenet::graph::opt::Specialization;
+use shadenet_gpu::{GpuOptions, PassMode};
+use std::path::Path;
+
+/// The back end that runs a material (`--backend`), shared by `shade` and `render`.
+#[derive(Clone, Copy, ValueEnum, PartialEq, Debug)]
+pub(crate) enum BackendArg {
+    /// The interpreter.
+    Interp,
+    /// The Cranelift JIT, scalar entry (one call per fragment or hit).
+    Jit,
+    /// The Cranelift JIT, 4-wide batch entry (`shade` only).
+    JitBatch,
+    /// The GPU (wgpu): `shade` runs the whole grid in one batch; `render` shades camera hits
+    /// deferred in batches and the JIT shades secondary hits.
+    Gpu,
+}
+
+impl BackendArg {
+    /// The name as written on the command line.
+    pub(crate) fn name(self) -> &'static str {
+        match self {
+            BackendArg::Interp => "interp",
+            BackendArg::Jit => "jit",
+            BackendArg::JitBatch => "jit-batch",
+            BackendArg::Gpu => "gpu",
+        }
+    }
+}
+
+/// `--gpu-passes`, shared by `shade`, `render` and `compile --emit wgsl`.
+#[derive(clap::Args, Clone, Copy)]
+pub(crate) struct GpuPassesArg {
+    /// GPU pass partitioning (with `--backend gpu` or `--emit wgsl`): `auto` (the cost
+    /// model), `1` (one kernel between host steps) or a pass count.
+    #[arg(long, value_name = "auto|1|N", value_parser = parse_gpu_passes)]
+    pub(crate) gpu_passes: Option<PassMode>,
+}
+
+fn parse_gpu_passes(s: &str) -> Result<PassMode, String> {
+    s.parse::<PassMode>()
+}
+
+impl GpuPassesArg {
+    /// The GPU back end's options.
+    pub(crate) fn options(&self) -> GpuOptions {
+        GpuOptions {
+            passes: self.gpu_passes.unwrap_or_default(),
+            ..GpuOptions::default()
+        }
+    }
+
+    /// `--gpu-passes` only means something to the GPU back end (`what` names it).
+    pub(crate) fn check(&self, gpu: bool, what: &str) -> Result<()> {
+        if self.gpu_passes.is_some() && !gpu {
+            bail!("--gpu-passes applies to {what} only");
+        }
+        Ok(())
+    }
+}
+
+/// How many worker threads `--threads` may ask for per core: enough to oversubscribe, not
+/// enough to exhaust the machine (`--threads 100000` used to run for minutes).
+pub(crate) const MAX_THREADS_PER_CORE: usize = 8;
+
+/// `--threads`, shared by `shade` and `render`.
+#[derive(clap::Args, Clone, Copy)]
+pub(crate) struct ThreadsArg {
+    /// Worker threads, 1 to 8 × the cores (default: all cores).
+    #[arg(long)]
+    pub(crate) threads: Option<usize>,
+}
+
+impl ThreadsArg {
+    /// The checked count (`None`: all cores), or an error naming the range.
+    pub(crate) fn count(&self) -> Result<Option<usize>> {
+        let Some(n) = self.threads else {
+            return Ok(None);
+        };
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        let max = MAX_THREADS_PER_CORE * cores;
+        if n == 0 || n > max {
+            bail!(
+                "--threads {n}: expected 1 to {max} ({MAX_THREADS_PER_CORE} × the {cores} cores of this machine)"
+            );
+        }
+        Ok(Some(n))
+    }
+
+    /// A thread pool of the checked size.
+    pub(crate) fn pool(&self) -> Result<rayon::ThreadPool> {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(self.count()?.unwrap_or(0))
+            .build()
+            .context("cannot start the worker threads")
+    }
+}
+
+/// Checks that an output path ends in one of `exts`; `what` names the option.
+pub(crate) fn check_extension(path: &Path, exts: &[&str], what: &str) -> Result<()> {
+    match path.extension().and_then(|e| e.to_str()) {
+        Some(e) if exts.contains(&e) => Ok(()),
+        _ => bail!(
+            "{}: {what} must name a {} file",
+            path.display(),
+            exts.iter()
+                .map(|e| format!(".{e}"))
+                .collect::<Vec<_>>()
+                .join(" or ")
+        ),
+    }
+}
+
+/// How a network is specialized and optimized (shared by `compile` and `shade`).
+#[derive(clap::Args, Clone)]
+pub(crate) struct OptArgs {
+    /// Active render components, comma separated (default: all).
+    #[arg(long, value_delimiter = ',')]
+    pub(crate) components: Option<Vec<String>>,
+    /// Ray types the material will see: camera, shadow, reflection, refraction, diffuse
+    /// (default: all).
+    #[arg(long, value_delimiter = ',')]
+    pub(crate) raytypes: Option<Vec<String>>,
+    /// Instance compilation: bake parameters into constants (the default).
+    #[arg(long, conflicts_with = "class")]
+    pub(crate) bake: bool,
+    /// Class compilation: keep parameters uniform (they can change without recompiling).
+    #[arg(long)]
+    pub(crate) class: bool,
+    /// Switch common-subexpression elimination off (to measure per-node cost).
+    #[arg(long)]
+    pub(crate) no_cse: bool,
+    /// Switch passes off, comma separated: specialize, fold, dead_branch, cse, dce, hoist.
+    #[arg(long, value_delimiter = ',')]
+    pub(crate) disable: Vec<String>,
+    /// Do not optimize at all.
+    #[arg(long)]
+    pub(crate) no_opt: bool,
+}
+
+impl OptArgs {
+    pub(crate) fn spec(&self, program: &shadenet::graph::ir::Program) -> Result<Specialization> {
+        use shadenet::graph::ir::{
+            RAY_CAMERA, RAY_DIFFUSE, RAY_REFLECTION, RAY_REFRACTION, RAY_SHADOW,
+        };
+        let mut spec = Specialization::default();
+        if let Some(c) = &self.components {
+            spec.components = Specialization::mask_of(program, c)
+                .map_err(|e| anyhow::anyhow!("--components: {e}"))?;
+        }
+        if let Some(r) = &self.raytypes {
+            spec.ray_types = 0;
+            for t in r {
+                spec.ray_types |= match t.as_str() {
+                    "camera" => RAY_CAMERA,
+                    "shadow" => RAY_SHADOW,
+                    "reflection" => RAY_REFLECTION,
+                    "refraction" => RAY_REFRACTION,
+                    "diffuse" => RAY_DIFFUSE,
+                    other => bail!(
+                        "--raytypes: `{other}` is not a ray type (camera, shadow, reflection, refraction, diffuse)"
+                    ),
+                } as u32;
+            }
+        }
+        spec.bake = !self.class;
+        if self.no_cse {
+            spec.passes.cse = false;
+        }
+        for pass in &self.disable {
+            let flag = match pass.as_str() {
+                "specialize" => &mut spec.passes.specialize,
+                "fold" => &mut spec.passes.fold,
+                "dead_branch" => &mut spec.passes.dead_branch,
+                "cse" => &mut spec.passes.cse,
+                "dce" => &mut spec.passes.dce,
+                "hoist" => &mut spec.passes.hoist,
+                other => bail!(
+                    "--disable: `{other}` is not a pass (specialize, fold, dead_branch, cse, dce, hoist)"
+                ),
+            };
+            *flag = false;
+        }
+        Ok(spec)
+    }
+}
+
+pub(crate) fn parse_res(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("`{s}` is not WxH"))?;
+    let w: u32 = w.parse().map_err(|_| format!("bad width in `{s}`"))?;
+    let h: u32 = h.parse().map_err(|_| format!("bad height in `{s}`"))?;
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        return Err(format!(
+            "resolution `{s}` must be between 1x1 and 16384x16384"
+        ));
+    }
+    Ok((w, h))
+}
+
+/// Milliseconds of a duration, for the summaries.
+pub(crate) fn ms(d: std::time::Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
+/// Writes to stdout; a closed pipe (`| head`) ends the output quietly.
+pub(crate) fn print_out(text: &str) {
+    use std::io::Write;
+    let _ = std::io::stdout().lock().write_all(text.as_bytes());
+}
+
+/// Reads, links and lowers a network file and validates its IR.
+pub(crate) fn load(path: &Path) -> Result<shadenet::Compiled> {
+    let compiled = shadenet::load_network(path)?;
+    shadenet::graph::ir::validate(&compiled.program)
+        .with_context(|| format!("{}: internal error: invalid IR", path.display()))?;
+    Ok(compiled)
+}

@@ -1,0 +1,432 @@
+//! `shadenet shade`: a network shaded over a grid of fragments on a unit plane, written as
+//! PNG and/or multi-layer EXR, with a summary of the speed.
+
+use super::print_out;
+use super::{BackendArg, GpuPassesArg, OptArgs, ThreadsArg, check_extension, load, ms, parse_res};
+use anyhow::{Context, Result, bail};
+use clap::ValueEnum;
+use shadenet::graph::ir::Program;
+use shadenet::graph::nodes::{LightDesc, LightKind};
+use shadenet::graph::opt::{self, Specialization};
+use shadenet::output::{write_exr, write_png};
+use shadenet::runtime::{Backend, BatchTimes, CompileStats, InterpBackend, Material};
+use shadenet::shade::{Grid, grid_env, shade_grid, shade_grid_many, shade_grid_with};
+use shadenet_gpu::GpuBackend;
+use shadenet_jit::{JitBackend, JitOptions};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// The arithmetic `shade` runs in.
+#[derive(Clone, Copy, ValueEnum, PartialEq)]
+pub(crate) enum Precision {
+    /// f32, the shading precision.
+    F32,
+    /// f64, the accuracy reference.
+    F64,
+}
+
+/// `shadenet shade`'s arguments.
+#[derive(clap::Args)]
+pub(crate) struct ShadeArgs {
+    /// The network file (.json).
+    network: PathBuf,
+    /// Output image: .png (sRGB preview) or .exr (every output and component as f32 layers).
+    #[arg(short, long)]
+    output: Vec<PathBuf>,
+    /// Grid size, WxH.
+    #[arg(long, default_value = "256x256", value_parser = parse_res)]
+    res: (u32, u32),
+    /// Material output written to PNG (default: the first declared).
+    #[arg(long)]
+    aov: Option<String>,
+    /// Write only this render component of the PNG's output (default: the total).
+    #[arg(long)]
+    component: Option<String>,
+    #[command(flatten)]
+    opt: OptArgs,
+    /// Add a light: point:X,Y,Z:INTENSITY[:R,G,B], distant:DX,DY,DZ:INTENSITY[:R,G,B],
+    /// spot:X,Y,Z:DX,DY,DZ:INTENSITY:CONE_DEG[:R,G,B], ambient:INTENSITY[:R,G,B].
+    #[arg(long)]
+    light: Vec<String>,
+    /// Back end: `interp` (the interpreter), `jit` (Cranelift, one call per fragment),
+    /// `jit-batch` (Cranelift, four fragments per call) or `gpu` (wgpu, the whole grid in one
+    /// batch). Default: `jit`, or `interp` with `--precision f64`.
+    #[arg(long, value_enum)]
+    backend: Option<BackendArg>,
+    #[command(flatten)]
+    gpu: GpuPassesArg,
+    /// Precision: f32 (shading) or f64 (the interpreter's accuracy reference).
+    #[arg(long, value_enum, default_value_t = Precision::F32)]
+    precision: Precision,
+    #[command(flatten)]
+    threads: ThreadsArg,
+    /// Print nothing but errors.
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+/// What one run shades: the checked arguments and the network, before any back end.
+struct Job {
+    program: Program,
+    spec: Specialization,
+    lights: Vec<LightDesc>,
+    backend: BackendArg,
+    aov: String,
+    component: Option<u8>,
+    load_start: Instant,
+}
+
+/// A shaded grid and how it was made.
+struct Shaded {
+    grid: Grid,
+    load_time: Duration,
+    shade_time: Duration,
+    ops: usize,
+    /// The back end that ran and its compile statistics (`None`: the f64 interpreter).
+    stats: Option<(&'static str, CompileStats)>,
+    gpu_split: Option<BatchTimes>,
+}
+
+/// Runs `shadenet shade`.
+pub(crate) fn run(args: ShadeArgs) -> Result<()> {
+    if let Some(n) = args.threads.count()? {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+            .context("cannot set the thread count")?;
+    }
+    if args.output.is_empty() {
+        bail!("no output image: give -o FILE.png and/or -o FILE.exr");
+    }
+    for o in &args.output {
+        check_extension(o, &["png", "exr"], "-o")?;
+    }
+    let job = prepare(&args)?;
+    let shaded = shade(&args, &job)?;
+    write_outputs(&args, &job, &shaded.grid)?;
+    if !args.quiet {
+        summary(&args, &shaded);
+    }
+    Ok(())
+}
+
+/// Loads the network, adds the lights, picks the back end and checks the output choice.
+fn prepare(args: &ShadeArgs) -> Result<Job> {
+    let load_start = Instant::now();
+    let compiled = load(&args.network)?;
+    let program = compiled.program;
+    let mut lights = compiled.lights;
+    for (i, spec) in args.light.iter().enumerate() {
+        lights.push(parse_light(spec, i)?);
+    }
+    if lights.is_empty() {
+        if !args.quiet {
+            eprintln!(
+                "note: no lights in the network or on the command line; using --light point:1,1,2:20"
+            );
+        }
+        lights.push(parse_light("point:1,1,2:20", 0)?);
+    }
+    // Specialize and optimize for this run (unless --no-opt): only what the active
+    // components need is computed, and textures on dead branches are never opened.
+    let spec = args.opt.spec(&program)?;
+    let backend = match (args.backend, args.precision) {
+        (None, Precision::F64) => BackendArg::Interp,
+        (None, Precision::F32) => BackendArg::Jit,
+        (Some(BackendArg::Interp), _) => BackendArg::Interp,
+        (Some(b), Precision::F64) => bail!(
+            "--precision f64 runs the interpreter (the accuracy reference); --backend {} is f32 only",
+            b.name()
+        ),
+        (Some(b), Precision::F32) => b,
+    };
+    args.gpu
+        .check(backend == BackendArg::Gpu, "--backend gpu")?;
+    let names = program.output_names();
+    let aov = args.aov.clone().unwrap_or_else(|| names[0].to_string());
+    if !names.contains(&aov.as_str()) {
+        bail!(
+            "--aov: the material has no output `{aov}` (it has: {})",
+            names.join(", ")
+        );
+    }
+    let component =
+        match &args.component {
+            None => None,
+            Some(c) => Some(program.component_index(c).with_context(|| {
+                format!("--component: `{c}` is not a component of this material")
+            })?),
+        };
+    Ok(Job {
+        program,
+        spec,
+        lights,
+        backend,
+        aov,
+        component,
+        load_start,
+    })
+}
+
+/// Compiles the material on the chosen back end and shades the grid.
+fn shade(args: &ShadeArgs, job: &Job) -> Result<Shaded> {
+    let env = grid_env(&job.lights);
+    let (w, h) = args.res;
+    let mask = job.spec.components;
+    let program = &job.program;
+    if args.precision == Precision::F64 {
+        let optimized;
+        let p = if args.opt.no_opt {
+            program
+        } else {
+            optimized = opt::run(program, &job.spec).0;
+            &optimized
+        };
+        let load_time = job.load_start.elapsed();
+        let t1 = Instant::now();
+        let grid = shade_grid::<f64>(p, &env, w, h, mask)?;
+        return Ok(Shaded {
+            grid,
+            load_time,
+            shade_time: t1.elapsed(),
+            ops: p.op_count(),
+            stats: None,
+            gpu_split: None,
+        });
+    }
+    let jit = || {
+        JitBackend::with_options(JitOptions {
+            log_fallback: !args.quiet,
+            ..JitOptions::default()
+        })
+    };
+    let b: Box<dyn Backend> = match job.backend {
+        BackendArg::Interp => Box::new(InterpBackend),
+        BackendArg::Gpu => Box::new(
+            GpuBackend::new(args.gpu.options(), Arc::new(jit()))
+                .context("--backend gpu: the GPU back end cannot start")?,
+        ),
+        _ => Box::new(jit()),
+    };
+    let material: Arc<dyn Material> = if args.opt.no_opt {
+        b.compile_program(program, Duration::ZERO)?
+    } else {
+        b.compile(program, &job.spec)?
+    };
+    let load_time = job.load_start.elapsed();
+    let t1 = Instant::now();
+    let mut gpu_split = None;
+    let grid = if job.backend == BackendArg::Gpu {
+        let (grid, r) = shade_grid_many(&*material, &env, w, h, mask);
+        gpu_split = Some(r.times);
+        grid
+    } else {
+        shade_grid_with(
+            &*material,
+            &env,
+            w,
+            h,
+            mask,
+            job.backend == BackendArg::JitBatch,
+        )
+    };
+    let shade_time = t1.elapsed();
+    let info = material.info();
+    let which = match &info.fallback {
+        Some(_) => "interp (fallback)",
+        None => job.backend.name(),
+    };
+    Ok(Shaded {
+        grid,
+        load_time,
+        shade_time,
+        ops: info.stats.ops,
+        stats: Some((which, info.stats)),
+        gpu_split,
+    })
+}
+
+/// One `--light` option as a light (`index` names it `light{index}`).
+fn parse_light(spec: &str, index: usize) -> Result<LightDesc> {
+    let parts: Vec<&str> = spec.split(':').collect();
+    let vec3 = |s: &str| -> Result<[f64; 3]> {
+        let v: Vec<f64> = s
+            .split(',')
+            .map(|x| x.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .with_context(|| format!("--light {spec}: `{s}` is not X,Y,Z"))?;
+        if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {
+            bail!("--light {spec}: `{s}` is not three finite numbers");
+        }
+        Ok([v[0], v[1], v[2]])
+    };
+    let num = |s: &str| -> Result<f64> {
+        s.trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .with_context(|| format!("--light {spec}: `{s}` is not a finite number"))
+    };
+    let power = |i: f64, color: Option<&&str>| -> Result<[f64; 3]> {
+        let c = color.map(|c| vec3(c)).transpose()?.unwrap_or([1.0; 3]);
+        Ok(c.map(|x| x * i))
+    };
+    let name = format!("light{index}");
+    let (kind, pw) = match (parts[0], parts.len()) {
+        ("point", 3 | 4) => (
+            LightKind::Point {
+                position: vec3(parts[1])?,
+            },
+            power(num(parts[2])?, parts.get(3))?,
+        ),
+        ("distant", 3 | 4) => (
+            LightKind::Distant {
+                direction: vec3(parts[1])?,
+            },
+            power(num(parts[2])?, parts.get(3))?,
+        ),
+        ("spot", 5 | 6) => (
+            LightKind::Spot {
+                position: vec3(parts[1])?,
+                direction: vec3(parts[2])?,
+                cone_angle: num(parts[4])?.to_radians(),
+                penumbra_angle: 0.0,
+                dropoff: 0.0,
+            },
+            power(num(parts[3])?, parts.get(5))?,
+        ),
+        ("ambient", 2 | 3) => (LightKind::Ambient, power(num(parts[1])?, parts.get(2))?),
+        _ => bail!(
+            "--light {spec}: expected point:X,Y,Z:I[:R,G,B], distant:DX,DY,DZ:I[:R,G,B], \
+             spot:X,Y,Z:DX,DY,DZ:I:CONE_DEG[:R,G,B] or ambient:I[:R,G,B]"
+        ),
+    };
+    LightDesc::new(name, kind, pw).with_context(|| format!("--light {spec}"))
+}
+
+/// The output layout every back end writes: (name, component, type, offset) per slot.
+type Slots = Vec<(String, Option<u8>, shadenet::graph::Type, usize)>;
+
+/// Writes every `-o` image: a PNG of the chosen output (and component), or an EXR of every
+/// output and component.
+fn write_outputs(args: &ShadeArgs, job: &Job, grid: &Grid) -> Result<()> {
+    let slots: Slots = shadenet::runtime::output_layout(&job.program)
+        .0
+        .into_iter()
+        .map(|s| (s.name, s.component, s.ty, s.offset))
+        .collect();
+    let (w, h) = args.res;
+    for path in &args.output {
+        if path.extension().and_then(|e| e.to_str()) == Some("png") {
+            let pick = |name: &str, comp: Option<u8>| {
+                name == job.aov && (job.component.is_none() || comp == job.component)
+            };
+            let chans: Vec<Vec<f32>> = (0..3).map(|c| channel(grid, &slots, &pick, c)).collect();
+            let n = (w * h) as usize;
+            let mut rgb = vec![0.0f32; n * 3];
+            for p in 0..n {
+                for c in 0..3 {
+                    rgb[p * 3 + c] = chans[c][p];
+                }
+            }
+            write_png(path, w, h, &rgb)?;
+        } else {
+            write_exr(path, w, h, exr_layers(job, grid, &slots))?;
+        }
+    }
+    Ok(())
+}
+
+/// Channel `c` of the slots `pred` picks, summed per fragment, as f32.
+fn channel(
+    grid: &Grid,
+    slots: &Slots,
+    pred: &dyn Fn(&str, Option<u8>) -> bool,
+    c: usize,
+) -> Vec<f32> {
+    let n = (grid.width * grid.height) as usize;
+    let mut out = vec![0.0f32; n];
+    for (name, comp, ty, off) in slots {
+        if !pred(name, *comp) {
+            continue;
+        }
+        let w = ty.width().max(1);
+        let ci = c.min(w - 1);
+        for (p, o) in out.iter_mut().enumerate() {
+            *o += grid.values[p * grid.stride + off + ci] as f32;
+        }
+    }
+    out
+}
+
+/// The EXR channels: per output its total and each of its components, per channel.
+fn exr_layers(job: &Job, grid: &Grid, slots: &Slots) -> Vec<(String, Vec<f32>)> {
+    let program = &job.program;
+    let mut chans = Vec::new();
+    for name in program.output_names() {
+        let Some(ty) = slots.iter().find(|s| s.0 == name).map(|s| s.2) else {
+            continue;
+        };
+        let suffixes: &[&str] = match ty.width() {
+            2 => &["X", "Y"],
+            3 => &["R", "G", "B"],
+            _ => &["Y"],
+        };
+        let mut layers: Vec<(String, Option<Option<u8>>)> = vec![(name.to_string(), None)];
+        for (sn, comp, _, _) in slots {
+            if let Some(k) = comp
+                && sn == name
+            {
+                layers.push((
+                    format!("{name}.{}", program.components[*k as usize]),
+                    Some(*comp),
+                ));
+            }
+        }
+        for (layer, only) in layers {
+            for (ci, suf) in suffixes.iter().enumerate() {
+                let pred = |n: &str, c: Option<u8>| n == name && only.is_none_or(|o| o == c);
+                chans.push((format!("{layer}.{suf}"), channel(grid, slots, &pred, ci)));
+            }
+        }
+    }
+    chans
+}
+
+/// The summary line, the compile statistics and the GPU time split.
+fn summary(args: &ShadeArgs, s: &Shaded) {
+    let (w, h) = args.res;
+    let n = w as u64 * h as u64;
+    let secs = s.shade_time.as_secs_f64();
+    say!(
+        "shaded {w}x{h} = {n} fragments in {:.3} s ({:.2} M fragments/s, {} threads, {}, {}); load+compile {:.1} ms; {} ops; {} non-finite values zeroed",
+        secs,
+        n as f64 / secs / 1e6,
+        rayon::current_num_threads(),
+        match args.precision {
+            Precision::F32 => "f32",
+            Precision::F64 => "f64",
+        },
+        s.stats.as_ref().map_or("interp", |s| s.0),
+        s.load_time.as_secs_f64() * 1e3,
+        s.ops,
+        s.grid.nonfinite
+    );
+    if let Some((_, st)) = &s.stats {
+        say!("compile: {st}");
+    }
+    if let Some(t) = &s.gpu_split {
+        say!(
+            "gpu: upload {:.3} ms, kernels {:.3} ms, host {:.3} ms, readback {:.3} ms; {} passes dispatched",
+            ms(t.upload),
+            ms(t.kernels),
+            ms(t.host),
+            ms(t.readback),
+            t.passes
+        );
+    }
+    for p in &args.output {
+        say!("wrote {}", p.display());
+    }
+}
