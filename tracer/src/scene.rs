@@ -12,20 +12,17 @@ use crate::passes::{PassDef, PassKind, RayMatch, Rule, RuleAction};
 use glam::{DMat4, DVec3};
 use serde::Deserialize;
 use shadenet_graph::nodes::{LightDesc, LightKind};
+use shadenet_runtime::input::{self, FileKind, InputError};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// A scene that cannot be loaded.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
-    /// The scene file could not be read.
-    #[error("cannot read scene {}: {source}", path.display())]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        source: std::io::Error,
-    },
+    /// The scene file could not be read (missing, not a regular file, over the size limit
+    /// for text files, not UTF-8): the input gate's error says which, naming the file.
+    #[error(transparent)]
+    Input(#[from] InputError),
     /// The file is not valid TOML or not of the expected shape (the message names the key
     /// and its line).
     #[error("{}: {message}", path.display())]
@@ -527,12 +524,10 @@ pub struct Scene {
     pub background: [f64; 3],
 }
 
-/// Loads a scene file from disk.
+/// Loads a scene file from disk, through the bounded input gate (a regular file within the
+/// text limit, [`shadenet_runtime::input`]).
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let text = input::read_to_string(path, FileKind::Text)?;
     parse(&text, path)
 }
 
@@ -598,9 +593,31 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
             .map(Path::to_path_buf)
             .unwrap_or_else(|| PathBuf::from(".")),
     };
+    let camera = resolve_camera(&cx, &file.camera)?;
+    let materials = resolve_materials(&cx, &file.materials)?;
+    let (meshes, mesh_names) = resolve_meshes(&cx, &file.meshes)?;
+    let instances = resolve_instances(&cx, &file.instances, &mesh_names, &file.materials)?;
+    let Lights {
+        lights,
+        emitters,
+        background,
+    } = resolve_lights(&cx, &file.lights)?;
+    let settings = resolve_settings(&cx, &file.render)?;
+    Ok(Scene {
+        camera,
+        settings,
+        materials,
+        meshes,
+        mesh_names,
+        instances,
+        lights,
+        emitters,
+        background,
+    })
+}
 
-    // Camera.
-    let c = &file.camera;
+/// `[camera]`: a finite, non-degenerate frame, the field of view and the resolution.
+fn resolve_camera(cx: &Ctx, c: &CameraSpec) -> Result<CameraDesc, SceneError> {
     let position = cx.vec3("camera.position", c.position)?;
     let look_at = cx.vec3("camera.look_at", c.look_at)?;
     let up = cx.unit("camera.up", c.up)?;
@@ -620,18 +637,23 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
             "must be between [1, 1] and [16384, 16384]",
         ));
     }
-    let camera = CameraDesc {
+    Ok(CameraDesc {
         position,
         look_at,
         up,
         fov: c.fov.to_radians(),
         width,
         height,
-    };
+    })
+}
 
-    // Materials.
+/// `[materials]`: each one's network source and its `set` overrides.
+fn resolve_materials(
+    cx: &Ctx,
+    specs: &BTreeMap<String, MaterialSpec>,
+) -> Result<Vec<MaterialRef>, SceneError> {
     let mut materials = Vec::new();
-    for (name, m) in &file.materials {
+    for (name, m) in specs {
         let key = format!("materials.{name}");
         let source = match (&m.network, &m.inline, &m.json) {
             (Some(f), None, None) => MaterialSource::File(cx.file(f)),
@@ -656,7 +678,7 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
             let Some((node, input)) = target.rsplit_once('.') else {
                 return Err(cx.invalid(k, "expected \"node.input\""));
             };
-            check_toml_finite(&cx, &k, value)?;
+            check_toml_finite(cx, &k, value)?;
             let v = serde_json::to_value(value).map_err(|e| cx.invalid(&k, e.to_string()))?;
             overrides.push((node.to_string(), input.to_string(), v));
         }
@@ -666,11 +688,17 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
             overrides,
         });
     }
+    Ok(materials)
+}
 
-    // Meshes.
+/// `[meshes]`: the built-in shapes and the loaded files, with their names.
+fn resolve_meshes(
+    cx: &Ctx,
+    specs: &BTreeMap<String, MeshSpec>,
+) -> Result<(Vec<Mesh>, Vec<String>), SceneError> {
     let mut meshes = Vec::new();
     let mut mesh_names = Vec::new();
-    for (name, m) in &file.meshes {
+    for (name, m) in specs {
         let key = format!("meshes.{name}");
         let mesh = match m {
             MeshSpec::Box {} => geometry::unit_box(),
@@ -689,7 +717,7 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
                     geometry::load_gltf(&p)
                 };
                 loaded.map_err(|message| SceneError::Mesh {
-                    path: path.to_path_buf(),
+                    path: cx.path.to_path_buf(),
                     key: format!("{key}.file"),
                     file: p.clone(),
                     message,
@@ -699,11 +727,19 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
         meshes.push(mesh);
         mesh_names.push(name.clone());
     }
+    Ok((meshes, mesh_names))
+}
 
-    // Instances.
-    let mat_names: Vec<&String> = file.materials.keys().collect();
+/// `[[instances]]`: mesh and material references and the transforms.
+fn resolve_instances(
+    cx: &Ctx,
+    specs: &[InstanceSpec],
+    mesh_names: &[String],
+    materials: &BTreeMap<String, MaterialSpec>,
+) -> Result<Vec<Instance>, SceneError> {
+    let mat_names: Vec<&String> = materials.keys().collect();
     let mut instances = Vec::new();
-    for (i, inst) in file.instances.iter().enumerate() {
+    for (i, inst) in specs.iter().enumerate() {
         let key = format!("instances[{i}]");
         let mesh = mesh_names
             .iter()
@@ -731,7 +767,7 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
                     ),
                 )
             })?;
-        let transform = instance_transform(&cx, &key, inst)?;
+        let transform = instance_transform(cx, &key, inst)?;
         instances.push(Instance {
             name: inst
                 .name
@@ -742,13 +778,24 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
             transform,
         });
     }
+    Ok(instances)
+}
 
-    // Lights.
+/// The scene's lights in runtime form, the faces of visible quad lights and the
+/// environment's radiance.
+struct Lights {
+    lights: Vec<LightDesc>,
+    emitters: Vec<Emitter>,
+    background: [f64; 3],
+}
+
+/// `[[lights]]`.
+fn resolve_lights(cx: &Ctx, specs: &[LightSpec]) -> Result<Lights, SceneError> {
     let mut lights = Vec::new();
     let mut emitters = Vec::new();
     let mut quads = Vec::new();
     let mut background = [0.0; 3];
-    for (i, l) in file.lights.iter().enumerate() {
+    for (i, l) in specs.iter().enumerate() {
         let key = format!("lights[{i}]");
         let power = |intensity: f64, color: [f64; 3]| -> Result<[f64; 3], SceneError> {
             cx.finite(&format!("{key}.intensity"), &[intensity])?;
@@ -860,15 +907,7 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
             });
         }
     }
-
-    let settings = resolve_settings(&cx, &file.render)?;
-    Ok(Scene {
-        camera,
-        settings,
-        materials,
-        meshes,
-        mesh_names,
-        instances,
+    Ok(Lights {
         lights,
         emitters,
         background,
@@ -1078,6 +1117,27 @@ mod tests {
             assert!(e.contains(want), "{extra}: `{want}` not in {e}");
             assert!(e.starts_with("s.toml"), "{e}");
         }
+    }
+
+    /// The chain as the CLI prints it: outermost first, joined by ": ".
+    fn chain(e: &dyn std::error::Error) -> String {
+        let mut msg = e.to_string();
+        let mut cause = e.source();
+        while let Some(c) = cause {
+            msg = format!("{msg}: {c}");
+            cause = c.source();
+        }
+        msg
+    }
+
+    /// Each level says its own part once (the cause used to be printed twice).
+    #[test]
+    fn a_missing_scene_says_why_once() {
+        let e = load(Path::new("nonexist.toml")).unwrap_err();
+        assert_eq!(
+            chain(&e),
+            "cannot read nonexist.toml: No such file or directory (os error 2)"
+        );
     }
 
     #[test]
