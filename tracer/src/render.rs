@@ -86,6 +86,19 @@ pub enum RenderError {
     /// A pass or rule names an unknown component.
     #[error("{0}")]
     Pass(String),
+    /// An instance's transformed vertices are not finite or lie beyond the supported
+    /// coordinate range (a scene built by hand; a loaded scene is checked with its keys).
+    #[error(
+        "instance `{instance}`: {triangles} triangle(s) have a vertex that is not finite or \
+         lies outside the supported coordinate range ±{:e}",
+        crate::geometry::MAX_COORDINATE
+    )]
+    Geometry {
+        /// The first instance concerned.
+        instance: String,
+        /// Triangles left out, over all instances.
+        triangles: usize,
+    },
 }
 
 /// What the render did, for the end summary.
@@ -524,6 +537,12 @@ impl Renderer {
         let mut stats = RenderStats::default();
         let t = Instant::now();
         let accel = Accel::build(&scene.meshes, &scene.instances);
+        if let Some((i, triangles)) = accel.rejected() {
+            return Err(RenderError::Geometry {
+                instance: scene.instances[i as usize].name.clone(),
+                triangles,
+            });
+        }
         stats.bvh_time = t.elapsed();
         stats.triangles = accel.triangle_count();
 
