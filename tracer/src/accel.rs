@@ -16,7 +16,7 @@
 //!   rays start at `t = 0`. The hit point is computed from barycentrics, not from `o + t·d`,
 //!   which keeps it within a few ulps of the surface.
 
-use crate::geometry::Mesh;
+use crate::geometry::{MAX_COORDINATE, Mesh};
 use crate::scene::Instance;
 use glam::{DVec3, Vec2, Vec3, Vec3A};
 use obvhs::cwbvh::CwBvh;
@@ -36,6 +36,8 @@ pub struct Accel {
     bvh: Option<CwBvh>,
     tris: Vec<Triangle>,
     attrs: Vec<TriAttr>,
+    /// The first instance with triangles left out of the BVH, and how many in all.
+    rejected: Option<(u32, usize)>,
 }
 
 impl std::fmt::Debug for Accel {
@@ -74,6 +76,11 @@ pub struct Surface {
     pub dpdv: Vec3,
     /// Index into the scene's instances.
     pub instance: u32,
+}
+
+/// Whether obvhs can hold a vertex: finite and within ±[`MAX_COORDINATE`].
+fn in_range(p: Vec3) -> bool {
+    p.is_finite() && f64::from(p.abs().max_element()) <= MAX_COORDINATE
 }
 
 /// Moves `p` off the surface with unit geometric normal `n`, to the side `n` points to
@@ -170,10 +177,12 @@ impl Sheared {
 }
 
 impl Accel {
-    /// Transforms every instance's mesh into world space and builds the BVH.
+    /// Transforms every instance's mesh into world space and builds the BVH of the
+    /// triangles it can hold ([`Accel::rejected`] reports the others).
     pub fn build(meshes: &[Mesh], instances: &[Instance]) -> Accel {
         let mut tris = Vec::new();
         let mut attrs = Vec::new();
+        let mut rejected = None;
         for (ii, inst) in instances.iter().enumerate() {
             let Some(mesh) = meshes.get(inst.mesh) else {
                 continue;
@@ -199,6 +208,22 @@ impl Accel {
                 // A mirroring transform reverses the winding: swap to keep the front.
                 let t = if flip { [t[0], t[2], t[1]] } else { *t };
                 let [i0, i1, i2] = t.map(|i| i as usize);
+                // The BVH never sees what it cannot hold (docs/obvhs-defect.md): a vertex
+                // that is not finite or lies beyond the supported range is left out and
+                // reported (a loaded scene has been checked: this only guards scenes built
+                // by hand).
+                if ![i0, i1, i2].iter().all(|&i| in_range(pos[i])) {
+                    let r = rejected.get_or_insert((ii as u32, 0));
+                    r.1 += 1;
+                    continue;
+                }
+                // A triangle without area cannot be hit (the watertight test finds a zero
+                // determinant), and many of them in one place make obvhs build a BVH deeper
+                // than its traversal stack (docs/obvhs-defect.md): leave them out.
+                let [a, b, c] = [i0, i1, i2].map(|i| pos[i].as_dvec3());
+                if (b - a).cross(c - a) == DVec3::ZERO {
+                    continue;
+                }
                 tris.push(Triangle {
                     v0: pos[i0].into(),
                     v1: pos[i1].into(),
@@ -221,7 +246,19 @@ impl Accel {
                 &mut std::time::Duration::default(),
             )
         });
-        Accel { bvh, tris, attrs }
+        Accel {
+            bvh,
+            tris,
+            attrs,
+            rejected,
+        }
+    }
+
+    /// Triangles [`Accel::build`] left out because a vertex was not finite or lay beyond
+    /// [`MAX_COORDINATE`] after its transform: the first such instance's index and the
+    /// count over all instances; `None` when every triangle is in the BVH.
+    pub fn rejected(&self) -> Option<(u32, usize)> {
+        self.rejected
     }
 
     /// The instance a triangle belongs to.

@@ -5,9 +5,21 @@
 //! differentials are Igehy's (1999) exact derivatives of the normalized direction with
 //! respect to the pixel coordinates; the origin does not move.
 
-use crate::render::RayDiffs;
 use crate::scene::CameraDesc;
 use glam::Vec3;
+
+/// Ray differentials as derivatives of origin and direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayDiffs {
+    /// ∂O/∂x.
+    pub dodx: Vec3,
+    /// ∂D/∂x.
+    pub dddx: Vec3,
+    /// ∂O/∂y.
+    pub dody: Vec3,
+    /// ∂D/∂y.
+    pub dddy: Vec3,
+}
 
 /// A camera ray.
 #[derive(Clone, Copy, Debug, PartialEq)]

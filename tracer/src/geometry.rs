@@ -7,7 +7,15 @@
 //! outward geometric normal of the built-in shapes.
 
 use glam::{DMat4, DVec3, Mat4, Vec3};
-use std::path::Path;
+use shadenet_runtime::input::{self, FileKind};
+use std::path::{Path, PathBuf};
+
+/// The supported coordinate range: every vertex, in object space and after its instance's
+/// transform, every camera point and every light position lies within ±this. It keeps the
+/// BVH builder's f32 arithmetic finite (obvhs 0.4 panics on boxes whose surface areas
+/// overflow: `docs/obvhs-defect.md`); `docs/scene-format.md` ("Coordinates") says how it
+/// was chosen.
+pub const MAX_COORDINATE: f64 = 1e13;
 
 /// A triangle mesh in object space.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -57,6 +65,16 @@ impl Mesh {
         }
         if self.positions.iter().flatten().any(|x| !x.is_finite()) {
             return Err("a vertex position is not finite".into());
+        }
+        if let Some(x) = self
+            .positions
+            .iter()
+            .flatten()
+            .find(|x| f64::from(x.abs()) > MAX_COORDINATE)
+        {
+            return Err(format!(
+                "a vertex coordinate, {x:e}, is outside the supported range ±{MAX_COORDINATE:e}"
+            ));
         }
         Ok(self)
     }
@@ -156,7 +174,14 @@ pub fn load_obj(path: &Path) -> Result<Mesh, String> {
         ignore_points: true,
         ignore_lines: true,
     };
-    let (models, _materials) = tobj::load_obj(path, &opts).map_err(|e| e.to_string())?;
+    // Through the input gate: a regular file within the mesh limit, read bounded. Material
+    // libraries are not read (the scene assigns materials), so a `mtllib` line cannot make
+    // tobj open a device or a huge file either.
+    let bytes = input::read(path, FileKind::Mesh).map_err(|e| chain(&e))?;
+    let (models, _materials) = tobj::load_obj_buf(&mut &bytes[..], &opts, |_| {
+        Ok((Vec::new(), Default::default()))
+    })
+    .map_err(|e| e.to_string())?;
     let mut out = Mesh::default();
     let mut all_normals = true;
     let mut all_uvs = true;
@@ -201,10 +226,13 @@ pub fn load_gltf(path: &Path) -> Result<Mesh, String> {
         return Err("no such file".into());
     }
     // Only the buffers: a missing or undecodable texture image must not stop the geometry.
+    // The file and every external buffer pass the input gate first.
+    let bytes = input::read(path, FileKind::Mesh).map_err(|e| chain(&e))?;
     let gltf::Gltf {
         document: doc,
         blob,
-    } = gltf::Gltf::open(path).map_err(|e| e.to_string())?;
+    } = gltf::Gltf::from_slice(&bytes).map_err(|e| e.to_string())?;
+    check_gltf_buffers(&doc, path)?;
     let buffers = gltf::import_buffers(&doc, path.parent(), blob).map_err(|e| e.to_string())?;
     let scene = doc
         .default_scene()
@@ -217,6 +245,13 @@ pub fn load_gltf(path: &Path) -> Result<Mesh, String> {
     while let Some((node, parent)) = stack.pop() {
         let local = Mat4::from_cols_array_2d(&node.transform().matrix()).as_dmat4();
         let m = parent * local;
+        if !m.is_finite() {
+            // A number beyond f32 in the file (gltf reads f32) or a product overflowing.
+            return Err(format!(
+                "node {}: its transform (with its parents') is not finite",
+                node.index()
+            ));
+        }
         for child in node.children() {
             stack.push((child, m));
         }
@@ -282,6 +317,69 @@ pub fn load_gltf(path: &Path) -> Result<Mesh, String> {
     out.normals = normals_ok.then_some(normals_all);
     out.uvs = uvs_ok.then_some(uvs_all);
     out.check()
+}
+
+/// An input error with its causes, as one message (the scene's mesh error is the level
+/// above it and prints it once).
+fn chain(e: &dyn std::error::Error) -> String {
+    let mut msg = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        msg = format!("{msg}: {c}");
+        cause = c.source();
+    }
+    msg
+}
+
+/// Checks every external buffer of a glTF document with the input gate, resolving its URI
+/// as `gltf::import_buffers` does (relative to the file, percent-decoded; `file:` URIs as
+/// given). A relative URI that does not decode to UTF-8 is an error here: gltf 1.4 would
+/// panic on it (`urlencoding::decode(uri).unwrap()`).
+fn check_gltf_buffers(doc: &gltf::Document, path: &Path) -> Result<(), String> {
+    let base = path.parent().unwrap_or(Path::new("."));
+    for buffer in doc.buffers() {
+        let gltf::buffer::Source::Uri(uri) = buffer.source() else {
+            continue;
+        };
+        let file = if let Some(rest) = uri.strip_prefix("file://").or(uri.strip_prefix("file:")) {
+            PathBuf::from(rest)
+        } else if uri.contains(':') {
+            continue; // data: URIs (inside the checked file) and schemes gltf rejects
+        } else {
+            let decoded = percent_decode(uri).ok_or_else(|| {
+                format!(
+                    "buffer {}: the URI `{uri}` is not valid percent-encoded UTF-8",
+                    buffer.index()
+                )
+            })?;
+            base.join(decoded)
+        };
+        input::check(&file, FileKind::Mesh)
+            .map_err(|e| format!("buffer {}: {}", buffer.index(), chain(&e)))?;
+    }
+    Ok(())
+}
+
+/// `%XX` escapes decoded (a malformed one kept as written, as `urlencoding` does); `None`
+/// when the result is not UTF-8.
+fn percent_decode(s: &str) -> Option<String> {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        let escape = b
+            .get(i + 1..i + 3)
+            .filter(|h| h.iter().all(u8::is_ascii_hexdigit))
+            .and_then(|h| u8::from_str_radix(std::str::from_utf8(h).ok()?, 16).ok());
+        if let (b'%', Some(x)) = (b[i], escape) {
+            out.push(x);
+            i += 3;
+        } else {
+            out.push(b[i]);
+            i += 1;
+        }
+    }
+    String::from_utf8(out).ok()
 }
 
 #[cfg(test)]

@@ -12,6 +12,7 @@
 //! slope 1 at the knee, approaching 1), scaling the pixel's RGB by the same factor so hues
 //! survive; channels are then clamped to [0, 1] and encoded with the sRGB transfer function.
 
+use shadenet_runtime::input::{self, FileKind, InputError};
 use std::path::{Path, PathBuf};
 
 /// An image that could not be written.
@@ -34,7 +35,11 @@ pub enum OutputError {
     /// The pixels do not match the image size, or there is nothing to write.
     #[error("{0}")]
     Shape(String),
-    /// Reading an image failed (missing file, not an EXR, no f32 samples).
+    /// The image file cannot be read as input (missing, not a regular file, over the
+    /// image size limit).
+    #[error(transparent)]
+    Input(#[from] InputError),
+    /// Reading an image failed (not an EXR, no f32 samples).
     #[error("cannot read {}: {message}", path.display())]
     Read {
         /// The file.
@@ -186,14 +191,24 @@ pub struct ExrImage {
     pub channels: Vec<Channel>,
 }
 
-/// Reads the first part of an EXR file, every channel as f32.
+/// Reads the first part of an EXR file, every channel as f32, through the bounded input
+/// gate ([`shadenet_runtime::input`]).
 pub fn read_exr(path: &Path) -> Result<ExrImage, OutputError> {
     let err = |message: String| OutputError::Read {
         path: path.to_path_buf(),
         message,
     };
-    let image =
-        exr::prelude::read_first_flat_layer_from_file(path).map_err(|e| err(e.to_string()))?;
+    // Through the input gate: a regular file within the image limit, read bounded.
+    let bytes = input::read(path, FileKind::Image)?;
+    use exr::prelude::{ReadChannels, ReadLayers};
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(std::io::Cursor::new(bytes))
+        .map_err(|e| err(e.to_string()))?;
     let size = image.layer_data.size;
     let mut channels: Vec<Channel> = image
         .layer_data
@@ -375,6 +390,29 @@ mod tests {
         // A missing file names the file.
         let e = read_exr(&dir.join("missing.exr")).unwrap_err().to_string();
         assert!(e.contains("missing.exr"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// EXR reads go through the input gate: a device or an oversized file is refused before
+    /// exr sees it.
+    #[cfg(unix)]
+    #[test]
+    fn exr_reads_refuse_devices_and_oversized_files() {
+        let e = read_exr(Path::new("/dev/zero")).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "/dev/zero: not a regular file (a character device); image input must be a regular file"
+        );
+        let dir = std::env::temp_dir().join(format!("shadenet-exr-big-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let big = dir.join("big.exr");
+        let f = std::fs::File::create(&big).unwrap();
+        f.set_len(FileKind::Image.default_limit() + 1).unwrap();
+        let e = read_exr(&big).unwrap_err().to_string();
+        assert!(
+            e.contains("over the 1073741824-byte limit for image files"),
+            "{e}"
+        );
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

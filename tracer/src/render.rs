@@ -41,12 +41,15 @@
 
 use crate::accel::{Accel, Hit, orthonormal};
 use crate::camera::Camera;
+/// The ray differentials live with the camera that starts them; re-exported here, where
+/// secondary rays carry them on.
+pub use crate::camera::RayDiffs;
 use crate::film::{Film, Layer};
 use crate::passes::{
     Components, KNOWN_COMPONENTS, OverrideKind, PassKind, RayMatch, RuleAction, action_for,
     program_mask,
 };
-use crate::scene::{Emitter, Scene};
+use crate::scene::{Emitter, Scene, Settings};
 use crate::shader::{Shader, ShaderBackend};
 use glam::{DMat4, Vec3};
 use rayon::prelude::*;
@@ -83,6 +86,19 @@ pub enum RenderError {
     /// A pass or rule names an unknown component.
     #[error("{0}")]
     Pass(String),
+    /// An instance's transformed vertices are not finite or lie beyond the supported
+    /// coordinate range (a scene built by hand; a loaded scene is checked with its keys).
+    #[error(
+        "instance `{instance}`: {triangles} triangle(s) have a vertex that is not finite or \
+         lies outside the supported coordinate range ±{:e}",
+        crate::geometry::MAX_COORDINATE
+    )]
+    Geometry {
+        /// The first instance concerned.
+        instance: String,
+        /// Triangles left out, over all instances.
+        triangles: usize,
+    },
 }
 
 /// What the render did, for the end summary.
@@ -287,6 +303,216 @@ impl std::fmt::Debug for Renderer {
     }
 }
 
+/// The scene's render components: those the programs produce, then those the passes name
+/// (an unknown name is an error; a known one no material has, a warning), then `emission`.
+/// Returns them, the index of `emission` and the warnings.
+fn scene_components(
+    scene: &Scene,
+    programs: &[Program],
+) -> Result<(Components, usize, Vec<String>), RenderError> {
+    let mut components = Components::of(&programs.iter().collect::<Vec<_>>());
+    let mut warnings = Vec::new();
+    let check = |name: &str, what: &str, comps: &Components, warnings: &mut Vec<String>| {
+        if comps.index(name).is_some() {
+            Ok(())
+        } else if KNOWN_COMPONENTS.contains(&name) {
+            warnings.push(format!(
+                "{what}: no material of this scene has the component `{name}`; its layer is black"
+            ));
+            Ok(())
+        } else {
+            Err(RenderError::Pass(format!(
+                "{what}: unknown render component `{name}` (the scene's materials have: {}; known: {})",
+                if comps.names.is_empty() {
+                    "none".to_string()
+                } else {
+                    comps.names.join(", ")
+                },
+                KNOWN_COMPONENTS.join(", ")
+            )))
+        }
+    };
+    for p in &scene.settings.passes {
+        if let PassKind::Components(c) = &p.kind {
+            for n in c {
+                check(n, &format!("pass `{}`", p.name), &components, &mut warnings)?;
+            }
+        }
+    }
+    for (i, r) in scene.settings.rules.iter().enumerate() {
+        if let RuleAction::Components(c) = &r.action {
+            for n in c {
+                check(n, &format!("rule {i}"), &components, &mut warnings)?;
+            }
+        }
+    }
+    for p in &scene.settings.passes {
+        if let PassKind::Components(c) = &p.kind {
+            for n in c {
+                components.intern(n);
+            }
+        }
+    }
+    let emission = components.intern("emission");
+    Ok((components, emission, warnings))
+}
+
+/// The distinct rule actions over (ray type, depth), each with the ray types it serves,
+/// and `table[ray type][depth]`: what hits compute.
+fn action_table(s: &Settings) -> (Vec<(RuleAction, u32)>, Vec<Vec<Action>>) {
+    let max_depth = s
+        .max_reflection_depth
+        .max(s.max_refraction_depth)
+        .max(s.max_diffuse_depth);
+    let mut actions: Vec<(RuleAction, u32)> = Vec::new(); // (action, ray types)
+    let mut table = Vec::new();
+    for ray in RayMatch::ALL {
+        let mut row = Vec::new();
+        for depth in 0..=max_depth + 1 {
+            let a = action_for(&s.rules, ray, depth);
+            let act = match a {
+                RuleAction::Override(o) => Action::Override(*o),
+                a => {
+                    let i = match actions.iter().position(|(b, _)| b == a) {
+                        Some(i) => i,
+                        None => {
+                            actions.push((a.clone(), 0));
+                            actions.len() - 1
+                        }
+                    };
+                    actions[i].1 |= ray.code() as u32;
+                    Action::Material(i)
+                }
+            };
+            row.push(act);
+        }
+        table.push(row);
+    }
+    (actions, table)
+}
+
+/// `shaders[material][action]`: each material specialized once per distinct component mask
+/// the actions produce (seeing the ray types of every action that produces it) and
+/// compiled.
+fn compile_materials(
+    scene: &Scene,
+    programs: &[Program],
+    actions: &[(RuleAction, u32)],
+    backend: &dyn ShaderBackend,
+    components: &Components,
+    stats: &mut RenderStats,
+    differentials: &mut bool,
+) -> Result<Vec<Vec<Specialized>>, RenderError> {
+    let mut shaders = Vec::new();
+    for (m, program) in scene.materials.iter().zip(programs) {
+        // One specialization per distinct mask, seeing the ray types of every action
+        // that produces it.
+        let masks: Vec<u32> = actions
+            .iter()
+            .map(|(a, _)| program_mask(program, a))
+            .collect();
+        let mut compiled: Vec<(u32, Specialized)> = Vec::new();
+        for &mask in &masks {
+            if compiled.iter().any(|(k, _)| *k == mask) {
+                continue;
+            }
+            let rays = masks
+                .iter()
+                .zip(actions)
+                .filter(|(k, _)| **k == mask)
+                .fold(0, |r, (_, (_, rt))| r | rt);
+            let spec = Specialization {
+                components: mask,
+                ray_types: rays,
+                ..Specialization::default()
+            };
+            let (p, report) = opt::run(program, &spec);
+            let sp = Specialized::new(&p, mask, &report.needs, backend, components, &m.name)?;
+            *differentials |= sp.differentials;
+            stats.shaders += 1;
+            compiled.push((mask, sp));
+        }
+        let per = masks
+            .iter()
+            .filter_map(|mask| {
+                compiled
+                    .iter()
+                    .find(|(k, _)| k == mask)
+                    .map(|(_, sp)| sp.clone())
+            })
+            .collect();
+        shaders.push(per);
+    }
+    Ok(shaders)
+}
+
+/// The override shaders the passes and the rules use, compiled.
+fn compile_overrides(
+    s: &Settings,
+    table: &[Vec<Action>],
+    backend: &dyn ShaderBackend,
+    components: &Components,
+    stats: &mut RenderStats,
+    differentials: &mut bool,
+) -> Result<Vec<(OverrideKind, Specialized)>, RenderError> {
+    let mut kinds: Vec<OverrideKind> = s
+        .passes
+        .iter()
+        .filter_map(|p| match p.kind {
+            PassKind::Override(o) => Some(o),
+            _ => None,
+        })
+        .collect();
+    for row in table {
+        for a in row {
+            if let Action::Override(o) = a {
+                kinds.push(*o);
+            }
+        }
+    }
+    kinds.sort();
+    kinds.dedup();
+    let mut overrides = Vec::new();
+    for kind in kinds {
+        let name = format!("override:{}", kind.name());
+        let p = kind
+            .program(s.occlusion_samples, s.occlusion_distance)
+            .map_err(|message| RenderError::Compile {
+                material: name.clone(),
+                message,
+            })?;
+        let needs = opt::needs::analyze(&p);
+        let sp = Specialized::new(&p, u32::MAX, &needs, backend, components, &name)?;
+        *differentials |= sp.differentials;
+        stats.shaders += 1;
+        overrides.push((kind, sp));
+    }
+    Ok(overrides)
+}
+
+/// Per instance, the shading environment: the lights, the camera and the object transform.
+fn shade_envs(scene: &Scene) -> Vec<ShadeEnv> {
+    let cam_t = Transform::look_at(
+        scene.camera.position.to_array(),
+        scene.camera.look_at.to_array(),
+        scene.camera.up.to_array(),
+    )
+    .unwrap_or(Transform::IDENTITY);
+    let base = ShadeEnv {
+        camera: cam_t,
+        ..ShadeEnv::with_lights(&scene.lights)
+    };
+    scene
+        .instances
+        .iter()
+        .map(|inst| ShadeEnv {
+            object: Transform::new(row_major(inst.transform.inverse()))
+                .unwrap_or(Transform::IDENTITY),
+            ..base.clone()
+        })
+        .collect()
+}
+
 fn row_major(m: DMat4) -> [f64; 16] {
     m.transpose().to_cols_array()
 }
@@ -311,181 +537,41 @@ impl Renderer {
         let mut stats = RenderStats::default();
         let t = Instant::now();
         let accel = Accel::build(&scene.meshes, &scene.instances);
+        if let Some((i, triangles)) = accel.rejected() {
+            return Err(RenderError::Geometry {
+                instance: scene.instances[i as usize].name.clone(),
+                triangles,
+            });
+        }
         stats.bvh_time = t.elapsed();
         stats.triangles = accel.triangle_count();
 
         let t = Instant::now();
-        let mut components = Components::of(&programs.iter().collect::<Vec<_>>());
-        let mut warnings = Vec::new();
-        let check = |name: &str, what: &str, comps: &Components, warnings: &mut Vec<String>| {
-            if comps.index(name).is_some() {
-                Ok(())
-            } else if KNOWN_COMPONENTS.contains(&name) {
-                warnings.push(format!(
-                    "{what}: no material of this scene has the component `{name}`; its layer is black"
-                ));
-                Ok(())
-            } else {
-                Err(RenderError::Pass(format!(
-                    "{what}: unknown render component `{name}` (the scene's materials have: {}; known: {})",
-                    if comps.names.is_empty() {
-                        "none".to_string()
-                    } else {
-                        comps.names.join(", ")
-                    },
-                    KNOWN_COMPONENTS.join(", ")
-                )))
-            }
-        };
-        for p in &scene.settings.passes {
-            if let PassKind::Components(c) = &p.kind {
-                for n in c {
-                    check(n, &format!("pass `{}`", p.name), &components, &mut warnings)?;
-                }
-            }
-        }
-        for (i, r) in scene.settings.rules.iter().enumerate() {
-            if let RuleAction::Components(c) = &r.action {
-                for n in c {
-                    check(n, &format!("rule {i}"), &components, &mut warnings)?;
-                }
-            }
-        }
-        for p in &scene.settings.passes {
-            if let PassKind::Components(c) = &p.kind {
-                for n in c {
-                    components.intern(n);
-                }
-            }
-        }
-        let emission = components.intern("emission");
-
-        // Distinct actions over (ray type, depth).
+        let (components, emission, warnings) = scene_components(&scene, &programs)?;
         let s = &scene.settings;
-        let max_depth = s
-            .max_reflection_depth
-            .max(s.max_refraction_depth)
-            .max(s.max_diffuse_depth);
-        let mut actions: Vec<(RuleAction, u32)> = Vec::new(); // (action, ray types)
-        let mut table = Vec::new();
-        for ray in RayMatch::ALL {
-            let mut row = Vec::new();
-            for depth in 0..=max_depth + 1 {
-                let a = action_for(&s.rules, ray, depth);
-                let act = match a {
-                    RuleAction::Override(o) => Action::Override(*o),
-                    a => {
-                        let i = match actions.iter().position(|(b, _)| b == a) {
-                            Some(i) => i,
-                            None => {
-                                actions.push((a.clone(), 0));
-                                actions.len() - 1
-                            }
-                        };
-                        actions[i].1 |= ray.code() as u32;
-                        Action::Material(i)
-                    }
-                };
-                row.push(act);
-            }
-            table.push(row);
-        }
-
-        let mut shaders = Vec::new();
+        let (actions, table) = action_table(s);
         let mut differentials = false;
-        for (m, program) in scene.materials.iter().zip(&programs) {
-            // One specialization per distinct mask, seeing the ray types of every action
-            // that produces it.
-            let masks: Vec<u32> = actions
-                .iter()
-                .map(|(a, _)| program_mask(program, a))
-                .collect();
-            let mut compiled: Vec<(u32, Specialized)> = Vec::new();
-            for &mask in &masks {
-                if compiled.iter().any(|(k, _)| *k == mask) {
-                    continue;
-                }
-                let rays = masks
-                    .iter()
-                    .zip(&actions)
-                    .filter(|(k, _)| **k == mask)
-                    .fold(0, |r, (_, (_, rt))| r | rt);
-                let spec = Specialization {
-                    components: mask,
-                    ray_types: rays,
-                    ..Specialization::default()
-                };
-                let (p, report) = opt::run(program, &spec);
-                let sp = Specialized::new(&p, mask, &report.needs, backend, &components, &m.name)?;
-                differentials |= sp.differentials;
-                stats.shaders += 1;
-                compiled.push((mask, sp));
-            }
-            let per = masks
-                .iter()
-                .filter_map(|mask| {
-                    compiled
-                        .iter()
-                        .find(|(k, _)| k == mask)
-                        .map(|(_, sp)| sp.clone())
-                })
-                .collect();
-            shaders.push(per);
-        }
-        let mut kinds: Vec<OverrideKind> = s
-            .passes
-            .iter()
-            .filter_map(|p| match p.kind {
-                PassKind::Override(o) => Some(o),
-                _ => None,
-            })
-            .collect();
-        for row in &table {
-            for a in row {
-                if let Action::Override(o) = a {
-                    kinds.push(*o);
-                }
-            }
-        }
-        kinds.sort();
-        kinds.dedup();
-        let mut overrides = Vec::new();
-        for kind in kinds {
-            let name = format!("override:{}", kind.name());
-            let p = kind
-                .program(s.occlusion_samples, s.occlusion_distance)
-                .map_err(|message| RenderError::Compile {
-                    material: name.clone(),
-                    message,
-                })?;
-            let needs = opt::needs::analyze(&p);
-            let sp = Specialized::new(&p, u32::MAX, &needs, backend, &components, &name)?;
-            differentials |= sp.differentials;
-            stats.shaders += 1;
-            overrides.push((kind, sp));
-        }
+        let shaders = compile_materials(
+            &scene,
+            &programs,
+            &actions,
+            backend,
+            &components,
+            &mut stats,
+            &mut differentials,
+        )?;
+        let overrides = compile_overrides(
+            s,
+            &table,
+            backend,
+            &components,
+            &mut stats,
+            &mut differentials,
+        )?;
         stats.compile_time = t.elapsed();
 
         let camera = Camera::new(&scene.camera);
-        let cam_t = Transform::look_at(
-            scene.camera.position.to_array(),
-            scene.camera.look_at.to_array(),
-            scene.camera.up.to_array(),
-        )
-        .unwrap_or(Transform::IDENTITY);
-        let base = ShadeEnv {
-            camera: cam_t,
-            ..ShadeEnv::with_lights(&scene.lights)
-        };
-        let envs = scene
-            .instances
-            .iter()
-            .map(|inst| ShadeEnv {
-                object: Transform::new(row_major(inst.transform.inverse()))
-                    .unwrap_or(Transform::IDENTITY),
-                ..base.clone()
-            })
-            .collect();
+        let envs = shade_envs(&scene);
         Ok(Renderer {
             scene,
             camera,
@@ -1365,19 +1451,6 @@ enum Found {
     Miss,
     Emitter([f32; 3]),
     Surface(Hit),
-}
-
-/// Ray differentials as derivatives of origin and direction.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RayDiffs {
-    /// ∂O/∂x.
-    pub dodx: Vec3,
-    /// ∂D/∂x.
-    pub dddx: Vec3,
-    /// ∂O/∂y.
-    pub dody: Vec3,
-    /// ∂D/∂y.
-    pub dddy: Vec3,
 }
 
 #[derive(Clone, Copy, Debug)]

@@ -12,20 +12,17 @@ use crate::passes::{PassDef, PassKind, RayMatch, Rule, RuleAction};
 use glam::{DMat4, DVec3};
 use serde::Deserialize;
 use shadenet_graph::nodes::{LightDesc, LightKind};
+use shadenet_runtime::input::{self, FileKind, InputError};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// A scene that cannot be loaded.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
-    /// The scene file could not be read.
-    #[error("cannot read scene {}: {source}", path.display())]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        source: std::io::Error,
-    },
+    /// The scene file could not be read (missing, not a regular file, over the size limit
+    /// for text files, not UTF-8): the input gate's error says which, naming the file.
+    #[error(transparent)]
+    Input(#[from] InputError),
     /// The file is not valid TOML or not of the expected shape (the message names the key
     /// and its line).
     #[error("{}: {message}", path.display())]
@@ -57,6 +54,38 @@ pub enum SceneError {
         /// Why.
         message: String,
     },
+}
+
+// ---------------------------------------------------------------------------------------
+// Ranges (docs/scene-format.md lists each; a value beyond its range is an error naming the
+// key, never clamped)
+// ---------------------------------------------------------------------------------------
+
+pub use crate::geometry::MAX_COORDINATE;
+
+/// `render.spp`: 1 to this.
+pub const MAX_SPP: u32 = 1 << 16;
+/// `render.max_*_depth` and the rules' `depth`/`min_depth`/`max_depth`: 0 to this.
+pub const MAX_DEPTH: u32 = 64;
+/// `render.tile_size`: 1 to this.
+pub const MAX_TILE_SIZE: u32 = 1024;
+/// `render.occlusion_samples`: 1 to this.
+pub const MAX_OCCLUSION_SAMPLES: u32 = 1 << 16;
+/// `camera.resolution`: each side 1 to this.
+pub const MAX_RESOLUTION: u32 = 16384;
+/// A sphere's `segments`: 3 to this.
+pub const MAX_SEGMENTS: u32 = 4096;
+
+/// The message for a coordinate beyond [`MAX_COORDINATE`].
+fn out_of_range(x: f64) -> String {
+    format!("{x:e} is {}", beyond_range())
+}
+
+fn beyond_range() -> String {
+    format!(
+        "outside the supported coordinate range ±{MAX_COORDINATE:e} \
+         (docs/scene-format.md, \"Coordinates\")"
+    )
 }
 
 // ---------------------------------------------------------------------------------------
@@ -527,12 +556,10 @@ pub struct Scene {
     pub background: [f64; 3],
 }
 
-/// Loads a scene file from disk.
+/// Loads a scene file from disk, through the bounded input gate (a regular file within the
+/// text limit, [`shadenet_runtime::input`]).
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let text = input::read_to_string(path, FileKind::Text)?;
     parse(&text, path)
 }
 
@@ -580,6 +607,24 @@ impl Ctx<'_> {
         Ok(d.normalize())
     }
 
+    /// A point of the world: finite and within the supported coordinate range.
+    fn point(&self, key: &str, v: [f64; 3]) -> Result<DVec3, SceneError> {
+        let p = self.vec3(key, v)?;
+        if let Some(x) = v.iter().find(|x| x.abs() > MAX_COORDINATE) {
+            return Err(self.invalid(key, out_of_range(*x)));
+        }
+        Ok(p)
+    }
+
+    /// An integer within `lo..=hi`, else an error naming the key and the range.
+    fn range(&self, key: &str, v: u32, lo: u32, hi: u32) -> Result<u32, SceneError> {
+        if (lo..=hi).contains(&v) {
+            Ok(v)
+        } else {
+            Err(self.invalid(key, format!("{v} is out of range: must be {lo} to {hi}")))
+        }
+    }
+
     fn file(&self, name: &str) -> PathBuf {
         let p = Path::new(name);
         if p.is_absolute() {
@@ -598,11 +643,33 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
             .map(Path::to_path_buf)
             .unwrap_or_else(|| PathBuf::from(".")),
     };
+    let camera = resolve_camera(&cx, &file.camera)?;
+    let materials = resolve_materials(&cx, &file.materials)?;
+    let (meshes, mesh_names) = resolve_meshes(&cx, &file.meshes)?;
+    let instances = resolve_instances(&cx, &file.instances, &meshes, &mesh_names, &file.materials)?;
+    let Lights {
+        lights,
+        emitters,
+        background,
+    } = resolve_lights(&cx, &file.lights)?;
+    let settings = resolve_settings(&cx, &file.render)?;
+    Ok(Scene {
+        camera,
+        settings,
+        materials,
+        meshes,
+        mesh_names,
+        instances,
+        lights,
+        emitters,
+        background,
+    })
+}
 
-    // Camera.
-    let c = &file.camera;
-    let position = cx.vec3("camera.position", c.position)?;
-    let look_at = cx.vec3("camera.look_at", c.look_at)?;
+/// `[camera]`: a finite, non-degenerate frame, the field of view and the resolution.
+fn resolve_camera(cx: &Ctx, c: &CameraSpec) -> Result<CameraDesc, SceneError> {
+    let position = cx.point("camera.position", c.position)?;
+    let look_at = cx.point("camera.look_at", c.look_at)?;
     let up = cx.unit("camera.up", c.up)?;
     if position == look_at {
         return Err(cx.invalid("camera.look_at", "is the camera position"));
@@ -611,27 +678,41 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
         return Err(cx.invalid("camera.up", "is parallel to the viewing direction"));
     }
     if !(c.fov.is_finite() && c.fov > 0.0 && c.fov < 180.0) {
-        return Err(cx.invalid("camera.fov", "must be between 0 and 180 degrees"));
-    }
-    let [width, height] = c.resolution;
-    if width == 0 || height == 0 || width > 16384 || height > 16384 {
         return Err(cx.invalid(
-            "camera.resolution",
-            "must be between [1, 1] and [16384, 16384]",
+            "camera.fov",
+            format!(
+                "{} is out of range: must be between 0 and 180 degrees",
+                c.fov
+            ),
         ));
     }
-    let camera = CameraDesc {
+    let [width, height] = c.resolution;
+    if width == 0 || height == 0 || width > MAX_RESOLUTION || height > MAX_RESOLUTION {
+        return Err(cx.invalid(
+            "camera.resolution",
+            format!(
+                "[{width}, {height}] is out of range: must be between [1, 1] and \
+                 [{MAX_RESOLUTION}, {MAX_RESOLUTION}]"
+            ),
+        ));
+    }
+    Ok(CameraDesc {
         position,
         look_at,
         up,
         fov: c.fov.to_radians(),
         width,
         height,
-    };
+    })
+}
 
-    // Materials.
+/// `[materials]`: each one's network source and its `set` overrides.
+fn resolve_materials(
+    cx: &Ctx,
+    specs: &BTreeMap<String, MaterialSpec>,
+) -> Result<Vec<MaterialRef>, SceneError> {
     let mut materials = Vec::new();
-    for (name, m) in &file.materials {
+    for (name, m) in specs {
         let key = format!("materials.{name}");
         let source = match (&m.network, &m.inline, &m.json) {
             (Some(f), None, None) => MaterialSource::File(cx.file(f)),
@@ -656,7 +737,7 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
             let Some((node, input)) = target.rsplit_once('.') else {
                 return Err(cx.invalid(k, "expected \"node.input\""));
             };
-            check_toml_finite(&cx, &k, value)?;
+            check_toml_finite(cx, &k, value)?;
             let v = serde_json::to_value(value).map_err(|e| cx.invalid(&k, e.to_string()))?;
             overrides.push((node.to_string(), input.to_string(), v));
         }
@@ -666,19 +747,23 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
             overrides,
         });
     }
+    Ok(materials)
+}
 
-    // Meshes.
+/// `[meshes]`: the built-in shapes and the loaded files, with their names.
+fn resolve_meshes(
+    cx: &Ctx,
+    specs: &BTreeMap<String, MeshSpec>,
+) -> Result<(Vec<Mesh>, Vec<String>), SceneError> {
     let mut meshes = Vec::new();
     let mut mesh_names = Vec::new();
-    for (name, m) in &file.meshes {
+    for (name, m) in specs {
         let key = format!("meshes.{name}");
         let mesh = match m {
             MeshSpec::Box {} => geometry::unit_box(),
             MeshSpec::Quad {} => geometry::unit_quad(),
             MeshSpec::Sphere { segments } => {
-                if *segments < 3 || *segments > 4096 {
-                    return Err(cx.invalid(format!("{key}.segments"), "must be between 3 and 4096"));
-                }
+                cx.range(&format!("{key}.segments"), *segments, 3, MAX_SEGMENTS)?;
                 geometry::unit_sphere(*segments)
             }
             MeshSpec::Obj { file: f } | MeshSpec::Gltf { file: f } => {
@@ -689,7 +774,7 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
                     geometry::load_gltf(&p)
                 };
                 loaded.map_err(|message| SceneError::Mesh {
-                    path: path.to_path_buf(),
+                    path: cx.path.to_path_buf(),
                     key: format!("{key}.file"),
                     file: p.clone(),
                     message,
@@ -699,11 +784,20 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
         meshes.push(mesh);
         mesh_names.push(name.clone());
     }
+    Ok((meshes, mesh_names))
+}
 
-    // Instances.
-    let mat_names: Vec<&String> = file.materials.keys().collect();
+/// `[[instances]]`: mesh and material references and the transforms.
+fn resolve_instances(
+    cx: &Ctx,
+    specs: &[InstanceSpec],
+    meshes: &[Mesh],
+    mesh_names: &[String],
+    materials: &BTreeMap<String, MaterialSpec>,
+) -> Result<Vec<Instance>, SceneError> {
+    let mat_names: Vec<&String> = materials.keys().collect();
     let mut instances = Vec::new();
-    for (i, inst) in file.instances.iter().enumerate() {
+    for (i, inst) in specs.iter().enumerate() {
         let key = format!("instances[{i}]");
         let mesh = mesh_names
             .iter()
@@ -731,7 +825,8 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
                     ),
                 )
             })?;
-        let transform = instance_transform(&cx, &key, inst)?;
+        let transform = instance_transform(cx, &key, inst)?;
+        check_extent(cx, &key, inst, &meshes[mesh], transform)?;
         instances.push(Instance {
             name: inst
                 .name
@@ -742,19 +837,55 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
             transform,
         });
     }
+    Ok(instances)
+}
 
-    // Lights.
+/// The scene's lights in runtime form, the faces of visible quad lights and the
+/// environment's radiance.
+struct Lights {
+    lights: Vec<LightDesc>,
+    emitters: Vec<Emitter>,
+    background: [f64; 3],
+}
+
+/// `[[lights]]`.
+fn resolve_lights(cx: &Ctx, specs: &[LightSpec]) -> Result<Lights, SceneError> {
     let mut lights = Vec::new();
     let mut emitters = Vec::new();
     let mut quads = Vec::new();
     let mut background = [0.0; 3];
-    for (i, l) in file.lights.iter().enumerate() {
+    for (i, l) in specs.iter().enumerate() {
         let key = format!("lights[{i}]");
         let power = |intensity: f64, color: [f64; 3]| -> Result<[f64; 3], SceneError> {
             cx.finite(&format!("{key}.intensity"), &[intensity])?;
             cx.finite(&format!("{key}.color"), &color)?;
-            Ok(color.map(|c| c * intensity))
+            let p = color.map(|c| c * intensity);
+            if let Some(x) = p.iter().find(|x| x.is_nan() || x.abs() > f32::MAX as f64) {
+                return Err(cx.invalid(
+                    format!("{key}.intensity"),
+                    format!("intensity × color = {x:e} is out of range: at most ±3.4e38 (f32)"),
+                ));
+            }
+            Ok(p)
         };
+        // Positions and a quad's extent lie in the world's coordinate range.
+        let point = |k: &str, v: &[f64; 3]| cx.point(&format!("{key}.{k}"), *v).map(|_| ());
+        match l {
+            LightSpec::Point { position, .. } | LightSpec::Spot { position, .. } => {
+                point("position", position)?
+            }
+            LightSpec::Quad {
+                corner,
+                edge_u,
+                edge_v,
+                ..
+            } => {
+                point("corner", corner)?;
+                point("edge_u", edge_u)?;
+                point("edge_v", edge_v)?;
+            }
+            _ => {}
+        }
         let name = format!("light{i}");
         let (kind, power) = match l {
             LightSpec::Point {
@@ -860,15 +991,7 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
             });
         }
     }
-
-    let settings = resolve_settings(&cx, &file.render)?;
-    Ok(Scene {
-        camera,
-        settings,
-        materials,
-        meshes,
-        mesh_names,
-        instances,
+    Ok(Lights {
         lights,
         emitters,
         background,
@@ -931,30 +1054,108 @@ fn instance_transform(cx: &Ctx, key: &str, inst: &InstanceSpec) -> Result<DMat4,
             * DMat4::from_rotation_x(r.x.to_radians());
         DMat4::from_translation(t) * rot * DMat4::from_scale(s)
     };
-    if m.determinant().abs() < 1e-300 || !m.determinant().is_finite() {
-        return Err(cx.invalid(
-            key,
-            "the transform is singular (a zero scale flattens the mesh)",
-        ));
+    let det = m.determinant();
+    let inv = m.inverse();
+    if det.abs() < 1e-300 || !det.is_finite() || !inv.is_finite() {
+        let (k, why) = if inst.matrix.is_some() {
+            (
+                format!("{key}.matrix"),
+                "the matrix is singular (not invertible)",
+            )
+        } else {
+            (
+                format!("{key}.scale"),
+                "the transform is singular (a zero scale flattens the mesh)",
+            )
+        };
+        return Err(cx.invalid(k, why));
     }
     Ok(m)
 }
 
+/// Checks that every vertex of an instance's mesh stays within [`MAX_COORDINATE`] after
+/// its transform, naming the key that takes it out: `translate` when the translation
+/// alone is out of range, `scale` when the scaled mesh is, `matrix`, or the instance when
+/// only the composition is.
+fn check_extent(
+    cx: &Ctx,
+    key: &str,
+    inst: &InstanceSpec,
+    mesh: &Mesh,
+    m: DMat4,
+) -> Result<(), SceneError> {
+    let reach = |m: DMat4| {
+        mesh.positions
+            .iter()
+            .map(|p| m.transform_point3(DVec3::from(p.map(f64::from))))
+            .map(|q| q.abs().max_element())
+            .fold(0.0f64, |a, b| if b.is_nan() || b > a { b } else { a })
+    };
+    let fits = |x: f64| x <= MAX_COORDINATE;
+    if let Some(t) = inst.translate {
+        cx.point(&format!("{key}.translate"), t)?;
+    }
+    if let Some(s) = &inst.scale {
+        let s = match s {
+            ScaleSpec::Uniform(s) => DVec3::splat(*s),
+            ScaleSpec::Axes(s) => DVec3::from_array(*s),
+        };
+        let r = reach(DMat4::from_scale(s));
+        if !fits(r) {
+            return Err(cx.invalid(
+                format!("{key}.scale"),
+                format!("the scaled mesh reaches {r:e}, {}", beyond_range()),
+            ));
+        }
+    }
+    let r = reach(m);
+    if !fits(r) {
+        let k = if inst.matrix.is_some() {
+            format!("{key}.matrix")
+        } else {
+            key.to_string()
+        };
+        return Err(cx.invalid(
+            k,
+            format!("the transformed mesh reaches {r:e}, {}", beyond_range()),
+        ));
+    }
+    Ok(())
+}
+
 fn resolve_settings(cx: &Ctx, r: &RenderSpec) -> Result<Settings, SceneError> {
-    if r.spp == 0 || r.spp > 1 << 16 {
-        return Err(cx.invalid("render.spp", "must be 1 to 65536"));
-    }
-    if r.max_reflection_depth > 64 || r.max_refraction_depth > 64 || r.max_diffuse_depth > 64 {
-        return Err(cx.invalid("render.max_*_depth", "depth limits must be at most 64"));
-    }
-    if r.tile_size == 0 || r.tile_size > 1024 {
-        return Err(cx.invalid("render.tile_size", "must be 1 to 1024"));
-    }
-    if r.occlusion_samples == 0 || r.occlusion_samples > 65536 {
-        return Err(cx.invalid("render.occlusion_samples", "must be 1 to 65536"));
-    }
-    if !(r.occlusion_distance.is_finite() && r.occlusion_distance > 0.0) {
-        return Err(cx.invalid("render.occlusion_distance", "must be a positive number"));
+    cx.range("render.spp", r.spp, 1, MAX_SPP)?;
+    cx.range(
+        "render.max_reflection_depth",
+        r.max_reflection_depth,
+        0,
+        MAX_DEPTH,
+    )?;
+    cx.range(
+        "render.max_refraction_depth",
+        r.max_refraction_depth,
+        0,
+        MAX_DEPTH,
+    )?;
+    cx.range(
+        "render.max_diffuse_depth",
+        r.max_diffuse_depth,
+        0,
+        MAX_DEPTH,
+    )?;
+    cx.range("render.tile_size", r.tile_size, 1, MAX_TILE_SIZE)?;
+    cx.range(
+        "render.occlusion_samples",
+        r.occlusion_samples,
+        1,
+        MAX_OCCLUSION_SAMPLES,
+    )?;
+    let d = r.occlusion_distance;
+    if !(d.is_finite() && d > 0.0 && d <= f32::MAX as f64) {
+        return Err(cx.invalid(
+            "render.occlusion_distance",
+            format!("{d} is out of range: must be a positive number at most 3.4e38"),
+        ));
     }
     let mut passes: Vec<PassDef> = Vec::new();
     for (i, name) in r.passes.iter().enumerate() {
@@ -990,6 +1191,15 @@ fn resolve_settings(cx: &Ctx, r: &RenderSpec) -> Result<Settings, SceneError> {
             None | Some("any") => None,
             Some(t) => Some(RayMatch::parse(t).map_err(|e| cx.invalid(format!("{key}.ray"), e))?),
         };
+        for (k, v) in [
+            ("depth", s.depth),
+            ("min_depth", s.min_depth),
+            ("max_depth", s.max_depth),
+        ] {
+            if let Some(v) = v {
+                cx.range(&format!("{key}.{k}"), v, 0, MAX_DEPTH)?;
+            }
+        }
         let (min_depth, max_depth) = match (s.depth, s.min_depth, s.max_depth) {
             (Some(d), None, None) => (d, d),
             (None, lo, hi) => (lo.unwrap_or(0), hi.unwrap_or(u32::MAX)),
@@ -1078,6 +1288,147 @@ mod tests {
             assert!(e.contains(want), "{extra}: `{want}` not in {e}");
             assert!(e.starts_with("s.toml"), "{e}");
         }
+    }
+
+    /// Hostile values (issue 24): each is an error naming its key (before, most of them
+    /// loaded and then panicked inside obvhs or rendered from infinite values).
+    #[test]
+    fn hostile_values_name_their_key() {
+        let ok = "[[instances]]\nmesh = \"q\"\nmaterial = \"m\"\n";
+        let inst = format!("{ok}{ok}");
+        for (extra, key, want) in [
+            (format!("{inst}scale = 1e20\n"), "instances[1].scale", "outside the supported coordinate range ±1e13"),
+            (format!("{inst}scale = [1, 1e20, 1]\n"), "instances[1].scale", "1e20"),
+            (format!("{inst}translate = [0, 1e39, 0]\n"), "instances[1].translate", "1e39 is outside"),
+            (format!("{inst}matrix = [1,0,0,0, 0,nan,0,0, 0,0,1,0, 0,0,0,1]\n"), "instances[1].matrix", "NaN is not a finite number"),
+            (format!("{inst}matrix = [1,0,0,inf, 0,1,0,0, 0,0,1,0, 0,0,0,1]\n"), "instances[1].matrix", "inf is not a finite number"),
+            (format!("{inst}matrix = [1,0,0,0, 0,1,0,0, 0,0,0,0, 0,0,0,1]\n"), "instances[1].matrix", "singular"),
+            (format!("{inst}matrix = [1e20,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]\n"), "instances[1].matrix", "reaches 1e20"),
+            (format!("{inst}rotate = [0, 0, 45]\nscale = 9e12\n"), "instances[1]`", "reaches 1.2727"),
+            ("[render]\nspp = 65537\n".into(), "render.spp", "65537 is out of range: must be 1 to 65536"),
+            ("[render]\nmax_diffuse_depth = 65\n".into(), "render.max_diffuse_depth", "0 to 64"),
+            ("[render]\nmax_reflection_depth = 4294967295\n".into(), "render.max_reflection_depth", "0 to 64"),
+            ("[render]\ntile_size = 1025\n".into(), "render.tile_size", "1 to 1024"),
+            ("[render]\nocclusion_samples = 65537\n".into(), "render.occlusion_samples", "1 to 65536"),
+            ("[render]\nocclusion_distance = 1e39\n".into(), "render.occlusion_distance", "out of range"),
+            ("[[render.rules]]\nray = \"camera\"\ndepth = 65\ncomponents = [\"all\"]\n".into(), "render.rules[0].depth", "0 to 64"),
+            ("[meshes.s]\ntype = \"sphere\"\nsegments = 4097\n".into(), "meshes.s.segments", "3 to 4096"),
+            ("[[lights]]\ntype = \"point\"\nposition = [0, 1e30, 0]\n".into(), "lights[0].position", "1e30 is outside"),
+            ("[[lights]]\ntype = \"quad\"\ncorner = [0, 0, 0]\nedge_u = [1e14, 0, 0]\nedge_v = [0, 1, 0]\n".into(), "lights[0].edge_u", "outside"),
+            ("[[lights]]\ntype = \"point\"\nposition = [0, 0, 1]\nintensity = 1e300\ncolor = [1e10, 1, 1]\n".into(), "lights[0].intensity", "out of range"),
+        ] {
+            let e = err(&extra);
+            assert!(e.contains(key) && e.contains(want), "{extra}: `{key}` … `{want}` not in {e}");
+        }
+        // The camera: the HEAD's camera table, moved.
+        for (cam, key) in [
+            (
+                "position = [0, 0, 1e30]\nlook_at = [0, 0, 0]",
+                "camera.position",
+            ),
+            (
+                "position = [0, 0, 3]\nlook_at = [0, -1e14, 0]",
+                "camera.look_at",
+            ),
+            (
+                "position = [0, 0, 3]\nlook_at = [0, 0, 0]\nresolution = [16385, 1]",
+                "camera.resolution",
+            ),
+            (
+                "position = [0, 0, 3]\nlook_at = [0, 0, 0]\nresolution = [0, 1]",
+                "camera.resolution",
+            ),
+        ] {
+            let text = HEAD.replace("position = [0, 0, 3]\nlook_at = [0, 0, 0]", cam);
+            let e = parse(&text, Path::new("s.toml")).unwrap_err().to_string();
+            assert!(e.contains(key) && e.contains("range"), "{cam}: {e}");
+        }
+    }
+
+    /// At the edge of the range: accepted.
+    #[test]
+    fn the_largest_coordinates_are_accepted() {
+        let text = format!(
+            "{HEAD}[[instances]]\nmesh = \"q\"\nmaterial = \"m\"\nscale = {MAX_COORDINATE:e}\n\
+             [[instances]]\nmesh = \"q\"\nmaterial = \"m\"\ntranslate = [0, 0, {MAX_COORDINATE:e}]\n"
+        )
+        .replace("position = [0, 0, 3]", &format!("position = [0, 0, {MAX_COORDINATE:e}]"));
+        parse(&text, Path::new("s.toml")).unwrap_or_else(|e| panic!("{e}"));
+        // One step beyond, rejected.
+        let beyond = text.replace(
+            &format!("scale = {MAX_COORDINATE:e}"),
+            &format!("scale = {:e}", MAX_COORDINATE * 1.000001),
+        );
+        let e = parse(&beyond, Path::new("s.toml")).unwrap_err().to_string();
+        assert!(e.contains("instances[0].scale"), "{e}");
+    }
+
+    /// Files go through the input gate: a device and an oversized file are errors naming
+    /// the file and the key.
+    #[cfg(unix)]
+    #[test]
+    fn devices_and_oversized_files_are_refused() {
+        let e = load(Path::new("/dev/zero")).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "/dev/zero: not a regular file (a character device); text input must be a regular file"
+        );
+        for ty in ["obj", "gltf"] {
+            let e = err(&format!(
+                "[meshes.z]\ntype = \"{ty}\"\nfile = \"/dev/zero\"\n"
+            ));
+            assert!(
+                e.contains("meshes.z.file")
+                    && e.contains("not a regular file (a character device)"),
+                "{e}"
+            );
+        }
+        let dir = std::env::temp_dir().join(format!("shadenet-scene-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let big = dir.join("big.obj");
+        let f = std::fs::File::create(&big).unwrap();
+        f.set_len(FileKind::Mesh.default_limit() + 1).unwrap();
+        let e = err(&format!(
+            "[meshes.z]\ntype = \"obj\"\nfile = \"{}\"\n",
+            big.display()
+        ));
+        assert!(
+            e.contains("meshes.z.file") && e.contains("over the 2147483648-byte limit"),
+            "{e}"
+        );
+        // A mesh whose own coordinates are out of range names the mesh.
+        let far = dir.join("far.obj");
+        std::fs::write(&far, "v 0 0 0\nv 1e20 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        let e = err(&format!(
+            "[meshes.z]\ntype = \"obj\"\nfile = \"{}\"\n",
+            far.display()
+        ));
+        assert!(
+            e.contains("meshes.z.file") && e.contains("outside the supported range"),
+            "{e}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// The chain as the CLI prints it: outermost first, joined by ": ".
+    fn chain(e: &dyn std::error::Error) -> String {
+        let mut msg = e.to_string();
+        let mut cause = e.source();
+        while let Some(c) = cause {
+            msg = format!("{msg}: {c}");
+            cause = c.source();
+        }
+        msg
+    }
+
+    /// Each level says its own part once (the cause used to be printed twice).
+    #[test]
+    fn a_missing_scene_says_why_once() {
+        let e = load(Path::new("nonexist.toml")).unwrap_err();
+        assert_eq!(
+            chain(&e),
+            "cannot read nonexist.toml: No such file or directory (os error 2)"
+        );
     }
 
     #[test]
