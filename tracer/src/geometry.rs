@@ -177,7 +177,7 @@ pub fn load_obj(path: &Path) -> Result<Mesh, String> {
     // Through the input gate: a regular file within the mesh limit, read bounded. Material
     // libraries are not read (the scene assigns materials), so a `mtllib` line cannot make
     // tobj open a device or a huge file either.
-    let bytes = input::read(path, FileKind::Mesh).map_err(|e| chain(&e))?;
+    let bytes = input::read(path, FileKind::Mesh, "mesh").map_err(|e| chain(&e))?;
     let (models, _materials) = tobj::load_obj_buf(&mut &bytes[..], &opts, |_| {
         Ok((Vec::new(), Default::default()))
     })
@@ -227,7 +227,7 @@ pub fn load_gltf(path: &Path) -> Result<Mesh, String> {
     }
     // Only the buffers: a missing or undecodable texture image must not stop the geometry.
     // The file and every external buffer pass the input gate first.
-    let bytes = input::read(path, FileKind::Mesh).map_err(|e| chain(&e))?;
+    let bytes = input::read(path, FileKind::Mesh, "mesh").map_err(|e| chain(&e))?;
     let gltf::Gltf {
         document: doc,
         blob,
@@ -354,7 +354,7 @@ fn check_gltf_buffers(doc: &gltf::Document, path: &Path) -> Result<(), String> {
             })?;
             base.join(decoded)
         };
-        input::check(&file, FileKind::Mesh)
+        input::check(&file, FileKind::Mesh, "glTF buffer")
             .map_err(|e| format!("buffer {}: {}", buffer.index(), chain(&e)))?;
     }
     Ok(())

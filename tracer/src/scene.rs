@@ -559,7 +559,7 @@ pub struct Scene {
 /// Loads a scene file from disk, through the bounded input gate (a regular file within the
 /// text limit, [`shadenet_runtime::input`]).
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
-    let text = input::read_to_string(path, FileKind::Text)?;
+    let text = input::read_to_string(path, FileKind::Text, "scene")?;
     parse(&text, path)
 }
 
@@ -1427,7 +1427,7 @@ mod tests {
         let e = load(Path::new("nonexist.toml")).unwrap_err();
         assert_eq!(
             chain(&e),
-            "cannot read nonexist.toml: No such file or directory (os error 2)"
+            "cannot read scene nonexist.toml: No such file or directory (os error 2)"
         );
     }
 
