@@ -192,6 +192,9 @@ pub fn mutate_bytes(rng: &mut Rng, input: &[u8], others: &[Vec<u8>], max_len: us
     v
 }
 
+/// Makes a new input from a seed (the other seeds are there to splice from).
+pub type Mutator = fn(&mut Rng, &[u8], &[Vec<u8>]) -> Vec<u8>;
+
 /// What one target does: its name, its seeds, how it mutates and how it runs an input.
 pub struct Target {
     /// Name, used for the environment filter, the log and the crash files.
@@ -199,7 +202,7 @@ pub struct Target {
     /// The seed corpus: (name, bytes).
     pub seeds: Vec<(String, Vec<u8>)>,
     /// Makes a new input from a seed (the other seeds are there to splice from).
-    pub mutate: fn(&mut Rng, &[u8], &[Vec<u8>]) -> Vec<u8>,
+    pub mutate: Mutator,
     /// Runs one input; a panic is a finding, an error is a fine answer.
     pub exec: fn(&[u8]),
     /// The file extension of saved inputs.
