@@ -210,3 +210,97 @@ fn absurd_thread_counts_are_refused() {
     assert_eq!(std::fs::read(&exr).unwrap(), b"precious");
     assert!(!png.exists());
 }
+
+/// A scene of two instances of one quad; `second` is the second instance's transform keys
+/// and `camera` the camera's position.
+fn two_instances(second: &str, camera: &str) -> String {
+    format!(
+        r#"
+[camera]
+position = {camera}
+look_at = [0, 0, 0]
+resolution = [8, 6]
+
+[render]
+spp = 1
+
+[[lights]]
+type = "point"
+position = [2, 2, 4]
+intensity = 10
+
+[materials.m]
+network = "{}"
+
+[meshes.q]
+type = "quad"
+
+[[instances]]
+mesh = "q"
+material = "m"
+
+[[instances]]
+mesh = "q"
+material = "m"
+{second}
+"#,
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("examples/scenes/materials/matte.json")
+            .display()
+    )
+}
+
+/// Scale typos and values beyond f32 (obvhs panicked on the first two inside its BVH
+/// build) are exit code 1 with the key named, and the existing outputs stay as they were.
+#[test]
+fn out_of_range_transforms_and_cameras_name_the_key() {
+    let nan_matrix = "matrix = [1, 0, 0, 0, 0, nan, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]";
+    let inf_matrix = "matrix = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, inf, 0, 0, 0, 0, 1]";
+    let cases = [
+        ("scale = 1e20", "[0, 0, 5]", "instances[1].scale"),
+        (
+            "translate = [0, 1e39, 0]",
+            "[0, 0, 5]",
+            "instances[1].translate",
+        ),
+        (nan_matrix, "[0, 0, 5]", "instances[1].matrix"),
+        (inf_matrix, "[0, 0, 5]", "instances[1].matrix"),
+        ("", "[0, 0, 1e30]", "camera.position"),
+    ];
+    let exr = tmp("keep.exr");
+    let png = tmp("keep.png");
+    for (i, (second, camera, key)) in cases.iter().enumerate() {
+        let scene = tmp(&format!("hostile{i}.toml"));
+        std::fs::write(&scene, two_instances(second, camera)).unwrap();
+        std::fs::write(&exr, b"precious").unwrap();
+        std::fs::write(&png, b"precious too").unwrap();
+        let (code, err) = run_limited(&[
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            exr.to_str().unwrap(),
+            "--png",
+            png.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 1, "{second} / camera {camera}: {err}");
+        let line = err.lines().find(|l| l.starts_with("error: ")).unwrap_or("");
+        assert!(
+            line.starts_with(&format!("error: {}: `{key}`", scene.display())),
+            "{second} / camera {camera}: the error should name `{key}`: {err}"
+        );
+        assert!(!err.contains("panicked"), "{err}");
+        assert_eq!(std::fs::read(&exr).unwrap(), b"precious");
+        assert_eq!(std::fs::read(&png).unwrap(), b"precious too");
+    }
+    // The same scene with ordinary values renders.
+    let scene = tmp("ordinary.toml");
+    std::fs::write(&scene, two_instances("scale = 1e3", "[0, 0, 5]")).unwrap();
+    let (code, err) = run_limited(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        exr.to_str().unwrap(),
+        "-q",
+    ]);
+    assert_eq!(code, 0, "{err}");
+}
