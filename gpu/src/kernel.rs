@@ -18,8 +18,9 @@
 //!
 //! [`validate`] runs naga's WGSL front end and validator on a kernel.
 //!
-//! Must not touch: the plan itself (which items, which columns: [`crate::plan`]); the WGSL
-//! of pure ops and the intrinsic library ([`crate::emit`]).
+//! Must not touch: the plan itself (which items, which columns: [`crate::planner`] decides,
+//! [`crate::plan`] holds); the WGSL of pure ops and the intrinsic library
+//! ([`crate::emit`]); wgpu devices ([`crate::material`]). It reads the plan's types only.
 
 use crate::emit;
 use crate::plan::{

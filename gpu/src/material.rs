@@ -1,6 +1,6 @@
 //! [`GpuBackend`] (a `runtime::Backend`) and [`GpuMaterial`] (a `runtime::Material`).
 //!
-//! Owns: compiling a program for the device (the [`crate::plan`], one compute pipeline per
+//! Owns: compiling a program for the device (its [`crate::plan`], one compute pipeline per
 //! pass, the textures uploaded once, the uniform values the prelude and the parameters give,
 //! the scalar companion material), and running a batch ([`Material::shade_many`]): the
 //! buffers of each call, the uploads (streams and seed as structure of arrays, uniforms,
@@ -19,13 +19,15 @@
 //! instead, saying so once per material.
 //!
 //! Must not touch: what the kernels contain ([`crate::kernel`]) or how the program is cut
-//! ([`crate::plan`]); the scene helpers it calls live in `shadenet_runtime`.
+//! ([`crate::planner`]); the scene helpers it calls live in `shadenet_runtime`.
 
 use crate::context::{GpuContext, GpuError};
+pub use crate::options::{GpuOptions, PassMode};
 use crate::plan::{
     self, HostKind, LIGHT_COLUMNS, Plan, Step, U_AMBIENT, U_CAMERA, U_CAMERA_INV, U_KEEP, U_MASK,
     U_N, U_OBJECT, U_OBJECT_INV, U_SAMPLES, U_VALUES, encode_const,
 };
+use crate::planner;
 use rayon::prelude::*;
 use shadenet_graph::ir::{Op, Program, Stream, Value};
 use shadenet_graph::ops::Val;
@@ -42,56 +44,6 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 use wgpu::util::DeviceExt;
-
-/// How the planner splits a program into passes (`--gpu-passes`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum PassMode {
-    /// The cost model decides (op budget, adapter limits).
-    #[default]
-    Auto,
-    /// One kernel between host steps (`--gpu-passes 1`).
-    Fused,
-    /// About this many passes of equal cost (at least the host steps' own).
-    Count(u32),
-}
-
-impl std::str::FromStr for PassMode {
-    type Err = String;
-    fn from_str(s: &str) -> Result<PassMode, String> {
-        match s {
-            "auto" => Ok(PassMode::Auto),
-            "1" => Ok(PassMode::Fused),
-            n => match n.parse::<u32>() {
-                Ok(k) if k >= 1 => Ok(PassMode::Count(k)),
-                _ => Err(format!("`{s}`: expected auto, 1 or a pass count ≥ 1")),
-            },
-        }
-    }
-}
-
-/// Options of the GPU back end.
-#[derive(Clone, Debug, PartialEq)]
-pub struct GpuOptions {
-    /// Pass partitioning.
-    pub passes: PassMode,
-    /// Ops per pass the cost model allows in `Auto` mode.
-    pub op_budget: usize,
-    /// Most fragments per batch (one set of buffers).
-    pub batch: usize,
-    /// Threads per workgroup.
-    pub workgroup_size: u32,
-}
-
-impl Default for GpuOptions {
-    fn default() -> Self {
-        GpuOptions {
-            passes: PassMode::Auto,
-            op_budget: 4096,
-            batch: 1 << 18,
-            workgroup_size: 64,
-        }
-    }
-}
 
 /// The GPU back end: compiles programs into [`GpuMaterial`]s that shade batches on the
 /// device (see the module documentation).
@@ -247,7 +199,7 @@ impl GpuMaterial {
             message,
         };
         let t = Instant::now();
-        let plan = plan::plan(program, options, &ctx.limits)?;
+        let plan = planner::plan(program, options, &ctx.limits)?;
         let lower = t.elapsed();
 
         let textures = TextureSet::load(&program.textures)?;
