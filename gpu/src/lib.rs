@@ -7,7 +7,7 @@
 //! The modules import each other in one direction only, from the bottom up:
 //!
 //! - [`options`], [`context`], [`emit`]: import nothing of this crate;
-//! - [`plan`]: the plan as data (options);
+//! - [`plan`](mod@plan): the plan as data (options);
 //! - [`kernel`]: the WGSL kernel of one pass (plan, emit);
 //! - [`planner`]: a program cut into a plan, kernels included (plan, kernel, options, emit);
 //! - [`material`]: the back end and the material on the device (planner, plan, context,

@@ -14,15 +14,15 @@
 //! `ambient`, the light sample, `texture` (`sn_texture`), `proj`; every pure op comes from
 //! [`emit::op_expr`]. Every float value (and float constant) is assigned behind a value
 //! barrier (an XOR with a uniform zero) so that the shader compiler cannot rewrite
-//! arithmetic across IR ops: see [`writer::keep`] for why.
+//! arithmetic across IR ops: see `writer::keep` for why.
 //!
 //! [`validate`] runs naga's WGSL front end and validator on a kernel.
 //!
-//! This module writes a kernel part by part ([`write`]); [`writer`] writes the statements
-//! of the values and items, [`library`] what the kernel includes of the WGSL libraries.
+//! This module writes a kernel part by part ([`write`]); `writer` writes the statements
+//! of the values and items, `library` what the kernel includes of the WGSL libraries.
 //!
 //! Must not touch: the plan itself (which items, which columns: [`crate::planner`] decides,
-//! [`crate::plan`] holds); the WGSL of pure ops and the intrinsic library
+//! [`crate::plan`](mod@crate::plan) holds); the WGSL of pure ops and the intrinsic library
 //! ([`crate::emit`]); wgpu devices ([`crate::material`]). It reads the plan's types only.
 
 mod library;

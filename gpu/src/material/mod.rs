@@ -1,6 +1,6 @@
 //! [`GpuBackend`] (a `runtime::Backend`) and [`GpuMaterial`] (a `runtime::Material`).
 //!
-//! Owns: compiling a program for the device (its [`crate::plan`], one compute pipeline per
+//! Owns: compiling a program for the device (its [`crate::plan`](mod@crate::plan), one compute pipeline per
 //! pass, the textures uploaded once, the uniform values the prelude and the parameters give,
 //! the scalar companion material), and running a batch ([`Material::shade_many`]): the
 //! buffers of each call, the uploads (streams and seed as structure of arrays, uniforms,
@@ -8,7 +8,7 @@
 //! host step reads the columns it needs back, asks each fragment's own services
 //! (`SceneServices::fragment`) where its guard holds, and writes the results into
 //! `sn_tmp`), the readback of `sn_out`, the output guard
-//! (non-finite → 0, counted) and the time split ([`BatchTimes`]). Single fragments
+//! (non-finite → 0, counted) and the time split ([`BatchTimes`](shadenet_runtime::backend::BatchTimes)). Single fragments
 //! ([`Material::shade`], [`Material::shade_x4`]) go to the companion: a dispatch per fragment
 //! would cost more than the shading.
 //!
@@ -19,8 +19,8 @@
 //! instead, saying so once per material.
 //!
 //! Here: the back end, compiling a material, the `Material` impl (chunks of a `shade_many`
-//! call, the fallback to the companion). [`batch`] runs one batch, [`host`] its host steps,
-//! [`buffers`] what goes into and comes out of its device buffers.
+//! call, the fallback to the companion). `batch` runs one batch, `host` its host steps,
+//! `buffers` what goes into and comes out of its device buffers.
 //!
 //! Must not touch: what the kernels contain ([`crate::kernel`]) or how the program is cut
 //! ([`crate::planner`]); the scene helpers it calls live in `shadenet_runtime`.

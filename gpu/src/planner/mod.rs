@@ -2,15 +2,15 @@
 //!
 //! Owns: the planning pipeline, [`plan`], one phase after another: the program checks, the
 //! fixed buffer layouts (fragment streams, outputs, uniforms), linearization into items and
-//! host steps ([`linearize`]), the cut into passes ([`partition`]), definitions, uses, live
-//! ranges and `sn_tmp` columns ([`liveness`]), the adapter's limits, and the kernels.
+//! host steps (`linearize`), the cut into passes (`partition`), definitions, uses, live
+//! ranges and `sn_tmp` columns (`liveness`), the adapter's limits, and the kernels.
 //!
 //! [`plan`] needs no device: it takes the adapter's [`wgpu::Limits`] (callers without a
 //! device pass `wgpu::Limits::default()`), has every pass's WGSL kernel written
 //! ([`crate::kernel`]) and validates it with naga, so an invalid kernel is a
 //! [`BackendError::Codegen`] naming the material and the pass, never a wgpu panic.
 //!
-//! Must not touch: the plan's types and their printing ([`crate::plan`]), the text of a
+//! Must not touch: the plan's types and their printing ([`crate::plan`](mod@crate::plan)), the text of a
 //! kernel ([`crate::kernel`]), wgpu devices, buffers and dispatch ([`crate::material`]); the
 //! WGSL form of pure ops ([`crate::emit`]).
 
