@@ -1,0 +1,165 @@
+//! Linearization: the program's top-level block as one sequence of [`Item`]s and host steps.
+//!
+//! Owns: walking the body once, in order; an `If` becomes its arms' items under a [`Guard`]
+//! and a merge, an `Illuminance` one atomic item (plus a host step for its light samples when
+//! they are seen from a point other than the stream `P`), `trace` and `occlusion` host
+//! steps; the light sets. Must not touch: how the sequence is cut into passes
+//! ([`super::partition`]) or which values cross a step ([`super::liveness`]).
+
+use crate::plan::{Guard, HostKind, Item, ItemKind, LightSet, is_remat, value_name};
+use shadenet_graph::ir::{Block, Op, Program, Stream, Value};
+use shadenet_runtime::BackendError;
+use std::collections::HashMap;
+
+/// One entry of the linear sequence before partitioning.
+pub(super) enum Entry {
+    /// An item of a pass.
+    Item(Item),
+    /// A host step under its guard.
+    Host(HostKind, Guard),
+}
+
+/// The state of one linearization.
+struct Linearizer<'a> {
+    p: &'a Program,
+    prelude: &'a HashMap<usize, usize>,
+    names: &'a [Option<u32>],
+    entries: Vec<Entry>,
+    sets: Vec<LightSet>,
+    /// The set of light loops at the stream `P`, once one exists.
+    set_p: Option<usize>,
+}
+
+fn unsupported(p: &Program, names: &[Option<u32>], v: Value, reason: String) -> BackendError {
+    BackendError::Unsupported {
+        backend: "gpu",
+        material: p.name.clone(),
+        op: format!("{} = {}", value_name(names, v), p.op(v).short_name()),
+        reason,
+    }
+}
+
+impl Linearizer<'_> {
+    /// Appends the entries of `block`, run under `guard`.
+    fn block(&mut self, block: &Block, guard: &Guard) -> Result<(), BackendError> {
+        let p = self.p;
+        for &v in &block.body {
+            if is_remat(p, self.prelude, v) {
+                continue;
+            }
+            match p.op(v) {
+                Op::Proj(..) => {}
+                Op::If { cond, then_, else_ } => {
+                    let mut g = guard.clone();
+                    g.push((*cond, true));
+                    self.block(then_, &g)?;
+                    g.pop();
+                    g.push((*cond, false));
+                    self.block(else_, &g)?;
+                    let cost = then_.yields.len().max(1);
+                    self.entries.push(Entry::Item(Item {
+                        kind: ItemKind::Merge(v),
+                        guard: guard.clone(),
+                        cost,
+                    }));
+                }
+                Op::Illuminance { p: point, body } => {
+                    let mut cost = 0;
+                    let mut bad = None;
+                    p.walk(body, &mut |b| {
+                        match p.op(b) {
+                            Op::Trace { .. } | Op::Occlusion { .. } | Op::Illuminance { .. } => {
+                                bad.get_or_insert(b);
+                            }
+                            _ => {}
+                        }
+                        if !is_remat(p, self.prelude, b) && !matches!(p.op(b), Op::Proj(..)) {
+                            cost += 1;
+                        }
+                    });
+                    if let Some(b) = bad {
+                        return Err(unsupported(
+                            p,
+                            self.names,
+                            b,
+                            format!(
+                                "inside the light loop {}: the GPU back end runs a light loop \
+                                 whole in one kernel and cannot stop it for a host step",
+                                value_name(self.names, v)
+                            ),
+                        ));
+                    }
+                    let reads_visible = {
+                        let mut r = false;
+                        p.walk(body, &mut |b| r |= *p.op(b) == Op::LightVisible);
+                        r
+                    };
+                    let set = if *p.op(*point) == Op::Stream(Stream::P) {
+                        match self.set_p {
+                            Some(s) => {
+                                self.sets[s].visible |= reads_visible;
+                                s
+                            }
+                            None => {
+                                self.sets.push(LightSet {
+                                    point: None,
+                                    visible: reads_visible,
+                                });
+                                self.set_p = Some(self.sets.len() - 1);
+                                self.sets.len() - 1
+                            }
+                        }
+                    } else {
+                        self.sets.push(LightSet {
+                            point: Some(*point),
+                            visible: reads_visible,
+                        });
+                        let s = self.sets.len() - 1;
+                        self.entries.push(Entry::Host(
+                            HostKind::LightSamples { region: v, set: s },
+                            guard.clone(),
+                        ));
+                        s
+                    };
+                    self.entries.push(Entry::Item(Item {
+                        kind: ItemKind::Illuminance { region: v, set },
+                        guard: guard.clone(),
+                        cost: cost.max(1),
+                    }));
+                }
+                Op::Trace { .. } => self
+                    .entries
+                    .push(Entry::Host(HostKind::Trace(v), guard.clone())),
+                Op::Occlusion { .. } => self
+                    .entries
+                    .push(Entry::Host(HostKind::Occlusion(v), guard.clone())),
+                _ => self.entries.push(Entry::Item(Item {
+                    kind: ItemKind::Value(v),
+                    guard: guard.clone(),
+                    cost: 1,
+                })),
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The items and host steps of `p`'s body in order, and the light sets its light loops read.
+/// `prelude` holds the uniform slot of each prelude value; `names` the printer's numbering
+/// (for the errors).
+pub(super) fn linearize(
+    p: &Program,
+    prelude: &HashMap<usize, usize>,
+    names: &[Option<u32>],
+) -> Result<(Vec<Entry>, Vec<LightSet>), BackendError> {
+    let mut lin = Linearizer {
+        p,
+        prelude,
+        names,
+        entries: Vec::new(),
+        sets: Vec::new(),
+        set_p: None,
+    };
+    lin.block(&p.body, &Vec::new())?;
+    Ok((lin.entries, lin.sets))
+}
