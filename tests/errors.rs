@@ -113,7 +113,7 @@ fn texture_error_names_the_file_once() {
             "4x4"
         ]),
         format!(
-            "error: cannot read texture {}: No such file or directory (os error 2)",
+            "error: cannot load texture {}: No such file or directory (os error 2)",
             missing.display()
         )
     );

@@ -20,9 +20,6 @@ pub enum TextureError {
         /// Why.
         reason: String,
     },
-    /// The file cannot be read as input (missing, not a regular file, over the size limit).
-    #[error(transparent)]
-    Input(#[from] crate::input::InputError),
 }
 
 /// One decoded image: linear RGBA, rows top to bottom.
@@ -52,7 +49,13 @@ impl Texture {
             reason,
         };
         // A device, a FIFO or an oversized file never reaches the decoder.
-        crate::input::check(path, crate::input::FileKind::Image, "texture")?;
+        crate::input::check(path, crate::input::FileKind::Image, "texture").map_err(
+            |e| match e {
+                // The path is this error's own: only the cause goes into the reason.
+                crate::input::InputError::Io { source, .. } => err(source.to_string()),
+                other => err(other.to_string()),
+            },
+        )?;
         let img = image::open(path).map_err(|e| err(e.to_string()))?;
         let rgba = img.to_rgba32f();
         let (width, height) = rgba.dimensions();
