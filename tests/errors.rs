@@ -119,3 +119,20 @@ fn texture_error_names_the_file_once() {
     );
     assert!(!png.exists());
 }
+
+#[test]
+fn scene_key_error_names_the_key_and_the_range() {
+    let p = write(
+        "key.toml",
+        "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n[render]\nspp = 0\n",
+    );
+    let exr = common::tmp("errors", "key.exr");
+    assert_eq!(
+        error_of(&["render", p.to_str().unwrap(), "-o", exr.to_str().unwrap()]),
+        format!(
+            "error: {}: `render.spp`: 0 is out of range: must be 1 to 65536",
+            p.display()
+        )
+    );
+    assert!(!exr.exists());
+}

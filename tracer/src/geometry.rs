@@ -177,7 +177,8 @@ pub fn load_obj(path: &Path) -> Result<Mesh, String> {
     // Through the input gate: a regular file within the mesh limit, read bounded. Material
     // libraries are not read (the scene assigns materials), so a `mtllib` line cannot make
     // tobj open a device or a huge file either.
-    let bytes = input::read(path, FileKind::Mesh, "mesh").map_err(|e| chain(&e))?;
+    let bytes =
+        input::read(path, FileKind::Mesh, "mesh").map_err(|e| shadenet_graph::error_chain(&e))?;
     let (models, _materials) = tobj::load_obj_buf(&mut &bytes[..], &opts, |_| {
         Ok((Vec::new(), Default::default()))
     })
@@ -227,7 +228,8 @@ pub fn load_gltf(path: &Path) -> Result<Mesh, String> {
     }
     // Only the buffers: a missing or undecodable texture image must not stop the geometry.
     // The file and every external buffer pass the input gate first.
-    let bytes = input::read(path, FileKind::Mesh, "mesh").map_err(|e| chain(&e))?;
+    let bytes =
+        input::read(path, FileKind::Mesh, "mesh").map_err(|e| shadenet_graph::error_chain(&e))?;
     let gltf::Gltf {
         document: doc,
         blob,
@@ -319,18 +321,6 @@ pub fn load_gltf(path: &Path) -> Result<Mesh, String> {
     out.check()
 }
 
-/// An input error with its causes, as one message (the scene's mesh error is the level
-/// above it and prints it once).
-fn chain(e: &dyn std::error::Error) -> String {
-    let mut msg = e.to_string();
-    let mut cause = e.source();
-    while let Some(c) = cause {
-        msg = format!("{msg}: {c}");
-        cause = c.source();
-    }
-    msg
-}
-
 /// Checks every external buffer of a glTF document with the input gate, resolving its URI
 /// as `gltf::import_buffers` does (relative to the file, percent-decoded; `file:` URIs as
 /// given). A relative URI that does not decode to UTF-8 is an error here: gltf 1.4 would
@@ -354,8 +344,13 @@ fn check_gltf_buffers(doc: &gltf::Document, path: &Path) -> Result<(), String> {
             })?;
             base.join(decoded)
         };
-        input::check(&file, FileKind::Mesh, "glTF buffer")
-            .map_err(|e| format!("buffer {}: {}", buffer.index(), chain(&e)))?;
+        input::check(&file, FileKind::Mesh, "glTF buffer").map_err(|e| {
+            format!(
+                "buffer {}: {}",
+                buffer.index(),
+                shadenet_graph::error_chain(&e)
+            )
+        })?;
     }
     Ok(())
 }

@@ -1410,23 +1410,12 @@ mod tests {
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
-    /// The chain as the CLI prints it: outermost first, joined by ": ".
-    fn chain(e: &dyn std::error::Error) -> String {
-        let mut msg = e.to_string();
-        let mut cause = e.source();
-        while let Some(c) = cause {
-            msg = format!("{msg}: {c}");
-            cause = c.source();
-        }
-        msg
-    }
-
     /// Each level says its own part once (the cause used to be printed twice).
     #[test]
     fn a_missing_scene_says_why_once() {
         let e = load(Path::new("nonexist.toml")).unwrap_err();
         assert_eq!(
-            chain(&e),
+            shadenet_graph::error_chain(&e),
             "cannot read scene nonexist.toml: No such file or directory (os error 2)"
         );
     }
