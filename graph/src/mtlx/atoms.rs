@@ -12,24 +12,28 @@ use super::document::NodeDefElem;
 use crate::ir::Stream;
 use crate::nodes::LowerFn;
 
-/// One row: node category, lowering, and whether its matrix44 variants are lowered too.
+/// One row: node category, the inputs the lowering reads (space-separated), the lowering,
+/// and whether its matrix44 variants are lowered too.
 struct Atom {
     node: &'static str,
+    ports: &'static str,
     lower: LowerFn,
     matrix: bool,
 }
 
-const fn a(node: &'static str, lower: LowerFn) -> Atom {
+const fn a(node: &'static str, ports: &'static str, lower: LowerFn) -> Atom {
     Atom {
         node,
+        ports,
         lower,
         matrix: false,
     }
 }
 
-const fn m(node: &'static str, lower: LowerFn) -> Atom {
+const fn m(node: &'static str, ports: &'static str, lower: LowerFn) -> Atom {
     Atom {
         node,
+        ports,
         lower,
         matrix: true,
     }
@@ -38,91 +42,91 @@ const fn m(node: &'static str, lower: LowerFn) -> Atom {
 /// The table.
 const ATOMS: &[Atom] = &[
     // constants and pass-through
-    m("constant", l::constant),
-    m("dot", l::dot),
+    m("constant", "value", l::constant),
+    m("dot", "in", l::dot),
     // math
-    a("add", l::add),
-    a("subtract", l::subtract),
-    a("multiply", l::multiply),
-    a("divide", l::divide),
-    a("modulo", l::modulo),
-    a("fract", l::fract),
-    a("invert", l::invert),
-    a("absval", l::absval),
-    a("sign", l::sign),
-    a("floor", l::floor),
-    a("ceil", l::ceil),
-    a("round", l::round),
-    a("power", l::power),
-    a("sin", l::sin),
-    a("cos", l::cos),
-    a("tan", l::tan),
-    a("asin", l::asin),
-    a("acos", l::acos),
-    a("atan2", l::atan2),
-    a("sqrt", l::sqrt),
-    a("ln", l::ln),
-    a("exp", l::exp),
-    a("clamp", l::clamp),
-    a("min", l::min),
-    a("max", l::max),
-    a("normalize", l::normalize),
-    a("magnitude", l::magnitude),
-    a("distance", l::distance),
-    a("dotproduct", l::dotproduct),
-    a("crossproduct", l::crossproduct),
-    a("transformpoint", l::transformpoint),
-    a("transformvector", l::transformvector),
-    a("transformnormal", l::transformnormal),
-    m("transformmatrix", l::transformmatrix),
-    a("rotate2d", l::rotate2d),
-    a("rotate3d", l::rotate3d),
-    a("mix", l::mix),
+    a("add", "in1 in2", l::add),
+    a("subtract", "in1 in2", l::subtract),
+    a("multiply", "in1 in2", l::multiply),
+    a("divide", "in1 in2", l::divide),
+    a("modulo", "in1 in2", l::modulo),
+    a("fract", "in", l::fract),
+    a("invert", "in amount", l::invert),
+    a("absval", "in", l::absval),
+    a("sign", "in", l::sign),
+    a("floor", "in", l::floor),
+    a("ceil", "in", l::ceil),
+    a("round", "in", l::round),
+    a("power", "in1 in2", l::power),
+    a("sin", "in", l::sin),
+    a("cos", "in", l::cos),
+    a("tan", "in", l::tan),
+    a("asin", "in", l::asin),
+    a("acos", "in", l::acos),
+    a("atan2", "iny inx", l::atan2),
+    a("sqrt", "in", l::sqrt),
+    a("ln", "in", l::ln),
+    a("exp", "in", l::exp),
+    a("clamp", "in low high", l::clamp),
+    a("min", "in1 in2", l::min),
+    a("max", "in1 in2", l::max),
+    a("normalize", "in", l::normalize),
+    a("magnitude", "in", l::magnitude),
+    a("distance", "in1 in2", l::distance),
+    a("dotproduct", "in1 in2", l::dotproduct),
+    a("crossproduct", "in1 in2", l::crossproduct),
+    a("transformpoint", "in fromspace tospace", l::transformpoint),
+    a("transformvector", "in fromspace tospace", l::transformvector),
+    a("transformnormal", "in fromspace tospace", l::transformnormal),
+    m("transformmatrix", "in mat", l::transformmatrix),
+    a("rotate2d", "in amount", l::rotate2d),
+    a("rotate3d", "in amount axis", l::rotate3d),
+    a("mix", "fg bg mix", l::mix),
     // compositing
-    a("plus", l::plus),
-    a("minus", l::minus),
-    a("difference", l::difference),
-    a("screen", l::screen),
-    a("burn", l::burn),
-    a("dodge", l::dodge),
-    a("inside", l::inside),
-    a("outside", l::outside),
+    a("plus", "fg bg mix", l::plus),
+    a("minus", "fg bg mix", l::minus),
+    a("difference", "fg bg mix", l::difference),
+    a("screen", "fg bg mix", l::screen),
+    a("burn", "fg bg mix", l::burn),
+    a("dodge", "fg bg mix", l::dodge),
+    a("inside", "in mask", l::inside),
+    a("outside", "in mask", l::outside),
     // color
-    a("luminance", l::luminance),
-    a("rgbtohsv", l::rgbtohsv),
-    a("hsvtorgb", l::hsvtorgb),
+    a("luminance", "in lumacoeffs", l::luminance),
+    a("rgbtohsv", "in", l::rgbtohsv),
+    a("hsvtorgb", "in", l::hsvtorgb),
     // logic and conditionals
-    m("ifgreater", l::ifgreater),
-    m("ifgreatereq", l::ifgreatereq),
-    m("ifequal", l::ifequal),
-    a("and", l::and),
-    a("or", l::or),
-    a("not", l::not),
+    m("ifgreater", "value1 value2", l::ifgreater),
+    m("ifgreatereq", "value1 value2", l::ifgreatereq),
+    m("ifequal", "value1 value2", l::ifequal),
+    a("and", "in1 in2", l::and),
+    a("or", "in1 in2", l::or),
+    a("not", "in", l::not),
     // channels and conversion
-    a("convert", l::convert),
-    a("combine2", l::combine),
-    a("combine3", l::combine),
-    a("extract", l::extract),
+    a("convert", "in", l::convert),
+    a("combine2", "in1 in2", l::combine),
+    a("combine3", "in1 in2 in3", l::combine),
+    a("extract", "in index", l::extract),
     // geometric
-    a("position", l::position),
-    a("normal", l::normal),
-    a("tangent", l::tangent),
-    a("bitangent", l::bitangent),
-    a("texcoord", l::texcoord),
-    a("time", l::time),
+    a("position", "space", l::position),
+    a("normal", "space", l::normal),
+    a("tangent", "space", l::tangent),
+    a("bitangent", "space", l::bitangent),
+    a("texcoord", "", l::texcoord),
+    a("time", "", l::time),
     // procedural
-    a("ramplr", l::ramplr),
-    a("ramptb", l::ramptb),
-    a("splitlr", l::splitlr),
-    a("splittb", l::splittb),
-    a("noise2d", l::noise2d),
-    a("noise3d", l::noise3d),
-    a("fractal2d", l::fractal2d),
-    a("fractal3d", l::fractal3d),
-    a("cellnoise2d", l::cellnoise2d),
-    a("cellnoise3d", l::cellnoise3d),
+    a("ramplr", "valuel valuer texcoord", l::ramplr),
+    a("ramptb", "valuet valueb texcoord", l::ramptb),
+    a("splitlr", "valuel valuer center texcoord", l::splitlr),
+    a("splittb", "valuet valueb center texcoord", l::splittb),
+    a("noise2d", "amplitude pivot texcoord", l::noise2d),
+    a("noise3d", "amplitude pivot position", l::noise3d),
+    a("fractal2d", "amplitude octaves lacunarity diminish texcoord", l::fractal2d),
+    a("fractal3d", "amplitude octaves lacunarity diminish position", l::fractal3d),
+    a("cellnoise2d", "texcoord", l::cellnoise2d),
+    a("cellnoise3d", "position", l::cellnoise3d),
     // texture
-    a("image", l::image),
+    a("image", "file default texcoord", l::image),
 ];
 
 fn has_matrix(nd: &NodeDefElem) -> bool {
@@ -132,10 +136,14 @@ fn has_matrix(nd: &NodeDefElem) -> bool {
         .any(|p| p.ty == "matrix44" || p.ty == "matrix33")
 }
 
-/// The lowering of an atom nodedef, if the table has one for its node and types.
+/// The lowering of an atom nodedef, if the table has one for its node and types and the
+/// nodedef has every input the lowering reads (a document may declare its own nodedef of a
+/// known node with other inputs: it is not an atom then).
 pub fn lowering(nd: &NodeDefElem) -> Option<LowerFn> {
     let row = ATOMS.iter().find(|r| r.node == nd.node)?;
-    (row.matrix || !has_matrix(nd)).then_some(row.lower)
+    let has = |p: &str| nd.inputs.iter().any(|i| i.name == p);
+    let ports_ok = row.ports.split_whitespace().all(has);
+    (ports_ok && (row.matrix || !has_matrix(nd))).then_some(row.lower)
 }
 
 /// Why a nodedef with neither a nodegraph nor a lowering is unsupported (for coverage).

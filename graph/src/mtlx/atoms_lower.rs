@@ -421,6 +421,10 @@ fn conditional(b: &mut Builder, inp: &NodeInputs, op: BinOp) -> Out {
         }
         _ => b.binary(op, v1, v2),
     };
+    if inp.def.input("in1").is_none() {
+        // The boolean variants (1.39) output the comparison itself.
+        return one(cond);
+    }
     let (a, c) = (inp.get("in1"), inp.get("in2"));
     one(b.select(cond, a, c))
 }
