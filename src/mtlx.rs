@@ -30,7 +30,7 @@ pub enum LibraryError {
     Read(#[source] InputError),
     /// A library file is not a valid document.
     #[error("a MaterialX library file is invalid")]
-    Parse(#[source] MtlxError),
+    Parse(#[source] Box<MtlxError>),
 }
 
 /// Where to look for the libraries and what to shade.
@@ -49,15 +49,23 @@ fn holds_libraries(dir: &Path) -> bool {
 /// Finds the libraries folder: `explicit`, then `SHADENET_MTLX_LIBRARIES`, then each
 /// `MATERIALX_SEARCH_PATH` entry's `libraries/` (or the entry itself if it is one).
 pub fn locate(explicit: Option<&Path>) -> Result<PathBuf, LibraryError> {
+    locate_with(explicit, &|k| std::env::var_os(k))
+}
+
+/// [`locate`] with the environment given as a function (for tests).
+pub fn locate_with(
+    explicit: Option<&Path>,
+    env: &dyn Fn(&str) -> Option<std::ffi::OsString>,
+) -> Result<PathBuf, LibraryError> {
     let mut looked = Vec::new();
     let mut candidates: Vec<(String, PathBuf)> = Vec::new();
     if let Some(p) = explicit {
         candidates.push(("--mtlx-libraries".into(), p.to_path_buf()));
     }
-    if let Some(p) = std::env::var_os("SHADENET_MTLX_LIBRARIES") {
+    if let Some(p) = env("SHADENET_MTLX_LIBRARIES") {
         candidates.push(("SHADENET_MTLX_LIBRARIES".into(), PathBuf::from(p)));
     }
-    if let Some(sp) = std::env::var_os("MATERIALX_SEARCH_PATH") {
+    if let Some(sp) = env("MATERIALX_SEARCH_PATH") {
         for e in std::env::split_paths(&sp) {
             candidates.push(("MATERIALX_SEARCH_PATH".into(), e.join("libraries")));
             candidates.push(("MATERIALX_SEARCH_PATH".into(), e));
@@ -100,7 +108,8 @@ pub fn library(dir: &Path) -> Result<&'static Library, LibraryError> {
         for f in files {
             let text = read_to_string(&f, FileKind::Text, "MaterialX library")
                 .map_err(LibraryError::Read)?;
-            let doc = mtlx::parse(&f.display().to_string(), &text).map_err(LibraryError::Parse)?;
+            let doc = mtlx::parse(&f.display().to_string(), &text)
+                .map_err(|e| LibraryError::Parse(Box::new(e)))?;
             docs.push((folder.to_string(), doc));
         }
     }
@@ -124,7 +133,7 @@ pub enum MtlxLoadError {
     Libraries(#[from] LibraryError),
     /// The document is invalid (the error names file:line:column).
     #[error(transparent)]
-    Document(#[from] MtlxError),
+    Document(#[from] Box<MtlxError>),
 }
 
 /// Reads a `.mtlx` file, finds the libraries and compiles the selected outputs. The
@@ -133,7 +142,8 @@ pub enum MtlxLoadError {
 pub fn compile_mtlx(path: &Path, opts: &MtlxOptions) -> Result<Compiled, MtlxLoadError> {
     let text = read_to_string(path, FileKind::Text, "MaterialX document")?;
     let lib = library(&locate(opts.libraries.as_deref())?)?;
-    let mut c = mtlx::compile(&path.display().to_string(), &text, lib, &opts.selection)?;
+    let mut c = mtlx::compile(&path.display().to_string(), &text, lib, &opts.selection)
+        .map_err(Box::new)?;
     if let Some(stem) = path.file_stem() {
         c.program.name = stem.to_string_lossy().into_owned();
     }

@@ -76,8 +76,16 @@ const ATOMS: &[Atom] = &[
     a("dotproduct", "in1 in2", l::dotproduct),
     a("crossproduct", "in1 in2", l::crossproduct),
     a("transformpoint", "in fromspace tospace", l::transformpoint),
-    a("transformvector", "in fromspace tospace", l::transformvector),
-    a("transformnormal", "in fromspace tospace", l::transformnormal),
+    a(
+        "transformvector",
+        "in fromspace tospace",
+        l::transformvector,
+    ),
+    a(
+        "transformnormal",
+        "in fromspace tospace",
+        l::transformnormal,
+    ),
     m("transformmatrix", "in mat", l::transformmatrix),
     a("rotate2d", "in amount", l::rotate2d),
     a("rotate3d", "in amount axis", l::rotate3d),
@@ -121,8 +129,16 @@ const ATOMS: &[Atom] = &[
     a("splittb", "valuet valueb center texcoord", l::splittb),
     a("noise2d", "amplitude pivot texcoord", l::noise2d),
     a("noise3d", "amplitude pivot position", l::noise3d),
-    a("fractal2d", "amplitude octaves lacunarity diminish texcoord", l::fractal2d),
-    a("fractal3d", "amplitude octaves lacunarity diminish position", l::fractal3d),
+    a(
+        "fractal2d",
+        "amplitude octaves lacunarity diminish texcoord",
+        l::fractal2d,
+    ),
+    a(
+        "fractal3d",
+        "amplitude octaves lacunarity diminish position",
+        l::fractal3d,
+    ),
     a("cellnoise2d", "texcoord", l::cellnoise2d),
     a("cellnoise3d", "position", l::cellnoise3d),
     // texture

@@ -11,6 +11,9 @@
 //! the existing ones. Closures (BSDF, EDF, shaders, materials) are issue 15: selecting one is
 //! an error naming the node, never a wrong image.
 
+// Errors carry positions and names for the user; they are built once, on the cold path.
+#![allow(clippy::result_large_err)]
+
 pub mod atoms;
 pub mod atoms_lower;
 pub mod channels;
