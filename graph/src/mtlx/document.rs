@@ -422,7 +422,7 @@ mod tests {
             g.nodes[1].inputs[1].colorspace.as_deref(),
             Some("lin_rec709")
         );
-        assert_eq!(g.outputs[0].pos.line, 13);
+        assert_eq!(g.outputs[0].pos.line, 12);
         assert_eq!(d.materials().count(), 1);
         assert_eq!(d.looks[0].assigns, vec![("Mat".into(), "/box".into())]);
     }
