@@ -6,12 +6,14 @@
 //! op semantics), [`runtime`] (shading context, lights, interpreter, back-end traits),
 //! [`jit`] (the Cranelift back end) and [`tracer`] (scenes, BVH, passes, film); [`shade`]
 //! shades a network over a grid without a renderer, [`render`] links a scene's materials and
-//! hands them to the tracer, [`output`] writes PNG and EXR images, [`generate`] builds
+//! hands them to the tracer, [`output`] writes PNG and EXR images, [`mtlx`] reads MaterialX documents and
+//! finds the MaterialX libraries, [`generate`] builds
 //! networks for benchmarks (the multiplication tree) and [`bench`] is `shadenet bench`. It owns the `shadenet` CLI and must not
 //! add shading semantics of its own.
 
 pub mod bench;
 pub mod generate;
+pub mod mtlx;
 pub mod output;
 pub mod render;
 pub mod shade;
@@ -21,6 +23,7 @@ pub use shadenet_jit as jit;
 pub use shadenet_runtime as runtime;
 pub use shadenet_tracer as tracer;
 
+pub use mtlx::{MtlxOptions, compile_mtlx};
 pub use shadenet_graph::{CompileError, Compiled, NodeLibrary, compile_json};
 
 use std::path::{Path, PathBuf};

@@ -1,5 +1,5 @@
 //! The `shadenet` command line: `render`, `shade`, `compile`, `check`, `nodes`, `gen`,
-//! `bench`, `gpu-info`, `diff`.
+//! `bench`, `gpu-info`, `diff`, `mtlx-coverage`.
 //!
 //! This file only parses arguments and dispatches; each subcommand is a file of [`cli`], and
 //! an error is printed once here, its causes outermost first.
@@ -38,9 +38,14 @@ enum Cmd {
     Compile(CompileArgs),
     /// Link a network and report every error, or `ok` with a summary.
     Check {
-        /// The network file (.json).
+        /// The network file (.json) or MaterialX document (.mtlx).
         network: PathBuf,
+        #[command(flatten)]
+        mtlx: cli::MtlxArgs,
     },
+    /// Print every MaterialX stdlib nodedef with its status (native, via nodegraph, or
+    /// unsupported with the reason) and the total.
+    MtlxCoverage(cli::mtlx_coverage::CoverageArgs),
     /// Print the node reference (Markdown; docs/nodes.md is this output).
     Nodes,
     /// Write a generated network (for benchmarks).
@@ -65,7 +70,8 @@ fn main() {
         Cmd::Render(args) => cli::render::run(args),
         Cmd::Shade(args) => cli::shade::run(args),
         Cmd::Compile(args) => cli::compile::run(&args),
-        Cmd::Check { network } => cli::check::run(&network),
+        Cmd::Check { network, mtlx } => cli::check::run(&network, &mtlx),
+        Cmd::MtlxCoverage(args) => cli::mtlx_coverage::run(&args),
         Cmd::Nodes => {
             cli::print_out(&NodeLibrary::standard().reference());
             Ok(())

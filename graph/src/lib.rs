@@ -10,6 +10,7 @@
 pub mod ir;
 pub mod link;
 pub mod lower;
+pub mod mtlx;
 pub mod network;
 pub mod nodes;
 pub mod ops;

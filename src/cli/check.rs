@@ -1,12 +1,12 @@
 //! `shadenet check`: link a network and report every error, or `ok` with a summary.
 
-use super::{load, print_out};
+use super::{MtlxArgs, load, print_out};
 use anyhow::Result;
 use std::path::Path;
 
 /// Runs `shadenet check`.
-pub(crate) fn run(path: &Path) -> Result<()> {
-    let c = load(path)?;
+pub(crate) fn run(path: &Path, mtlx: &MtlxArgs) -> Result<()> {
+    let c = load(path, mtlx)?;
     say!(
         "ok: {} ops, outputs: {}, components: [{}], lights: {}",
         c.program.op_count(),

@@ -11,7 +11,7 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub(crate) struct CompileArgs {
-    /// The network file (.json).
+    /// The network file (.json) or MaterialX document (.mtlx).
     network: PathBuf,
     /// What to print: `ir` (the optimized program), `ir:after=PASS` (the program after every
     /// run of PASS: specialize, fold, dead_branch, cse, dce, hoist), `ir:before` (the
@@ -29,11 +29,13 @@ pub(crate) struct CompileArgs {
     gpu: GpuPassesArg,
     #[command(flatten)]
     opt: OptArgs,
+    #[command(flatten)]
+    mtlx: super::MtlxArgs,
 }
 
 /// Runs `shadenet compile`.
 pub(crate) fn run(args: &CompileArgs) -> Result<()> {
-    let c = load(&args.network)?;
+    let c = load(&args.network, &args.mtlx)?;
     let emit = args.emit.clone().unwrap_or_else(|| {
         if args.stats {
             "none".into()

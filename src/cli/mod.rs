@@ -19,6 +19,7 @@ pub mod compile;
 pub mod diff;
 pub mod generate;
 pub mod gpu_info;
+pub mod mtlx_coverage;
 pub mod render;
 pub mod shade;
 
@@ -236,9 +237,46 @@ pub(crate) fn print_out(text: &str) {
     let _ = std::io::stdout().lock().write_all(text.as_bytes());
 }
 
-/// Reads, links and lowers a network file and validates its IR.
-pub(crate) fn load(path: &Path) -> Result<shadenet::Compiled> {
-    let compiled = shadenet::load_network(path)?;
+/// The MaterialX options of `check`, `compile` and `shade` (used for `.mtlx` files).
+#[derive(clap::Args, Clone, Default)]
+pub(crate) struct MtlxArgs {
+    /// The MaterialX `libraries` folder (default: SHADENET_MTLX_LIBRARIES, then each
+    /// MATERIALX_SEARCH_PATH entry's `libraries/`).
+    #[arg(long, value_name = "DIR")]
+    pub(crate) mtlx_libraries: Option<std::path::PathBuf>,
+    /// Shade this material of a .mtlx document (closures: not built yet, issue 15).
+    #[arg(long, value_name = "NAME", conflicts_with = "mtlx_output")]
+    pub(crate) material: Option<String>,
+    /// Shade this output of a .mtlx document: a top-level <output>, a nodegraph (all its
+    /// outputs) or `nodegraph/output` (default: every output).
+    #[arg(long, value_name = "NAME")]
+    pub(crate) mtlx_output: Option<String>,
+}
+
+impl MtlxArgs {
+    fn options(&self) -> shadenet::MtlxOptions {
+        shadenet::MtlxOptions {
+            libraries: self.mtlx_libraries.clone(),
+            selection: shadenet::graph::mtlx::Selection {
+                material: self.material.clone(),
+                output: self.mtlx_output.clone(),
+            },
+        }
+    }
+}
+
+/// Reads, links and lowers a network file (`.json`, or `.mtlx` with `mtlx`'s options) and
+/// validates its IR.
+pub(crate) fn load(path: &Path, mtlx: &MtlxArgs) -> Result<shadenet::Compiled> {
+    let is_mtlx = path.extension().is_some_and(|e| e == "mtlx");
+    if !is_mtlx && (mtlx.material.is_some() || mtlx.mtlx_output.is_some()) {
+        bail!("--material and --mtlx-output apply to .mtlx documents only");
+    }
+    let compiled = if is_mtlx {
+        shadenet::compile_mtlx(path, &mtlx.options())?
+    } else {
+        shadenet::load_network(path)?
+    };
     shadenet::graph::ir::validate(&compiled.program)
         .with_context(|| format!("{}: internal error: invalid IR", path.display()))?;
     Ok(compiled)

@@ -29,7 +29,7 @@ pub(crate) enum Precision {
 /// `shadenet shade`'s arguments.
 #[derive(clap::Args)]
 pub(crate) struct ShadeArgs {
-    /// The network file (.json).
+    /// The network file (.json) or MaterialX document (.mtlx).
     network: PathBuf,
     /// Output image: .png (sRGB preview) or .exr (every output and component as f32 layers).
     #[arg(short, long)]
@@ -45,6 +45,8 @@ pub(crate) struct ShadeArgs {
     component: Option<String>,
     #[command(flatten)]
     opt: OptArgs,
+    #[command(flatten)]
+    mtlx: super::MtlxArgs,
     /// Add a light: point:X,Y,Z:INTENSITY[:R,G,B], distant:DX,DY,DZ:INTENSITY[:R,G,B],
     /// spot:X,Y,Z:DX,DY,DZ:INTENSITY:CONE_DEG[:R,G,B], ambient:INTENSITY[:R,G,B].
     #[arg(long)]
@@ -114,7 +116,7 @@ pub(crate) fn run(args: ShadeArgs) -> Result<()> {
 /// Loads the network, adds the lights, picks the back end and checks the output choice.
 fn prepare(args: &ShadeArgs) -> Result<Job> {
     let load_start = Instant::now();
-    let compiled = load(&args.network)?;
+    let compiled = load(&args.network, &args.mtlx)?;
     let program = compiled.program;
     let mut lights = compiled.lights;
     for (i, spec) in args.light.iter().enumerate() {

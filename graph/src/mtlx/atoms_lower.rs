@@ -1,0 +1,677 @@
+//! The lowerings of the MaterialX atoms, each the formula of the MaterialX specification
+//! written with existing IR ops (one function per node, serving every type variant).
+//!
+//! This module owns the formulas; it must not decide which nodedef uses which lowering (the
+//! table in [`super::atoms`] does). A float operand of a vector-typed node (`ND_add_color3FA`)
+//! is broadcast; angles are in degrees, as MaterialX writes them.
+
+use crate::ir::{BinOp, Builder, Intrinsic, Space, Stream, UnOp, Value, XformKind};
+use crate::nodes::{LowVal, NodeInputs};
+use crate::types::{ConstValue, Type};
+
+type Out = Result<Vec<LowVal>, String>;
+
+fn one(v: Value) -> Out {
+    Ok(vec![LowVal::plain(v)])
+}
+
+/// The node's (first) output type.
+fn out_ty(inp: &NodeInputs) -> Type {
+    inp.def.outputs[0].ty.unwrap_or(Type::Float)
+}
+
+/// Input `port` broadcast to `ty` where it is a float and `ty` a vector.
+fn get(b: &mut Builder, inp: &NodeInputs, port: &str, ty: Type) -> Value {
+    let v = inp.get(port);
+    b.splat_to(ty, v)
+}
+
+fn konst(b: &mut Builder, ty: Type, x: f64) -> Value {
+    match ty {
+        Type::Int => b.int(x as i32),
+        _ => b.constant(
+            ConstValue::from_floats(ty, &vec![x; ty.width()]).unwrap_or(ConstValue::Float(x)),
+        ),
+    }
+}
+
+fn bin(b: &mut Builder, inp: &NodeInputs, op: BinOp) -> Out {
+    let ty = out_ty(inp);
+    let (x, y) = (get(b, inp, "in1", ty), get(b, inp, "in2", ty));
+    one(b.binary(op, x, y))
+}
+
+fn un(b: &mut Builder, inp: &NodeInputs, op: UnOp) -> Out {
+    let x = inp.get("in");
+    one(b.unary(op, x))
+}
+
+/// Applies a scalar function to each component of `v` (or to `v` if it is a float).
+fn per_component(
+    b: &mut Builder,
+    v: Value,
+    mut f: impl FnMut(&mut Builder, Value) -> Value,
+) -> Value {
+    let ty = b.ty(v);
+    if !ty.is_vector() {
+        return f(b, v);
+    }
+    let parts: Vec<Value> = (0..ty.width())
+        .map(|i| {
+            let c = b.extract(v, i);
+            f(b, c)
+        })
+        .collect();
+    b.construct(ty, &parts)
+}
+
+/// `in` of a node.
+fn input(inp: &NodeInputs) -> Value {
+    inp.get("in")
+}
+
+/// `in1 + in2`.
+pub fn add(b: &mut Builder, inp: &NodeInputs) -> Out {
+    bin(b, inp, BinOp::Add)
+}
+/// `in1 - in2`.
+pub fn subtract(b: &mut Builder, inp: &NodeInputs) -> Out {
+    bin(b, inp, BinOp::Sub)
+}
+/// `in1 * in2`.
+pub fn multiply(b: &mut Builder, inp: &NodeInputs) -> Out {
+    bin(b, inp, BinOp::Mul)
+}
+/// `in1 / in2` (0 where `in2` is 0: the IR's total division).
+pub fn divide(b: &mut Builder, inp: &NodeInputs) -> Out {
+    bin(b, inp, BinOp::Div)
+}
+/// `in1 - in2 * floor(in1 / in2)` (GLSL `mod`; 0 where `in2` is 0).
+pub fn modulo(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let ty = out_ty(inp);
+    let (x, y) = (get(b, inp, "in1", ty), get(b, inp, "in2", ty));
+    let q = b.div(x, y);
+    let f = b.unary(UnOp::Floor, q);
+    let p = b.mul(y, f);
+    one(b.sub(x, p))
+}
+/// `x - floor(x)`.
+pub fn fract(b: &mut Builder, inp: &NodeInputs) -> Out {
+    un(b, inp, UnOp::Fract)
+}
+/// `amount - in`.
+pub fn invert(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let ty = out_ty(inp);
+    let (x, a) = (get(b, inp, "in", ty), get(b, inp, "amount", ty));
+    one(b.sub(a, x))
+}
+/// `|in|`.
+pub fn absval(b: &mut Builder, inp: &NodeInputs) -> Out {
+    un(b, inp, UnOp::Abs)
+}
+/// `-1`, `0` or `1` per component.
+pub fn sign(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let x = input(inp);
+    one(per_component(b, x, |b, c| {
+        let (z, p, n) = (b.float(0.0), b.float(1.0), b.float(-1.0));
+        let gt = b.binary(BinOp::Gt, c, z);
+        let lt = b.binary(BinOp::Lt, c, z);
+        let neg = b.select(lt, n, z);
+        b.select(gt, p, neg)
+    }))
+}
+
+fn rounding(b: &mut Builder, inp: &NodeInputs, f: impl Fn(&mut Builder, Value) -> Value) -> Out {
+    let x = input(inp);
+    let r = f(b, x);
+    if out_ty(inp) == Type::Int {
+        return one(b.convert(Type::Int, r));
+    }
+    one(r)
+}
+/// `floor(in)` (an integer output converts the floored value).
+pub fn floor(b: &mut Builder, inp: &NodeInputs) -> Out {
+    rounding(b, inp, |b, x| b.unary(UnOp::Floor, x))
+}
+/// `ceil(in)`.
+pub fn ceil(b: &mut Builder, inp: &NodeInputs) -> Out {
+    rounding(b, inp, |b, x| b.unary(UnOp::Ceil, x))
+}
+/// Round half away from zero: `sign(x) * floor(|x| + 0.5)`.
+pub fn round(b: &mut Builder, inp: &NodeInputs) -> Out {
+    rounding(b, inp, |b, x| {
+        per_component(b, x, |b, c| {
+            let a = b.unary(UnOp::Abs, c);
+            let h = b.float(0.5);
+            let s = b.add(a, h);
+            let f = b.unary(UnOp::Floor, s);
+            let z = b.float(0.0);
+            let neg = b.binary(BinOp::Lt, c, z);
+            let nf = b.unary(UnOp::Neg, f);
+            b.select(neg, nf, f)
+        })
+    })
+}
+/// `pow(in1, in2)` (0 for a negative base and a non-integer exponent).
+pub fn power(b: &mut Builder, inp: &NodeInputs) -> Out {
+    bin(b, inp, BinOp::Pow)
+}
+/// `sin(in)` (radians).
+pub fn sin(b: &mut Builder, inp: &NodeInputs) -> Out {
+    un(b, inp, UnOp::Sin)
+}
+/// `cos(in)`.
+pub fn cos(b: &mut Builder, inp: &NodeInputs) -> Out {
+    un(b, inp, UnOp::Cos)
+}
+/// `tan(in)`.
+pub fn tan(b: &mut Builder, inp: &NodeInputs) -> Out {
+    un(b, inp, UnOp::Tan)
+}
+/// `asin(in)` (argument clamped).
+pub fn asin(b: &mut Builder, inp: &NodeInputs) -> Out {
+    un(b, inp, UnOp::Asin)
+}
+/// `acos(in)` (argument clamped).
+pub fn acos(b: &mut Builder, inp: &NodeInputs) -> Out {
+    un(b, inp, UnOp::Acos)
+}
+/// `atan2(iny, inx)`.
+pub fn atan2(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let ty = out_ty(inp);
+    let (y, x) = (get(b, inp, "iny", ty), get(b, inp, "inx", ty));
+    one(b.binary(BinOp::Atan2, y, x))
+}
+/// `sqrt(in)` (0 for negative input).
+pub fn sqrt(b: &mut Builder, inp: &NodeInputs) -> Out {
+    un(b, inp, UnOp::Sqrt)
+}
+/// Natural logarithm.
+pub fn ln(b: &mut Builder, inp: &NodeInputs) -> Out {
+    un(b, inp, UnOp::Log)
+}
+/// `e^in`.
+pub fn exp(b: &mut Builder, inp: &NodeInputs) -> Out {
+    un(b, inp, UnOp::Exp)
+}
+/// `min(max(in, low), high)`.
+pub fn clamp(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let ty = out_ty(inp);
+    let x = get(b, inp, "in", ty);
+    let (lo, hi) = (get(b, inp, "low", ty), get(b, inp, "high", ty));
+    one(b.clamp(x, lo, hi))
+}
+/// `min(in1, in2)`.
+pub fn min(b: &mut Builder, inp: &NodeInputs) -> Out {
+    bin(b, inp, BinOp::Min)
+}
+/// `max(in1, in2)`.
+pub fn max(b: &mut Builder, inp: &NodeInputs) -> Out {
+    bin(b, inp, BinOp::Max)
+}
+/// `in / |in|` (0 for the zero vector).
+pub fn normalize(b: &mut Builder, inp: &NodeInputs) -> Out {
+    un(b, inp, UnOp::Normalize)
+}
+/// `|in|`.
+pub fn magnitude(b: &mut Builder, inp: &NodeInputs) -> Out {
+    un(b, inp, UnOp::Length)
+}
+/// `|in1 - in2|`.
+pub fn distance(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let (x, y) = (inp.get("in1"), inp.get("in2"));
+    one(b.binary(BinOp::Distance, x, y))
+}
+/// `in1 · in2`.
+pub fn dotproduct(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let (x, y) = (inp.get("in1"), inp.get("in2"));
+    one(b.dot(x, y))
+}
+/// `in1 × in2`.
+pub fn crossproduct(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let (x, y) = (inp.get("in1"), inp.get("in2"));
+    one(b.binary(BinOp::Cross, x, y))
+}
+
+/// A MaterialX space name: `model`/`object` → object, `world`, `camera`; empty → world.
+fn space(s: &str) -> Result<Space, String> {
+    match s {
+        "" | "world" => Ok(Space::World),
+        "model" | "object" => Ok(Space::Object),
+        "camera" => Ok(Space::Camera),
+        other => Err(format!(
+            "space `{other}` is not one of model, object, world, camera"
+        )),
+    }
+}
+
+fn transform(b: &mut Builder, inp: &NodeInputs, kind: XformKind) -> Out {
+    let from = space(inp.string("fromspace"))?;
+    let to = space(inp.string("tospace"))?;
+    let x = input(inp);
+    if from == to {
+        return one(x);
+    }
+    one(b.push(
+        crate::ir::Op::Transform {
+            kind,
+            from,
+            to,
+            arg: x,
+        },
+        Some(Type::Vec3),
+    ))
+}
+/// A point from `fromspace` to `tospace`.
+pub fn transformpoint(b: &mut Builder, inp: &NodeInputs) -> Out {
+    transform(b, inp, XformKind::Point)
+}
+/// A vector from `fromspace` to `tospace`.
+pub fn transformvector(b: &mut Builder, inp: &NodeInputs) -> Out {
+    transform(b, inp, XformKind::Vector)
+}
+/// A normal from `fromspace` to `tospace`.
+pub fn transformnormal(b: &mut Builder, inp: &NodeInputs) -> Out {
+    transform(b, inp, XformKind::Normal)
+}
+/// `mat * (in, 1)` for the vector3 × matrix44 variant.
+pub fn transformmatrix(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let (x, m) = (input(inp), inp.get("mat"));
+    if b.ty(x) != Type::Vec3 || b.ty(m) != Type::Matrix44 {
+        return Err("only vector3 by matrix44 is lowered".into());
+    }
+    one(b.binary(BinOp::MulPoint, m, x))
+}
+
+fn radians(b: &mut Builder, deg: Value) -> Value {
+    let k = b.float(std::f64::consts::PI / 180.0);
+    b.mul(deg, k)
+}
+/// `(c·x + s·y, −s·x + c·y)` with `amount` in degrees (MaterialX's `mx_rotate_vector2`).
+pub fn rotate2d(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let v = input(inp);
+    let r = radians(b, inp.get("amount"));
+    let (s, c) = (b.unary(UnOp::Sin, r), b.unary(UnOp::Cos, r));
+    let (x, y) = (b.extract(v, 0), b.extract(v, 1));
+    let (cx, sy) = (b.mul(c, x), b.mul(s, y));
+    let (sx, cy) = (b.mul(s, x), b.mul(c, y));
+    let rx = b.add(cx, sy);
+    let ry = b.sub(cy, sx);
+    one(b.construct(Type::Vec2, &[rx, ry]))
+}
+/// Rodrigues' rotation of `in` by `amount` degrees about `normalize(axis)`.
+pub fn rotate3d(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let v = input(inp);
+    let k = b.normalize(inp.get("axis"));
+    let r = radians(b, inp.get("amount"));
+    let (s, c) = (b.unary(UnOp::Sin, r), b.unary(UnOp::Cos, r));
+    let cs = b.splat(Type::Vec3, c);
+    let ss = b.splat(Type::Vec3, s);
+    let t1 = b.mul(v, cs);
+    let kxv = b.binary(BinOp::Cross, k, v);
+    let t2 = b.mul(kxv, ss);
+    let kv = b.dot(k, v);
+    let one_f = b.float(1.0);
+    let omc = b.sub(one_f, c);
+    let w = b.mul(kv, omc);
+    let ws = b.splat(Type::Vec3, w);
+    let t3 = b.mul(k, ws);
+    let s12 = b.add(t1, t2);
+    one(b.add(s12, t3))
+}
+/// `bg + (fg − bg)·mix`, exactly `bg` at 0 and `fg` at 1.
+pub fn mix(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let ty = out_ty(inp);
+    let (fg, bg) = (get(b, inp, "fg", ty), get(b, inp, "bg", ty));
+    let t = inp.get("mix");
+    one(b.mix(bg, fg, t))
+}
+
+/// `mix·f(fg, bg) + (1 − mix)·bg`, the compositing nodes' blend.
+fn composite(
+    b: &mut Builder,
+    inp: &NodeInputs,
+    f: impl FnOnce(&mut Builder, Value, Value, Type) -> Value,
+) -> Out {
+    let ty = out_ty(inp);
+    let (fg, bg) = (get(b, inp, "fg", ty), get(b, inp, "bg", ty));
+    let v = f(b, fg, bg, ty);
+    let t = inp.get("mix");
+    one(b.mix(bg, v, t))
+}
+/// `fg + bg`, blended by `mix`.
+pub fn plus(b: &mut Builder, inp: &NodeInputs) -> Out {
+    composite(b, inp, |b, f, g, _| b.add(f, g))
+}
+/// `bg − fg`, blended by `mix`.
+pub fn minus(b: &mut Builder, inp: &NodeInputs) -> Out {
+    composite(b, inp, |b, f, g, _| b.sub(g, f))
+}
+/// `|bg − fg|`, blended by `mix`.
+pub fn difference(b: &mut Builder, inp: &NodeInputs) -> Out {
+    composite(b, inp, |b, f, g, _| {
+        let d = b.sub(g, f);
+        b.unary(UnOp::Abs, d)
+    })
+}
+/// `1 − (1 − fg)(1 − bg)`, blended by `mix`.
+pub fn screen(b: &mut Builder, inp: &NodeInputs) -> Out {
+    composite(b, inp, |b, f, g, ty| {
+        let o = konst(b, ty, 1.0);
+        let (a, c) = (b.sub(o, f), b.sub(o, g));
+        let p = b.mul(a, c);
+        b.sub(o, p)
+    })
+}
+/// `1 − (1 − bg)/fg`, blended by `mix` (0 where `fg` is 0: total division).
+pub fn burn(b: &mut Builder, inp: &NodeInputs) -> Out {
+    composite(b, inp, |b, f, g, ty| {
+        let o = konst(b, ty, 1.0);
+        let a = b.sub(o, g);
+        let q = b.div(a, f);
+        b.sub(o, q)
+    })
+}
+/// `bg / (1 − fg)`, blended by `mix`.
+pub fn dodge(b: &mut Builder, inp: &NodeInputs) -> Out {
+    composite(b, inp, |b, f, g, ty| {
+        let o = konst(b, ty, 1.0);
+        let a = b.sub(o, f);
+        b.div(g, a)
+    })
+}
+/// `in · mask`.
+pub fn inside(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let ty = out_ty(inp);
+    let (x, m) = (get(b, inp, "in", ty), get(b, inp, "mask", ty));
+    one(b.mul(x, m))
+}
+/// `in · (1 − mask)`.
+pub fn outside(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let ty = out_ty(inp);
+    let (x, m) = (get(b, inp, "in", ty), get(b, inp, "mask", ty));
+    let o = konst(b, ty, 1.0);
+    let im = b.sub(o, m);
+    one(b.mul(x, im))
+}
+/// `dot(in, lumacoeffs)` in every channel.
+pub fn luminance(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let (x, k) = (input(inp), inp.get("lumacoeffs"));
+    let l = b.dot(x, k);
+    one(b.splat(Type::Color, l))
+}
+/// RGB → HSV (hue in [0, 1)).
+pub fn rgbtohsv(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let x = input(inp);
+    one(b.call(Intrinsic::RgbToHsv, &[x]))
+}
+/// HSV → RGB.
+pub fn hsvtorgb(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let x = input(inp);
+    one(b.call(Intrinsic::HsvToRgb, &[x]))
+}
+
+fn conditional(b: &mut Builder, inp: &NodeInputs, op: BinOp) -> Out {
+    let (v1, v2) = (inp.get("value1"), inp.get("value2"));
+    let cond = match (b.ty(v1), op) {
+        (Type::Bool, BinOp::Eq) => b.binary(BinOp::Eq, v1, v2),
+        (Type::Bool, _) => {
+            let (x, y) = (b.convert(Type::Int, v1), b.convert(Type::Int, v2));
+            b.binary(op, x, y)
+        }
+        _ => b.binary(op, v1, v2),
+    };
+    if inp.def.input("in1").is_none() {
+        // The boolean variants (1.39) output the comparison itself.
+        return one(cond);
+    }
+    let (a, c) = (inp.get("in1"), inp.get("in2"));
+    one(b.select(cond, a, c))
+}
+/// `value1 > value2 ? in1 : in2`.
+pub fn ifgreater(b: &mut Builder, inp: &NodeInputs) -> Out {
+    conditional(b, inp, BinOp::Gt)
+}
+/// `value1 >= value2 ? in1 : in2`.
+pub fn ifgreatereq(b: &mut Builder, inp: &NodeInputs) -> Out {
+    conditional(b, inp, BinOp::Ge)
+}
+/// `value1 == value2 ? in1 : in2`.
+pub fn ifequal(b: &mut Builder, inp: &NodeInputs) -> Out {
+    conditional(b, inp, BinOp::Eq)
+}
+/// `in1 && in2`.
+pub fn and(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let (x, y) = (inp.get("in1"), inp.get("in2"));
+    one(b.binary(BinOp::And, x, y))
+}
+/// `in1 || in2`.
+pub fn or(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let (x, y) = (inp.get("in1"), inp.get("in2"));
+    one(b.binary(BinOp::Or, x, y))
+}
+/// `!in`.
+pub fn not(b: &mut Builder, inp: &NodeInputs) -> Out {
+    un(b, inp, UnOp::Not)
+}
+/// A scalar conversion (boolean/integer → float: 0 or 1, the integer's value).
+pub fn convert(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let ty = out_ty(inp);
+    let x = input(inp);
+    one(b.convert(ty, x))
+}
+/// A vector from its components `in1`, `in2` (, `in3`).
+pub fn combine(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let ty = out_ty(inp);
+    let parts: Vec<Value> = ["in1", "in2", "in3"][..ty.width()]
+        .iter()
+        .map(|p| inp.get(p))
+        .collect();
+    one(b.construct(ty, &parts))
+}
+/// Component `index` of `in` (0 for an index out of range).
+pub fn extract(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let (x, i) = (input(inp), inp.get("index"));
+    let w = b.ty(x).width();
+    let mut r = b.float(0.0);
+    for k in (0..w).rev() {
+        let c = b.extract(x, k);
+        let ki = b.int(k as i32);
+        let is = b.binary(BinOp::Eq, i, ki);
+        r = b.select(is, c, r);
+    }
+    one(r)
+}
+/// `in` unchanged (a constant's `value`, a dot's `in`).
+pub fn constant(_b: &mut Builder, inp: &NodeInputs) -> Out {
+    Ok(vec![inp.low("value").clone()])
+}
+/// `in` unchanged.
+pub fn dot(_b: &mut Builder, inp: &NodeInputs) -> Out {
+    Ok(vec![inp.low("in").clone()])
+}
+
+fn stream_node(b: &mut Builder, inp: &NodeInputs, s: Stream, unit: bool) -> Out {
+    let sp = space(inp.string("space"))?;
+    let v = b.stream_in(s, sp);
+    one(if unit { b.normalize(v) } else { v })
+}
+/// The shading position in `space`.
+pub fn position(b: &mut Builder, inp: &NodeInputs) -> Out {
+    stream_node(b, inp, Stream::P, false)
+}
+/// The shading normal in `space`.
+pub fn normal(b: &mut Builder, inp: &NodeInputs) -> Out {
+    stream_node(b, inp, Stream::N, true)
+}
+/// `normalize(dP/du)` in `space`.
+pub fn tangent(b: &mut Builder, inp: &NodeInputs) -> Out {
+    stream_node(b, inp, Stream::DPdu, true)
+}
+/// `normalize(dP/dv)` in `space`.
+pub fn bitangent(b: &mut Builder, inp: &NodeInputs) -> Out {
+    stream_node(b, inp, Stream::DPdv, true)
+}
+/// The uv stream (a vector3 variant has z = 0).
+pub fn texcoord(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let uv = b.stream(Stream::Uv);
+    if out_ty(inp) == Type::Vec3 {
+        let (u, v) = (b.extract(uv, 0), b.extract(uv, 1));
+        let z = b.float(0.0);
+        return one(b.construct(Type::Vec3, &[u, v, z]));
+    }
+    one(uv)
+}
+/// The time stream, in seconds (`fps` does not change it).
+pub fn time(b: &mut Builder, _inp: &NodeInputs) -> Out {
+    one(b.stream(Stream::Time))
+}
+
+fn ramp(b: &mut Builder, inp: &NodeInputs, axis: usize) -> Out {
+    let ty = out_ty(inp);
+    let (l, r) = (get(b, inp, "valuel", ty), get(b, inp, "valuer", ty));
+    let uv = inp.get("texcoord");
+    let t = b.extract(uv, axis);
+    let (z, o) = (b.float(0.0), b.float(1.0));
+    let t = b.clamp(t, z, o);
+    one(b.mix(l, r, t))
+}
+/// `mix(valuel, valuer, clamp(u, 0, 1))`.
+pub fn ramplr(b: &mut Builder, inp: &NodeInputs) -> Out {
+    ramp(b, inp, 0)
+}
+/// `mix(valuet, valueb, clamp(v, 0, 1))` (the inputs are named `valuet`, `valueb`).
+pub fn ramptb(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let ty = out_ty(inp);
+    let (t_, b_) = (get(b, inp, "valuet", ty), get(b, inp, "valueb", ty));
+    let uv = inp.get("texcoord");
+    let v = b.extract(uv, 1);
+    let (z, o) = (b.float(0.0), b.float(1.0));
+    let v = b.clamp(v, z, o);
+    one(b.mix(b_, t_, v))
+}
+fn split(b: &mut Builder, inp: &NodeInputs, axis: usize, lo: &str, hi: &str) -> Out {
+    let ty = out_ty(inp);
+    let (l, r) = (get(b, inp, lo, ty), get(b, inp, hi, ty));
+    let uv = inp.get("texcoord");
+    let t = b.extract(uv, axis);
+    let c = inp.get("center");
+    let past = b.binary(BinOp::Ge, t, c);
+    one(b.select(past, r, l))
+}
+/// `u >= center ? valuer : valuel` (a hard edge; MaterialX's `aastep` antialiases it).
+pub fn splitlr(b: &mut Builder, inp: &NodeInputs) -> Out {
+    split(b, inp, 0, "valuel", "valuer")
+}
+/// `v >= center ? valuet : valueb`.
+pub fn splittb(b: &mut Builder, inp: &NodeInputs) -> Out {
+    split(b, inp, 1, "valueb", "valuet")
+}
+
+/// Per-component offsets for vector-valued noise (each component samples the noise at a
+/// shifted position, as OSL's vector noise does).
+const OFFSETS: [[f64; 3]; 3] = [[0.0, 0.0, 0.0], [19.34, 7.66, 3.23], [5.47, 17.85, 11.04]];
+
+/// `noise(p)` in every component of `ty` (shifted per component), with `noise` a closure
+/// taking a vec3.
+fn vector_noise(
+    b: &mut Builder,
+    ty: Type,
+    p: Value,
+    noise: impl Fn(&mut Builder, Value) -> Value,
+) -> Value {
+    if ty == Type::Float {
+        return noise(b, p);
+    }
+    let parts: Vec<Value> = (0..ty.width())
+        .map(|i| {
+            let off = b.vec3(OFFSETS[i]);
+            let q = b.add(p, off);
+            noise(b, q)
+        })
+        .collect();
+    b.construct(ty, &parts)
+}
+
+fn uv3(b: &mut Builder, uv: Value) -> Value {
+    let (u, v) = (b.extract(uv, 0), b.extract(uv, 1));
+    let z = b.float(0.0);
+    b.construct(Type::Vec3, &[u, v, z])
+}
+
+fn noise_node(b: &mut Builder, inp: &NodeInputs, p: Value) -> Out {
+    let ty = out_ty(inp);
+    let n = vector_noise(b, ty, p, |b, q| b.call(Intrinsic::Noise3, &[q]));
+    let (amp, pivot) = (get(b, inp, "amplitude", ty), get(b, inp, "pivot", ty));
+    let s = b.mul(n, amp);
+    one(b.add(s, pivot))
+}
+/// `noise(texcoord) · amplitude + pivot`, Perlin noise in [−1, 1].
+pub fn noise2d(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let p = uv3(b, inp.get("texcoord"));
+    noise_node(b, inp, p)
+}
+/// `noise(position) · amplitude + pivot`.
+pub fn noise3d(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let p = inp.get("position");
+    noise_node(b, inp, p)
+}
+fn fractal(b: &mut Builder, inp: &NodeInputs, p: Value) -> Out {
+    let ty = out_ty(inp);
+    let (oct, lac, dim) = (
+        inp.get("octaves"),
+        inp.get("lacunarity"),
+        inp.get("diminish"),
+    );
+    let n = vector_noise(b, ty, p, |b, q| {
+        b.call(Intrinsic::Fbm3, &[q, oct, lac, dim])
+    });
+    let amp = get(b, inp, "amplitude", ty);
+    one(b.mul(n, amp))
+}
+/// `Σ_{i<octaves} diminish^i · noise(texcoord · lacunarity^i) · amplitude`.
+pub fn fractal2d(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let p = uv3(b, inp.get("texcoord"));
+    fractal(b, inp, p)
+}
+/// `Σ_{i<octaves} diminish^i · noise(position · lacunarity^i) · amplitude`.
+pub fn fractal3d(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let p = inp.get("position");
+    fractal(b, inp, p)
+}
+/// A value in [0, 1) constant over each unit cell of `texcoord`.
+pub fn cellnoise2d(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let p = uv3(b, inp.get("texcoord"));
+    one(b.call(Intrinsic::CellNoise3, &[p]))
+}
+/// A value in [0, 1) constant over each unit cell of `position`.
+pub fn cellnoise3d(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let p = inp.get("position");
+    one(b.call(Intrinsic::CellNoise3, &[p]))
+}
+/// A texture lookup of `file` at `texcoord` (today's texture path: wrap and filtering are
+/// the texture system's); `default` where no file is named. Float and vector outputs take
+/// the color's first channels.
+pub fn image(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let ty = out_ty(inp);
+    let file = inp.string("file").to_string();
+    if file.is_empty() {
+        return Ok(vec![inp.low("default").clone()]);
+    }
+    let t = b.texture_index(&file);
+    let uv = inp.get("texcoord");
+    let c = b.texture(t, uv, false);
+    one(match ty {
+        Type::Color => c,
+        Type::Float => b.extract(c, 0),
+        Type::Vec3 => {
+            let parts: Vec<Value> = (0..3).map(|i| b.extract(c, i)).collect();
+            b.construct(Type::Vec3, &parts)
+        }
+        Type::Vec2 => {
+            let parts: Vec<Value> = (0..2).map(|i| b.extract(c, i)).collect();
+            b.construct(Type::Vec2, &parts)
+        }
+        other => return Err(format!("image of type {other} is not lowered")),
+    })
+}

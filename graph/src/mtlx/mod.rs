@@ -1,0 +1,65 @@
+//! MaterialX front end (DESIGN §11): `.mtlx` documents to the same [`Network`] the JSON
+//! front end produces, with the MaterialX data libraries as the node definitions.
+//!
+//! The pipeline: [`document::parse`] (XML text → [`Document`], positions kept) →
+//! [`translate::to_network`] (nodedef resolution per the specification, nodegraph-defined
+//! nodedefs as compounds the linker expands, every other nodedef an atom of the table in
+//! [`atoms`]) → the ordinary linker and lowering, against [`Library::atoms`].
+//!
+//! This module owns MaterialX semantics; it must not read files or search the disk for the
+//! libraries (the facade does, through `runtime::input`), nor add IR ops: atoms lower to
+//! the existing ones. Closures (BSDF, EDF, shaders, materials) are issue 15: selecting one is
+//! an error naming the node, never a wrong image.
+
+// Errors carry positions and names for the user; they are built once, on the cold path.
+#![allow(clippy::result_large_err)]
+
+pub mod atoms;
+pub mod atoms_lower;
+pub mod channels;
+pub mod coverage;
+pub mod document;
+pub mod error;
+pub mod library;
+pub mod resolve;
+pub mod translate;
+pub mod value;
+
+pub use document::{Document, parse};
+pub use error::{MtlxError, Pos};
+pub use library::Library;
+pub use translate::{Selection, to_network};
+
+use crate::lower::{Compiled, lower};
+use crate::network::Network;
+
+/// Parses a document's text and translates it to a network (`file` names it in errors).
+pub fn network(
+    file: &str,
+    text: &str,
+    lib: &Library,
+    sel: &Selection,
+) -> Result<Network, MtlxError> {
+    let doc = parse(file, text)?;
+    to_network(&doc, lib, sel)
+}
+
+/// Parses, translates, links and lowers a document's text.
+pub fn compile(
+    file: &str,
+    text: &str,
+    lib: &Library,
+    sel: &Selection,
+) -> Result<Compiled, MtlxError> {
+    let net = network(file, text, lib, sel)?;
+    let link = |source| MtlxError::Link {
+        file: file.to_string(),
+        source,
+    };
+    let linked = crate::link::link(&net, lib.atoms()).map_err(link)?;
+    let program = lower(&linked, lib.atoms()).map_err(link)?;
+    Ok(Compiled {
+        program,
+        lights: linked.lights,
+    })
+}

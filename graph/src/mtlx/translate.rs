@@ -1,0 +1,627 @@
+//! From a MaterialX document to a shadenet [`Network`]: nodes become instances of atom
+//! nodedefs (named by the nodedef), nodegraph-implemented nodedefs and the document's
+//! nodegraphs become compounds the linker expands, `interfacename` becomes `$name`,
+//! `nodename`/`nodegraph` + `output` become connections, and the chosen outputs become the
+//! material's outputs.
+//!
+//! This module owns that translation and the checks that need MaterialX types (exact
+//! connection types, interface names, closures, nodegraph cycles); it must not lower nodes
+//! (the atoms do) nor link (the linker does).
+
+use super::atoms::geomprop_node;
+use super::document::{Document, Graph, Input, NodeDefElem, NodeElem};
+use super::error::{MtlxError, Pos};
+use super::library::{Impl, Library};
+use super::resolve::Defs;
+use super::value::{CLOSURE_TYPES, MxType, classify, literal, unsupported_reason};
+use crate::network::{CompoundInput, CompoundSpec, Network, NodeSpec};
+use serde_json::{Map, Value as Json};
+use std::collections::{HashMap, HashSet};
+
+/// Which part of a document to shade.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Selection {
+    /// A material by name (closures: an error until issue 15).
+    pub material: Option<String>,
+    /// An output: a top-level `<output>`, a nodegraph (all its outputs) or `graph/output`.
+    pub output: Option<String>,
+}
+
+/// The interface a scope's `interfacename`s refer to.
+struct Iface<'a> {
+    graph: &'a str,
+    inputs: &'a [Input],
+}
+
+struct Tr<'a> {
+    defs: Defs<'a>,
+    compounds: Vec<CompoundSpec>,
+    done: HashSet<String>,
+    stack: Vec<String>,
+}
+
+/// The compound name of a document nodegraph without a nodedef.
+fn graph_compound(name: &str) -> String {
+    format!("nodegraph {name}")
+}
+
+fn doc_err(at: &Pos, msg: String) -> MtlxError {
+    MtlxError::Document {
+        at: at.clone(),
+        msg,
+    }
+}
+
+impl<'a> Tr<'a> {
+    /// Resolves a node and checks that its nodedef can be used, translating its nodegraph.
+    fn usable(&mut self, node: &NodeElem) -> Result<&'a NodeDefElem, MtlxError> {
+        let nd = self.defs.resolve(node)?;
+        for p in nd.outputs.iter().chain(&nd.inputs) {
+            match classify(&p.ty) {
+                MxType::Value(_) => {}
+                MxType::Closure => {
+                    return Err(MtlxError::Closure {
+                        at: node.pos.clone(),
+                        node: node.name.clone(),
+                        ty: p.ty.clone(),
+                    });
+                }
+                MxType::Unsupported => {
+                    return Err(MtlxError::Unsupported {
+                        at: node.pos.clone(),
+                        node: node.name.clone(),
+                        msg: format!("{} ({}): {}", nd.name, p.name, unsupported_reason(&p.ty)),
+                    });
+                }
+            }
+        }
+        match self.implementation(nd) {
+            Impl::Graph(g) => self.compound(nd, g)?,
+            Impl::Atom => {}
+            Impl::None(reason) => {
+                return Err(MtlxError::Unsupported {
+                    at: node.pos.clone(),
+                    node: node.name.clone(),
+                    msg: format!("{} is not supported: {reason}", nd.name),
+                });
+            }
+        }
+        Ok(nd)
+    }
+
+    fn implementation(&self, nd: &'a NodeDefElem) -> Impl<'a> {
+        if let Some(g) = self
+            .defs
+            .doc
+            .graphs
+            .iter()
+            .find(|g| g.nodedef.as_deref() == Some(&nd.name))
+        {
+            return Impl::Graph(g);
+        }
+        self.defs.lib.implementation(nd)
+    }
+
+    /// Makes the nodedefs of helper nodes (swizzle combines, output pass-throughs) usable:
+    /// those implemented by nodegraphs become compounds too.
+    fn helpers(&mut self, top: &[NodeSpec]) -> Result<(), MtlxError> {
+        loop {
+            let mut wanted: Vec<String> = top
+                .iter()
+                .chain(self.compounds.iter().flat_map(|c| c.nodes.iter()))
+                .map(|n| n.ty.clone())
+                .filter(|t| t.starts_with("ND_") && !self.done.contains(t))
+                .collect();
+            wanted.sort();
+            wanted.dedup();
+            let mut added = false;
+            for name in wanted {
+                let Some(nd) = self.defs.nodedef(&name) else {
+                    continue;
+                };
+                if let Impl::Graph(g) = self.implementation(nd) {
+                    self.compound(nd, g)?;
+                    added = true;
+                }
+            }
+            if !added {
+                return Ok(());
+            }
+        }
+    }
+
+    /// Translates a nodedef's nodegraph into a compound named after the nodedef.
+    fn compound(&mut self, nd: &'a NodeDefElem, g: &'a Graph) -> Result<(), MtlxError> {
+        if self.done.contains(&nd.name) {
+            return Ok(());
+        }
+        if let Some(start) = self.stack.iter().position(|s| *s == g.name) {
+            let mut path = self.stack[start..].to_vec();
+            path.push(g.name.clone());
+            return Err(MtlxError::Cycle {
+                path: path.join(" → "),
+            });
+        }
+        self.stack.push(g.name.clone());
+        let iface = Iface {
+            graph: &g.name,
+            inputs: &nd.inputs,
+        };
+        let (nodes, types) = self.scope(&g.nodes, Some(&iface))?;
+        let outputs = self.graph_outputs(g, &nd.outputs, &iface, &types)?;
+        let mut spec = CompoundSpec {
+            name: nd.name.clone(),
+            doc: None,
+            inputs: interface(&nd.inputs)?,
+            outputs: Map::new(),
+            nodes,
+        };
+        for (name, conn, extra) in outputs {
+            spec.outputs.insert(name, Json::String(conn));
+            spec.nodes.extend(extra);
+        }
+        self.stack.pop();
+        self.done.insert(nd.name.clone());
+        self.compounds.push(spec);
+        Ok(())
+    }
+
+    /// Resolves and translates the nodes of one scope; returns them and each node's
+    /// nodedef (for output names and types).
+    fn scope(
+        &mut self,
+        all: &'a [NodeElem],
+        iface: Option<&Iface>,
+    ) -> Result<(Vec<NodeSpec>, HashMap<&'a str, &'a NodeDefElem>), MtlxError> {
+        // Closure-typed nodes of the document (materials, shaders) are left out: they are
+        // reported only when selected.
+        let nodes: Vec<&'a NodeElem> = all
+            .iter()
+            .filter(|n| iface.is_some() || !CLOSURE_TYPES.contains(&n.ty.as_str()))
+            .collect();
+        let mut types = HashMap::new();
+        for &n in &nodes {
+            let nd = self.usable(n)?;
+            if types.insert(n.name.as_str(), nd).is_some() {
+                return Err(doc_err(
+                    &n.pos,
+                    format!("node name `{}` is used twice", n.name),
+                ));
+            }
+        }
+        let mut out = Vec::new();
+        for &n in &nodes {
+            let nd = types[n.name.as_str()];
+            let mut spec = NodeSpec {
+                name: n.name.clone(),
+                ty: nd.name.clone(),
+                inputs: Map::new(),
+            };
+            for i in &n.inputs {
+                let Some(di) = nd.inputs.iter().find(|d| d.name == i.name) else {
+                    let valid: Vec<&str> = nd.inputs.iter().map(|d| d.name.as_str()).collect();
+                    return Err(doc_err(
+                        &i.pos,
+                        format!(
+                            "node `{}` ({}) has no input `{}`; its inputs are: {}",
+                            n.name,
+                            nd.name,
+                            i.name,
+                            valid.join(", ")
+                        ),
+                    ));
+                };
+                let v = self.input_value(&n.name, i, &di.ty, iface, &types, &mut out)?;
+                if let Some(v) = v {
+                    spec.inputs.insert(i.name.clone(), v);
+                }
+            }
+            if matches!(self.implementation(nd), Impl::Graph(_)) {
+                geomprops(&mut spec, nd, &mut out);
+            }
+            out.push(spec);
+        }
+        Ok((out, types))
+    }
+
+    /// The network value of one input: a literal, a connection, `$interface`, or `None`
+    /// (unset). Swizzles add a combine node to `extra`.
+    fn input_value(
+        &self,
+        node: &str,
+        i: &Input,
+        ty: &str,
+        iface: Option<&Iface>,
+        types: &HashMap<&str, &NodeDefElem>,
+        extra: &mut Vec<NodeSpec>,
+    ) -> Result<Option<Json>, MtlxError> {
+        let MxType::Value(t) = classify(ty) else {
+            return Err(doc_err(&i.pos, unsupported_reason(ty)));
+        };
+        if let Some(name) = &i.interfacename {
+            let found = iface.is_some_and(|f| f.inputs.iter().any(|x| &x.name == name));
+            if !found {
+                return Err(MtlxError::Interface {
+                    at: i.pos.clone(),
+                    node: node.to_string(),
+                    input: i.name.clone(),
+                    name: name.clone(),
+                    graph: iface
+                        .map_or("(none: a top-level node)", |f| f.graph)
+                        .to_string(),
+                });
+            }
+            return Ok(Some(Json::String(format!("${name}"))));
+        }
+        let (src, src_ty) = if let Some(n) = &i.nodename {
+            let Some(sd) = types.get(n.as_str()) else {
+                return Err(doc_err(
+                    &i.pos,
+                    format!(
+                        "node `{node}` input `{}`: nodename `{n}` names no node here",
+                        i.name
+                    ),
+                ));
+            };
+            let out = match &i.output {
+                Some(o) => sd.outputs.iter().find(|x| &x.name == o),
+                None => sd.outputs.first(),
+            };
+            let Some(out) = out else {
+                return Err(doc_err(
+                    &i.pos,
+                    format!(
+                        "node `{node}` input `{}`: node `{n}` has no output `{}`",
+                        i.name,
+                        i.output.as_deref().unwrap_or("")
+                    ),
+                ));
+            };
+            (format!("{n}.{}", out.name), out.ty.clone())
+        } else if let Some(g) = &i.nodegraph {
+            let (conn, t) = self.graph_output(g, i.output.as_deref(), &i.pos)?;
+            (conn, t)
+        } else if let Some(v) = &i.value {
+            if v.is_empty() && t != crate::types::Type::String {
+                return Ok(None);
+            }
+            return literal(v, t)
+                .map(Some)
+                .map_err(|m| doc_err(&i.pos, format!("node `{node}` input `{}`: {m}", i.name)));
+        } else {
+            return Ok(None);
+        };
+        if let Some(ch) = &i.channels {
+            return super::channels::swizzle(node, i, ch, &src, &src_ty, t, extra).map(Some);
+        }
+        if src_ty != ty {
+            return Err(MtlxError::TypeMismatch {
+                at: i.pos.clone(),
+                node: node.to_string(),
+                input: i.name.clone(),
+                expected: ty.to_string(),
+                source_name: src,
+                found: src_ty,
+            });
+        }
+        Ok(Some(Json::String(src)))
+    }
+
+    /// A document nodegraph's output as a connection and its type.
+    fn graph_output(
+        &self,
+        graph: &str,
+        output: Option<&str>,
+        at: &Pos,
+    ) -> Result<(String, String), MtlxError> {
+        let g = self
+            .defs
+            .doc
+            .graphs
+            .iter()
+            .find(|g| g.name == graph && g.nodedef.is_none())
+            .ok_or_else(|| doc_err(at, format!("nodegraph `{graph}` does not exist")))?;
+        let o = match output {
+            Some(o) => g.outputs.iter().find(|x| x.name == o),
+            None => g.outputs.first(),
+        }
+        .ok_or_else(|| {
+            doc_err(
+                at,
+                format!(
+                    "nodegraph `{graph}` has no output `{}`",
+                    output.unwrap_or("")
+                ),
+            )
+        })?;
+        Ok((format!("{graph}.{}", o.name), o.ty.clone()))
+    }
+
+    /// Each declared output of a graph → (name, inner connection, helper nodes).
+    fn graph_outputs(
+        &self,
+        g: &Graph,
+        decls: &[Input],
+        iface: &Iface,
+        types: &HashMap<&str, &NodeDefElem>,
+    ) -> Result<Vec<(String, String, Vec<NodeSpec>)>, MtlxError> {
+        let mut res = Vec::new();
+        for d in decls {
+            let Some(o) = g.outputs.iter().find(|o| o.name == d.name) else {
+                return Err(doc_err(
+                    &g.pos,
+                    format!("nodegraph `{}` has no output `{}`", g.name, d.name),
+                ));
+            };
+            let mut extra = Vec::new();
+            let holder = format!("{}_output", o.name);
+            let v = self.input_value(&holder, o, &d.ty, Some(iface), types, &mut extra)?;
+            let conn = match v {
+                Some(Json::String(c)) if !c.starts_with('$') => c,
+                v => {
+                    // A value or an interface input: pass it through a `dot` node.
+                    let mut inputs = Map::new();
+                    if let Some(v) = v {
+                        inputs.insert("in".into(), v);
+                    }
+                    extra.push(NodeSpec {
+                        name: holder.clone(),
+                        ty: format!("ND_dot_{}", d.ty),
+                        inputs,
+                    });
+                    format!("{holder}.out")
+                }
+            };
+            res.push((d.name.clone(), conn, extra));
+        }
+        Ok(res)
+    }
+}
+
+/// Compound inputs from interface declarations (defaults from their values).
+fn interface(inputs: &[Input]) -> Result<Vec<CompoundInput>, MtlxError> {
+    let mut res = Vec::new();
+    for i in inputs {
+        let MxType::Value(t) = classify(&i.ty) else {
+            return Err(doc_err(&i.pos, unsupported_reason(&i.ty)));
+        };
+        let default = match &i.value {
+            Some(v) if !v.is_empty() || t == crate::types::Type::String => {
+                Some(literal(v, t).map_err(|m| doc_err(&i.pos, m))?)
+            }
+            _ if i.defaultgeomprop.is_some() => None,
+            _ => Some(zero_json(t)),
+        };
+        res.push(CompoundInput {
+            name: i.name.clone(),
+            ty: t.name().to_string(),
+            default,
+        });
+    }
+    Ok(res)
+}
+
+fn zero_json(t: crate::types::Type) -> Json {
+    use crate::types::Type;
+    match t {
+        Type::Bool => Json::Bool(false),
+        Type::String => Json::String(String::new()),
+        Type::Matrix44 => {
+            serde_json::json!([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])
+        }
+        _ => serde_json::json!(vec![0.0; t.width()]),
+    }
+}
+
+/// Unset inputs of a nodegraph instance that default to a geometric property get a node
+/// reading that stream.
+fn geomprops(spec: &mut NodeSpec, nd: &NodeDefElem, out: &mut Vec<NodeSpec>) {
+    for di in &nd.inputs {
+        let Some(g) = &di.defaultgeomprop else {
+            continue;
+        };
+        if spec.inputs.contains_key(&di.name) {
+            continue;
+        }
+        let Some((ty, space)) = geomprop_node(g) else {
+            continue;
+        };
+        let name = format!("{}_{}_{}", spec.name, di.name, g);
+        let mut inputs = Map::new();
+        if let Some(s) = space {
+            inputs.insert("space".into(), Json::String(s.into()));
+        }
+        out.push(NodeSpec {
+            name: name.clone(),
+            ty: ty.into(),
+            inputs,
+        });
+        spec.inputs
+            .insert(di.name.clone(), Json::String(format!("{name}.out")));
+    }
+}
+
+/// The error for selecting a material: materials are closures (issue 15).
+fn material_error(doc: &Document, name: &str) -> MtlxError {
+    let Some(m) = doc.materials().find(|m| m.name == name) else {
+        let names: Vec<&str> = doc.materials().map(|m| m.name.as_str()).collect();
+        return MtlxError::Select {
+            file: doc.file.clone(),
+            msg: format!(
+                "no material `{name}` (materials: {})",
+                if names.is_empty() {
+                    "none".to_string()
+                } else {
+                    names.join(", ")
+                }
+            ),
+        };
+    };
+    // Name the shader the material binds, where there is one.
+    let shader = m
+        .inputs
+        .iter()
+        .find_map(|i| i.nodename.as_ref())
+        .and_then(|n| doc.nodes.iter().find(|x| &x.name == n));
+    match shader {
+        Some(s) => MtlxError::Closure {
+            at: s.pos.clone(),
+            node: s.name.clone(),
+            ty: s.ty.clone(),
+        },
+        None => MtlxError::Closure {
+            at: m.pos.clone(),
+            node: m.name.clone(),
+            ty: m.ty.clone(),
+        },
+    }
+}
+
+/// Translates a document into a network for the selection; the compounds it needs are
+/// included, the atoms are [`Library::atoms`].
+pub fn to_network(doc: &Document, lib: &Library, sel: &Selection) -> Result<Network, MtlxError> {
+    if let Some(m) = &sel.material {
+        return Err(material_error(doc, m));
+    }
+    let mut tr = Tr {
+        defs: Defs { lib, doc },
+        compounds: Vec::new(),
+        done: HashSet::new(),
+        stack: Vec::new(),
+    };
+    let mut nodes = Vec::new();
+    for g in doc.graphs.iter().filter(|g| g.nodedef.is_none()) {
+        let iface = Iface {
+            graph: &g.name,
+            inputs: &g.inputs,
+        };
+        let (inner, types) = tr.scope(&g.nodes, Some(&iface))?;
+        let outputs = tr.graph_outputs(g, &g.outputs, &iface, &types)?;
+        let mut spec = CompoundSpec {
+            name: graph_compound(&g.name),
+            doc: None,
+            inputs: interface(&g.inputs)?,
+            outputs: Map::new(),
+            nodes: inner,
+        };
+        for (name, conn, extra) in outputs {
+            spec.outputs.insert(name, Json::String(conn));
+            spec.nodes.extend(extra);
+        }
+        tr.compounds.push(spec);
+        nodes.push(NodeSpec {
+            name: g.name.clone(),
+            ty: graph_compound(&g.name),
+            inputs: Map::new(),
+        });
+    }
+    let (top_nodes, types) = tr.scope(&doc.nodes, None)?;
+    let outputs = select_outputs(&tr, doc, sel, &types, &mut nodes)?;
+    nodes.extend(top_nodes);
+    tr.helpers(&nodes)?;
+    Ok(Network {
+        name: None,
+        version: 1,
+        nodes,
+        outputs,
+        compounds: tr.compounds,
+    })
+}
+
+/// The material outputs the selection asks for: by default every top-level `<output>` and
+/// every output of the document's nodegraphs.
+fn select_outputs(
+    tr: &Tr,
+    doc: &Document,
+    sel: &Selection,
+    types: &HashMap<&str, &NodeDefElem>,
+    extra: &mut Vec<NodeSpec>,
+) -> Result<Map<String, Json>, MtlxError> {
+    let mut all: Vec<(String, String, &Input)> = Vec::new();
+    for o in &doc.outputs {
+        all.push((o.name.clone(), String::new(), o));
+    }
+    for g in doc.graphs.iter().filter(|g| g.nodedef.is_none()) {
+        for o in &g.outputs {
+            all.push((o.name.clone(), g.name.clone(), o));
+        }
+    }
+    let chosen: Vec<&(String, String, &Input)> = match &sel.output {
+        None => all.iter().collect(),
+        Some(want) => all
+            .iter()
+            .filter(|(n, g, _)| {
+                (g.is_empty() && n == want)
+                    || g == want
+                    || format!("{g}/{n}") == *want
+                    || format!("{g}.{n}") == *want
+            })
+            .collect(),
+    };
+    if chosen.is_empty() {
+        let names: Vec<String> = all
+            .iter()
+            .map(|(n, g, _)| {
+                if g.is_empty() {
+                    n.clone()
+                } else {
+                    format!("{g}/{n}")
+                }
+            })
+            .collect();
+        let what = match &sel.output {
+            Some(w) => format!("no output `{w}`"),
+            None if doc.materials().next().is_some() => {
+                let m = doc
+                    .materials()
+                    .next()
+                    .map(|m| m.name.clone())
+                    .unwrap_or_default();
+                return Err(material_error(doc, &m));
+            }
+            None => "nothing to shade: the document has no <output> and no nodegraph output".into(),
+        };
+        return Err(MtlxError::Select {
+            file: doc.file.clone(),
+            msg: format!(
+                "{what} (outputs: {})",
+                if names.is_empty() {
+                    "none".into()
+                } else {
+                    names.join(", ")
+                }
+            ),
+        });
+    }
+    let unique = chosen.iter().map(|c| &c.0).collect::<HashSet<_>>().len() == chosen.len();
+    let mut outputs = Map::new();
+    for (name, graph, o) in chosen {
+        if classify(&o.ty) == MxType::Closure {
+            return Err(MtlxError::Closure {
+                at: o.pos.clone(),
+                node: o.nodename.clone().unwrap_or_else(|| o.name.clone()),
+                ty: o.ty.clone(),
+            });
+        }
+        let conn = if graph.is_empty() {
+            match tr.input_value(name, o, &o.ty, None, types, extra)? {
+                Some(Json::String(c)) => c,
+                _ => {
+                    return Err(doc_err(
+                        &o.pos,
+                        format!("output `{name}` connects to no node (nodename or nodegraph)"),
+                    ));
+                }
+            }
+        } else {
+            format!("{graph}.{name}")
+        };
+        let key = if unique || graph.is_empty() {
+            name.clone()
+        } else {
+            format!("{graph}_{name}")
+        };
+        outputs.insert(key, Json::String(conn));
+    }
+    Ok(outputs)
+}

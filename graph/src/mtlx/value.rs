@@ -1,0 +1,159 @@
+//! MaterialX value types and value strings: which of our [`Type`]s a MaterialX type is, and
+//! how a `value="…"` string reads as a literal.
+//!
+//! This module owns the type mapping and the value syntax (comma-separated components,
+//! `true`/`false`, row-major matrices); it must not look at documents or nodedefs.
+
+use crate::types::Type;
+use serde_json::{Value as Json, json};
+
+/// What a MaterialX type is to us.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MxType {
+    /// A value type we shade.
+    Value(Type),
+    /// A closure or shader type (BSDF, EDF, surfaceshader, material…): issue 15.
+    Closure,
+    /// A value type with no IR type yet (color4, vector4, matrix33, arrays…).
+    Unsupported,
+}
+
+/// The closure and shader types of MaterialX.
+pub const CLOSURE_TYPES: &[&str] = &[
+    "BSDF",
+    "EDF",
+    "VDF",
+    "surfaceshader",
+    "displacementshader",
+    "volumeshader",
+    "lightshader",
+    "material",
+];
+
+/// Classifies a MaterialX type name. `filename` and `string` are uniform strings;
+/// `color3` is our `color`, `vector2/3` our `vec2/vec3`, `integer` our `int`.
+pub fn classify(mx: &str) -> MxType {
+    let t = match mx {
+        "float" => Type::Float,
+        "integer" => Type::Int,
+        "boolean" => Type::Bool,
+        "color3" => Type::Color,
+        "vector2" => Type::Vec2,
+        "vector3" => Type::Vec3,
+        "matrix44" => Type::Matrix44,
+        "string" | "filename" => Type::String,
+        _ if CLOSURE_TYPES.contains(&mx) => return MxType::Closure,
+        _ => return MxType::Unsupported,
+    };
+    MxType::Value(t)
+}
+
+/// Why a MaterialX type has no IR type, for messages.
+pub fn unsupported_reason(mx: &str) -> String {
+    match mx {
+        "color4" | "vector4" | "matrix33" => {
+            format!("type {mx} has no IR type yet (only color3, vector2/3 and matrix44 do)")
+        }
+        _ if CLOSURE_TYPES.contains(&mx) => {
+            format!("type {mx} is a closure: closures are not built yet (issue 15)")
+        }
+        _ => format!("type {mx} is not supported"),
+    }
+}
+
+/// The MaterialX name of one of our types (the inverse of [`classify`]; strings read back as
+/// `string`).
+pub fn mx_name(t: Type) -> &'static str {
+    match t {
+        Type::Float => "float",
+        Type::Int => "integer",
+        Type::Bool => "boolean",
+        Type::Color => "color3",
+        Type::Vec2 => "vector2",
+        Type::Vec3 => "vector3",
+        Type::Matrix44 => "matrix44",
+        Type::String => "string",
+    }
+}
+
+/// Reads a value string of type `ty` as the network literal the linker takes. Matrices are
+/// written row-major with the translation in the last row (MaterialX's row-vector
+/// convention) and are transposed to ours (column vectors, `M * p`).
+pub fn literal(text: &str, ty: Type) -> Result<Json, String> {
+    let t = text.trim();
+    let floats = |n: usize| -> Result<Vec<f64>, String> {
+        let parts: Vec<&str> = t.split(',').map(str::trim).collect();
+        if parts.len() != n {
+            return Err(format!(
+                "`{text}` is not a {} ({n} comma-separated numbers)",
+                mx_name(ty)
+            ));
+        }
+        parts
+            .iter()
+            .map(|p| {
+                p.parse::<f64>()
+                    .ok()
+                    .filter(|x| x.is_finite() && x.abs() <= f32::MAX as f64)
+                    .ok_or_else(|| format!("`{p}` is not a finite number (in `{text}`)"))
+            })
+            .collect()
+    };
+    Ok(match ty {
+        Type::String => Json::String(text.to_string()),
+        Type::Bool => match t {
+            "true" => Json::Bool(true),
+            "false" => Json::Bool(false),
+            _ => return Err(format!("`{text}` is not a boolean (true or false)")),
+        },
+        Type::Int => t
+            .parse::<i32>()
+            .map(|i| json!(i))
+            .map_err(|_| format!("`{text}` is not a 32-bit integer"))?,
+        Type::Float => json!(floats(1)?[0]),
+        Type::Vec2 | Type::Vec3 | Type::Color => json!(floats(ty.width())?),
+        Type::Matrix44 => {
+            let m = floats(16)?;
+            let rows: Vec<Vec<f64>> = (0..4)
+                .map(|r| (0..4).map(|c| m[c * 4 + r]).collect())
+                .collect();
+            json!(rows)
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn values_of_every_type() {
+        assert_eq!(
+            literal("0.5, 1, 2", Type::Color).unwrap(),
+            json!([0.5, 1.0, 2.0])
+        );
+        assert_eq!(literal(" 3 ", Type::Int).unwrap(), json!(3));
+        assert_eq!(literal("true", Type::Bool).unwrap(), json!(true));
+        assert_eq!(literal("1,2", Type::Vec2).unwrap(), json!([1.0, 2.0]));
+        assert_eq!(literal("a b", Type::String).unwrap(), json!("a b"));
+        let m = "1,0,0,0, 0,1,0,0, 0,0,1,0, 5,6,7,1";
+        let j = literal(m, Type::Matrix44).unwrap();
+        assert_eq!(
+            j[0],
+            json!([1.0, 0.0, 0.0, 5.0]),
+            "translation moves to the last column"
+        );
+        assert!(literal("1,2", Type::Color).unwrap_err().contains("color3"));
+        assert!(literal("nan", Type::Float).is_err());
+        assert!(literal("1e39", Type::Float).is_err());
+        assert!(literal("yes", Type::Bool).is_err());
+    }
+
+    #[test]
+    fn type_classes() {
+        assert_eq!(classify("color3"), MxType::Value(Type::Color));
+        assert_eq!(classify("BSDF"), MxType::Closure);
+        assert_eq!(classify("color4"), MxType::Unsupported);
+        assert!(unsupported_reason("vector4").contains("no IR type"));
+    }
+}
