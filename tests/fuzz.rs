@@ -1,5 +1,6 @@
 //! Fuzz targets, run for a bounded time in CI (docs/fuzzing.md says how to run them for
-//! hours): byte-level mutation of network JSON, scene TOML, OBJ meshes and image files, and
+//! hours): byte-level mutation of network JSON, scene TOML, MaterialX documents, OBJ meshes
+//! and image files, and
 //! value-level mutation of our example scenes and networks (a number replaced by ±1e308,
 //! 1e-45, 2³¹, 0…; a key deleted; an array element duplicated), each loaded and rendered or
 //! shaded as a tiny image on every CPU back end. Any panic, hang or over-allocation fails
@@ -21,7 +22,7 @@ use std::path::{Path, PathBuf};
 #[global_allocator]
 static ALLOC: fuzzing::CountingAlloc = fuzzing::CountingAlloc;
 
-/// The CI budget per target in seconds (six targets: about two and a half minutes).
+/// The CI budget per target in seconds (seven targets: about two and a half minutes).
 const CI_SECS: f64 = 20.0;
 
 /// Inputs larger than this are cut (seeds are a few kilobytes).
@@ -72,6 +73,23 @@ fn exec_network(bytes: &[u8]) {
     let Ok(c) = compile_json(text, &NodeLibrary::standard()) else {
         return;
     };
+    shade_compiled(&c);
+}
+
+/// A MaterialX document (through a file, as users hand it in), compiled against the
+/// libraries `SHADENET_MTLX_LIBRARIES` names and shaded as [`exec_network`] does. Without
+/// the libraries (outside CI) there is nothing to run.
+fn exec_mtlx(bytes: &[u8]) {
+    let path = scratch().join("fuzz.mtlx");
+    std::fs::write(&path, bytes).unwrap();
+    if let Ok(c) = shadenet::compile_mtlx(&path, &shadenet::mtlx::MtlxOptions::default()) {
+        shade_compiled(&c);
+    }
+}
+
+/// Validates, optimizes and shades a compiled network on the interpreter, the JIT's scalar
+/// entry and its batch entry.
+fn shade_compiled(c: &shadenet::Compiled) {
     if let Err(e) = shadenet::graph::ir::validate(&c.program) {
         panic!("linked network lowers to invalid IR: {e}");
     }
@@ -414,6 +432,13 @@ fn targets() -> Vec<Target> {
             mutate: mutate_bytes,
             exec: exec_image,
             ext: "bin",
+        },
+        Target {
+            name: "mtlx",
+            seeds: files(&root().join("examples/materials"), &["mtlx"]),
+            mutate: mutate_bytes,
+            exec: exec_mtlx,
+            ext: "mtlx",
         },
     ]
 }
