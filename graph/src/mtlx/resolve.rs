@@ -8,6 +8,7 @@
 use super::document::{Document, NodeDefElem, NodeElem};
 use super::error::MtlxError;
 use super::library::Library;
+use crate::link::edit_distance;
 
 /// The nodedefs visible to a document: its own, then the libraries'.
 #[derive(Clone, Copy)]
@@ -135,18 +136,4 @@ fn signature(d: &NodeDefElem) -> String {
         .collect();
     let outs: Vec<&str> = d.outputs.iter().map(|o| o.ty.as_str()).collect();
     format!("{} ({}) → {}", d.name, ins.join(", "), outs.join(", "))
-}
-
-fn edit_distance(a: &str, b: &str) -> usize {
-    let b: Vec<char> = b.chars().collect();
-    let mut prev: Vec<usize> = (0..=b.len()).collect();
-    for (i, ca) in a.chars().enumerate() {
-        let mut cur = vec![i + 1];
-        for (j, cb) in b.iter().enumerate() {
-            let sub = prev[j] + usize::from(ca != *cb);
-            cur.push(sub.min(prev[j + 1] + 1).min(cur[j] + 1));
-        }
-        prev = cur;
-    }
-    prev[b.len()]
 }
