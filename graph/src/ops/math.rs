@@ -52,7 +52,7 @@
 //! (f32: the error against the exact value in f32 ulps, so 0.5 is correct rounding.)
 //!
 //! Special values follow C99 Annex F (NaN in, NaN out; `exp(-inf) = 0`; `log(0) = -inf`;
-//! `pow(x, 0) = pow(1, y) = 1`; `atan2` of zeros and infinities; signed zeros kept). The
+//! `pow(x, 0) = pow(1, y) = 1` for a quiet NaN, NaN for a signaling one, as glibc; `atan2` of zeros and infinities; signed zeros kept). The
 //! totality rules of DESIGN §7 (`log(x ≤ 0)`, clamping `asin`/`acos`, `pow` of a negative
 //! base) are the ops' wrappers in [`crate::ops`], not these functions.
 
@@ -147,7 +147,7 @@ mod big {
         while !is_zero(&power) {
             let mut term = power;
             div_small(&mut term, 2 * k + 1);
-            if hyperbolic || k % 2 == 0 {
+            if hyperbolic || k.is_multiple_of(2) {
                 add(&mut plus, &term);
             } else {
                 add(&mut minus, &term);
@@ -369,6 +369,10 @@ fn integer_parity(y: f64) -> (bool, bool) {
 /// `x^y` with the C99 Annex F special cases (NaN for a negative finite base with a
 /// non-integer exponent).
 pub fn pow(x: f64, y: f64) -> f64 {
+    let signaling = |v: f64| v.is_nan() && v.to_bits() & (1 << 51) == 0;
+    if signaling(x) || signaling(y) {
+        return f64::NAN; // as glibc: a signaling NaN is not the NaN of pow(NaN, 0) = 1
+    }
     if y == 0.0 || x == 1.0 {
         return 1.0;
     }
@@ -675,6 +679,11 @@ pub fn log_f32(x: f32) -> f32 {
 }
 /// `x^y` in f32: [`pow`] rounded.
 pub fn pow_f32(x: f32, y: f32) -> f32 {
+    // Widening may quiet a signaling NaN: look at the f32 bits.
+    let signaling = |v: f32| v.is_nan() && v.to_bits() & (1 << 22) == 0;
+    if signaling(x) || signaling(y) {
+        return f32::NAN;
+    }
     pow(x as f64, y as f64) as f32
 }
 /// `sin x` in f32: [`sin`] rounded.
