@@ -716,6 +716,66 @@ fn every_op_on_every_type() {
     }
 }
 
+/// Inputs aimed at the transcendentals (`ops::math`): the hard floats, f32 neighbours of
+/// k·π/2 (k up to 2⁴⁰), the thresholds of `exp` and `pow`, the neighbours of ±1, then
+/// random floats (every bit pattern, and uniform over [-20, 20]).
+fn transcendental_floats() -> Vec<f32> {
+    let mut v: Vec<f32> = HARD.to_vec();
+    for k in [1i64, 2, 3, 7, 100, 12345, 1 << 20, 1 << 24, 1 << 40] {
+        for sign in [1.0, -1.0] {
+            let x = (sign * k as f64 * std::f64::consts::FRAC_PI_2) as f32;
+            let b = x.to_bits();
+            v.extend([x, f32::from_bits(b + 1), f32::from_bits(b - 1)]);
+        }
+    }
+    v.extend([
+        88.72,
+        88.73,
+        -103.9,
+        -104.0,
+        0.99999994,
+        1.0000001,
+        -0.99999994,
+        709.0,
+    ]);
+    let mut rng = Rng(0x7A11_5CE7);
+    for _ in 0..600 {
+        v.push(f32::from_bits(rng.next() as u32));
+        v.push((rng.next() >> 40) as f32 / (1u64 << 24) as f32 * 40.0 - 20.0);
+    }
+    v
+}
+
+/// Interpreter ≡ JIT scalar ≡ JIT batch, bit for bit, for every transcendental op (the
+/// op table's rows) on [`transcendental_floats`] in every operand position: the JIT's
+/// helpers call the interpreter's `ops::math` functions.
+#[test]
+fn transcendentals_are_bit_identical_on_the_cpu() {
+    let xs = transcendental_floats();
+    let n = xs.len();
+    let frags: Vec<Fragment> = (0..n + 3)
+        .map(|i| {
+            let x = |o: usize| xs[(i * 13 + o * 7) % n];
+            Fragment {
+                p: [xs[i % n], x(1), x(2)],
+                n: [x(3), xs[(i + 1) % n], x(4)],
+                uv: [x(5), xs[i % n]],
+                ..Fragment::default()
+            }
+        })
+        .collect();
+    let env = env();
+    let rows: Vec<Row> = op_table()
+        .into_iter()
+        .filter(|(_, _, c)| matches!(c, Class::Op { .. }))
+        .collect();
+    assert!(rows.len() >= 10 * 4, "{} transcendental rows", rows.len());
+    let cpu = |ut: &UnderTest| ut.tolerance == BIT_IDENTICAL;
+    for (name, p, class) in &rows {
+        check_program_on(name, p, &env, u32::MAX, &frags, class.clone(), &cpu);
+    }
+}
+
 /// Regions and scene intrinsics: conditionals whose lanes diverge (and agree), nested, inside
 /// the light loop and around it; light samples, ambient light, component masks, parameters
 /// (class compilation), the prelude, textures.

@@ -15,7 +15,11 @@ fn quick_bench_runs_every_suite_at_a_tiny_size() {
     };
     let results = bench::run(&opts, |_| {});
     let names: Vec<_> = results.iter().map(|r| r.name).collect();
-    assert_eq!(names, ["B1", "B2", "B3", "B4", "B5"]);
+    assert_eq!(names, ["B1", "B2", "B3", "B4", "B5", "B7"]);
+    // B7 prints OSL's figures beside ours, labelled as quoted.
+    let b7 = &results[5];
+    assert_eq!(b7.rows.len(), 3);
+    assert!(b7.extra.contains("quoted") && b7.extra.contains("32.6 ms"));
     for r in &results {
         assert!(!r.rows.is_empty(), "{} has rows", r.name);
         let csv = report::csv(&r.rows);

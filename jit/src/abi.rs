@@ -151,22 +151,22 @@ pub type PreludeFn = unsafe extern "C" fn(*const CallCtx, *mut u32);
 /// A memory-convention helper (see the module documentation).
 pub type MemHelper = unsafe extern "C" fn(*const CallCtx, u32, *const f32, *mut f32);
 
-// ---- math helpers: exactly the interpreter's f32 op semantics ----
+// ---- math helpers: exactly the interpreter's f32 op semantics (`ops::math`'s functions) ----
 
 extern "C" fn sn_exp(x: f32) -> f32 {
-    x.exp()
+    ops::exp(x)
 }
 extern "C" fn sn_log(x: f32) -> f32 {
     ops::log(x)
 }
 extern "C" fn sn_sin(x: f32) -> f32 {
-    x.sin()
+    ops::sin(x)
 }
 extern "C" fn sn_cos(x: f32) -> f32 {
-    x.cos()
+    ops::cos(x)
 }
 extern "C" fn sn_tan(x: f32) -> f32 {
-    x.tan()
+    ops::tan(x)
 }
 extern "C" fn sn_asin(x: f32) -> f32 {
     ops::asin(x)
@@ -178,7 +178,7 @@ extern "C" fn sn_pow(a: f32, b: f32) -> f32 {
     ops::pow(a, b)
 }
 extern "C" fn sn_atan2(a: f32, b: f32) -> f32 {
-    a.atan2(b)
+    ops::atan2(a, b)
 }
 
 /// A math helper: symbol name, arity (1 or 2) and address.

@@ -32,7 +32,7 @@ impl Light {
                 } else {
                     (half + penumbra_angle, half)
                 };
-                let c = |a: f64| a.clamp(0.0, std::f64::consts::PI).cos();
+                let c = |a: f64| shadenet_graph::ops::math::cos(a.clamp(0.0, std::f64::consts::PI));
                 (c(inner), c(outer))
             }
             _ => (1.0, 1.0),

@@ -37,7 +37,7 @@ fn srgb_to_linear(c: f32) -> f32 {
     if c <= 0.04045 {
         c / 12.92
     } else {
-        ((c + 0.055) / 1.055).powf(2.4)
+        shadenet_graph::ops::math::pow_f32((c + 0.055) / 1.055, 2.4)
     }
 }
 

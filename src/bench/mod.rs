@@ -15,11 +15,14 @@
 //! - **B4** preprocessing (link + optimize + compile) against network size.
 //! - **B5** N passes in one render against N one-pass renders; specialized against
 //!   unspecialized shading.
+//! - **B7** peers: the tree at levels 1 and 10 and an fBm node through `shadenet shade`'s
+//!   batch path on 2 threads, beside OSL's `testshade` figures quoted in issue 23.
 //!
 //! Every time is the median of repeated runs in this process (min and max beside), every
 //! ratio is against a row of the same run, and every error is measured against the f64
 //! interpreter on the same work.
 
+pub mod peer;
 pub mod render;
 pub mod report;
 pub mod workloads;
@@ -44,7 +47,7 @@ use std::time::{Duration, Instant};
 use workloads::{Entry, packets, tree_fragments, tree_program, tree_spec};
 
 /// The suites, in order.
-pub const SUITES: [&str; 5] = ["b1", "b2", "b3", "b4", "b5"];
+pub const SUITES: [&str; 6] = ["b1", "b2", "b3", "b4", "b5", "b7"];
 
 /// What to run.
 #[derive(Clone, Debug)]
@@ -118,7 +121,8 @@ pub fn run(opts: &BenchOptions, mut done: impl FnMut(&SuiteResult)) -> Vec<Suite
             "b2" => b2(opts),
             "b3" => b3(opts),
             "b4" => b4(opts),
-            _ => b5(opts),
+            "b5" => b5(opts),
+            _ => peer::b7(opts),
         };
         report::fill_ratios(&mut r.rows);
         done(&r);

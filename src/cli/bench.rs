@@ -11,8 +11,8 @@ pub(crate) struct BenchArgs {
     #[arg(long)]
     quick: bool,
     /// Suites to run, comma-separated (b1 tree, b2 threads, b3 scenes, b4 preprocessing,
-    /// b5 passes).
-    #[arg(long, value_delimiter = ',', default_value = "b1,b2,b3,b4,b5")]
+    /// b5 passes, b7 peers: OSL's figures beside).
+    #[arg(long, value_delimiter = ',', default_value = "b1,b2,b3,b4,b5,b7")]
     suite: Vec<String>,
     /// Output directory of the CSV, SVG and summary files.
     #[arg(long, default_value = "bench-out")]

@@ -4,6 +4,8 @@
 //! them; the JIT and GPU back ends are tested against them, never the other way round. All
 //! functions are generic over [`Real`] (f32 for shading, f64 for the accuracy reference).
 //!
+//! Transcendentals are [`math`]'s, ours in f32 and f64, never the platform's libm.
+//!
 //! Every op is **total**: `x/0 = 0`, `sqrt(x<0) = 0`, `normalize(0) = 0`,
 //! `pow(neg, non-integer) = 0`, `asin`/`acos` clamp their argument, `log(x<=0) =
 //! log(f32::MIN_POSITIVE)`, `mod(x, 0) = 0`, integer arithmetic wraps and integer division
@@ -12,6 +14,7 @@
 //! Non-finite values that still arise (overflow, a NaN from a stream) are left to the
 //! material output guard, which replaces them with 0 and counts them.
 
+pub mod math;
 pub mod noise;
 
 use crate::ir::{BinOp, Intrinsic, UnOp, XformKind};
@@ -43,6 +46,7 @@ pub trait Real:
     fn to_f64(self) -> f64;
     /// Square root (IEEE).
     fn sqrt(self) -> Self;
+    // The transcendentals below are [`math`]'s (ours, never the platform's libm).
     /// `e^x`.
     fn exp(self) -> Self;
     /// Natural logarithm.
@@ -79,8 +83,23 @@ pub trait Real:
     fn from_i32(i: i32) -> Self;
 }
 
+/// The math library at one precision, by the names [`Real`] uses.
+mod at {
+    /// f32: [`super::math`]'s `_f32` functions.
+    pub mod single {
+        pub use super::super::math::{
+            acos_f32 as acos, asin_f32 as asin, atan2_f32 as atan2, cos_f32 as cos, exp_f32 as exp,
+            log_f32 as log, pow_f32 as pow, sin_f32 as sin, tan_f32 as tan,
+        };
+    }
+    /// f64: [`super::math`] itself.
+    pub mod double {
+        pub use super::super::math::{acos, asin, atan2, cos, exp, log, pow, sin, tan};
+    }
+}
+
 macro_rules! impl_real {
-    ($t:ty) => {
+    ($t:ty, $m:ident) => {
         impl Real for $t {
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
@@ -94,31 +113,31 @@ macro_rules! impl_real {
                 <$t>::sqrt(self)
             }
             fn exp(self) -> Self {
-                <$t>::exp(self)
+                at::$m::exp(self)
             }
             fn ln(self) -> Self {
-                <$t>::ln(self)
+                at::$m::log(self)
             }
             fn sin(self) -> Self {
-                <$t>::sin(self)
+                at::$m::sin(self)
             }
             fn cos(self) -> Self {
-                <$t>::cos(self)
+                at::$m::cos(self)
             }
             fn tan(self) -> Self {
-                <$t>::tan(self)
+                at::$m::tan(self)
             }
             fn asin(self) -> Self {
-                <$t>::asin(self)
+                at::$m::asin(self)
             }
             fn acos(self) -> Self {
-                <$t>::acos(self)
+                at::$m::acos(self)
             }
             fn atan2(self, x: Self) -> Self {
-                <$t>::atan2(self, x)
+                at::$m::atan2(self, x)
             }
             fn powf(self, e: Self) -> Self {
-                <$t>::powf(self, e)
+                at::$m::pow(self, e)
             }
             fn floor(self) -> Self {
                 <$t>::floor(self)
@@ -147,8 +166,8 @@ macro_rules! impl_real {
         }
     };
 }
-impl_real!(f32);
-impl_real!(f64);
+impl_real!(f32, single);
+impl_real!(f64, double);
 
 /// A runtime value. Matrices are not carried in registers: a matrix-typed value is
 /// `Mat(i)`, an index into the evaluator's matrix table (matrices are only ever constant or
@@ -304,6 +323,31 @@ pub fn pow<F: Real>(a: F, b: F) -> F {
     a.powf(b)
 }
 
+/// `e^x` ([`math::exp`]).
+pub fn exp<F: Real>(x: F) -> F {
+    x.exp()
+}
+
+/// `sin x` ([`math::sin`]).
+pub fn sin<F: Real>(x: F) -> F {
+    x.sin()
+}
+
+/// `cos x` ([`math::cos`]).
+pub fn cos<F: Real>(x: F) -> F {
+    x.cos()
+}
+
+/// `tan x` ([`math::tan`]).
+pub fn tan<F: Real>(x: F) -> F {
+    x.tan()
+}
+
+/// `atan2(y, x)` ([`math::atan2`]).
+pub fn atan2<F: Real>(y: F, x: F) -> F {
+    y.atan2(x)
+}
+
 /// `sqrt(x)`, 0 for `x < 0`.
 pub fn sqrt<F: Real>(x: F) -> F {
     if x < F::ZERO { F::ZERO } else { x.sqrt() }
@@ -312,7 +356,7 @@ pub fn sqrt<F: Real>(x: F) -> F {
 /// `ln(x)`, `ln(f32::MIN_POSITIVE)` for `x <= 0`.
 pub fn log<F: Real>(x: F) -> F {
     if x <= F::ZERO {
-        F::from_f64((f32::MIN_POSITIVE as f64).ln())
+        F::from_f64(math::log(f32::MIN_POSITIVE as f64))
     } else {
         x.ln()
     }
@@ -478,11 +522,11 @@ pub fn unary<F: Real>(op: UnOp, a: Val<F>) -> Val<F> {
         (Ceil, v) => v.map(F::ceil),
         (Fract, v) => v.map(fract),
         (Sqrt, v) => v.map(sqrt),
-        (Exp, v) => v.map(F::exp),
+        (Exp, v) => v.map(exp),
         (Log, v) => v.map(log),
-        (Sin, v) => v.map(F::sin),
-        (Cos, v) => v.map(F::cos),
-        (Tan, v) => v.map(F::tan),
+        (Sin, v) => v.map(sin),
+        (Cos, v) => v.map(cos),
+        (Tan, v) => v.map(tan),
         (Asin, v) => v.map(asin),
         (Acos, v) => v.map(acos),
         (Not | Normalize, v) => v,
@@ -529,7 +573,7 @@ pub fn binary<F: Real>(op: BinOp, a: Val<F>, b: Val<F>) -> Val<F> {
         Pow => a.zip(b, pow),
         Min => a.zip(b, min),
         Max => a.zip(b, max),
-        Atan2 => a.zip(b, F::atan2),
+        Atan2 => a.zip(b, atan2),
         Dot => Val::Float(dot(a.floats(), b.floats())),
         Distance => {
             let d = a.zip(b, |x, y| x - y);
