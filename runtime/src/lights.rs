@@ -6,6 +6,7 @@
 //! a radiance with no direction, summed by the `ambient` op instead of the light loop.
 
 use shadenet_graph::nodes::{LightDesc, LightKind};
+use shadenet_graph::ops::math;
 use shadenet_graph::ops::{self, Real};
 
 /// A light as the runtime samples it.
@@ -164,7 +165,7 @@ pub fn sample<F: Real>(
             let z = 1.0 - 2.0 * u;
             let r = (1.0 - z * z).max(0.0).sqrt();
             let phi = 2.0 * std::f64::consts::PI * v;
-            let l: [F; 3] = v3([r * phi.cos(), r * phi.sin(), z]);
+            let l: [F; 3] = v3([r * math::cos(phi), r * math::sin(phi), z]);
             let w = F::from_f64(4.0 * std::f64::consts::PI / (*samples).max(1) as f64);
             Some(Sample {
                 l,

@@ -7,6 +7,7 @@
 
 use crate::scene::CameraDesc;
 use glam::Vec3;
+use shadenet_graph::ops::math;
 
 /// Ray differentials as derivatives of origin and direction.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -52,7 +53,7 @@ impl Camera {
         let f = (c.look_at - c.position).normalize();
         let r = f.cross(c.up).normalize();
         let u = r.cross(f);
-        let tan = (0.5 * c.fov).tan();
+        let tan = math::tan(0.5 * c.fov);
         let aspect = c.width as f64 / c.height as f64;
         Camera {
             eye: c.position.as_vec3(),

@@ -7,6 +7,7 @@
 //! outward geometric normal of the built-in shapes.
 
 use glam::{DMat4, DVec3, Mat4, Vec3};
+use shadenet_graph::ops::math;
 use shadenet_runtime::input::{self, FileKind};
 use std::path::{Path, PathBuf};
 
@@ -131,9 +132,9 @@ pub fn unit_sphere(segments: u32) -> Mesh {
             let u = j as f64 / segments as f64;
             let phi = 2.0 * std::f64::consts::PI * u;
             let p = [
-                (theta.sin() * phi.cos()) as f32,
-                theta.cos() as f32,
-                (-theta.sin() * phi.sin()) as f32,
+                (math::sin(theta) * math::cos(phi)) as f32,
+                math::cos(theta) as f32,
+                (-math::sin(theta) * math::sin(phi)) as f32,
             ];
             m.positions.push(p);
             if let Some(n) = &mut m.normals {

@@ -12,6 +12,7 @@
 //! slope 1 at the knee, approaching 1), scaling the pixel's RGB by the same factor so hues
 //! survive; channels are then clamped to [0, 1] and encoded with the sRGB transfer function.
 
+use shadenet_graph::ops::math;
 use shadenet_runtime::input::{self, FileKind, InputError};
 use std::path::{Path, PathBuf};
 
@@ -90,7 +91,7 @@ pub fn linear_to_srgb(x: f32) -> f32 {
     if x <= 0.003_130_8 {
         12.92 * x
     } else {
-        1.055 * x.powf(1.0 / 2.4) - 0.055
+        1.055 * math::pow_f32(x, 1.0 / 2.4) - 0.055
     }
 }
 
@@ -107,7 +108,7 @@ pub fn tonemap(rgb: &mut [f32]) {
         }
         let l = 0.2126 * px[0] + 0.7152 * px[1] + 0.0722 * px[2];
         if l > KNEE {
-            let mapped = KNEE + (1.0 - KNEE) * (1.0 - (-(l - KNEE) / (1.0 - KNEE)).exp());
+            let mapped = KNEE + (1.0 - KNEE) * (1.0 - math::exp_f32(-(l - KNEE) / (1.0 - KNEE)));
             let k = mapped / l;
             for c in px.iter_mut() {
                 *c *= k;

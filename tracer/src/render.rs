@@ -55,6 +55,7 @@ use glam::{DMat4, Vec3};
 use rayon::prelude::*;
 use shadenet_graph::ir::Program;
 use shadenet_graph::ir::{Space, Stream};
+use shadenet_graph::ops::math;
 use shadenet_graph::opt::{self, Needs, Specialization};
 use shadenet_runtime::{
     BatchTimes, Fragment, SceneServices, ShadeCtx, ShadeEnv, ShadeOut, Transform,
@@ -1625,7 +1626,8 @@ impl SceneServices for HitServices<'_> {
             let r = u1.sqrt() as f32;
             let phi = (2.0 * std::f64::consts::PI * u2) as f32;
             let z = (1.0 - u1).max(0.0).sqrt() as f32;
-            let d = (t * (r * phi.cos()) + b * (r * phi.sin()) + n * z).normalize_or_zero();
+            let d = (t * (r * math::cos_f32(phi)) + b * (r * math::sin_f32(phi)) + n * z)
+                .normalize_or_zero();
             self.stats.rays.fetch_add(1, Ordering::Relaxed);
             if !self.r.accel.occluded(o, d, max_distance) {
                 open += 1;
