@@ -169,17 +169,22 @@ pub fn default_scene() -> Result<Scene, SetupError> {
 
 /// Applies command-line overrides to a scene.
 pub fn apply_options(scene: &mut Scene, opts: &RenderOptions) -> Result<(), SetupError> {
+    // The scene file's ranges (`scene::MAX_SPP`, `scene::MAX_RESOLUTION`), named by option.
     if let Some(spp) = opts.spp {
-        if spp == 0 || spp > 1 << 16 {
-            return Err(SetupError::Option("--spp must be 1 to 65536".into()));
+        if spp == 0 || spp > scene::MAX_SPP {
+            return Err(SetupError::Option(format!(
+                "--spp must be 1 to {}",
+                scene::MAX_SPP
+            )));
         }
         scene.settings.spp = spp;
     }
     if let Some((w, h)) = opts.res {
-        if w == 0 || h == 0 || w > 16384 || h > 16384 {
-            return Err(SetupError::Option(
-                "--res must be between 1x1 and 16384x16384".into(),
-            ));
+        let max = scene::MAX_RESOLUTION;
+        if w == 0 || h == 0 || w > max || h > max {
+            return Err(SetupError::Option(format!(
+                "--res must be between 1x1 and {max}x{max}"
+            )));
         }
         scene.camera.width = w;
         scene.camera.height = h;

@@ -218,9 +218,10 @@ pub(crate) fn parse_res(s: &str) -> Result<(u32, u32), String> {
         .ok_or_else(|| format!("`{s}` is not WxH"))?;
     let w: u32 = w.parse().map_err(|_| format!("bad width in `{s}`"))?;
     let h: u32 = h.parse().map_err(|_| format!("bad height in `{s}`"))?;
-    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+    let max = shadenet::tracer::scene::MAX_RESOLUTION;
+    if w == 0 || h == 0 || w > max || h > max {
         return Err(format!(
-            "resolution `{s}` must be between 1x1 and 16384x16384"
+            "resolution `{s}` must be between 1x1 and {max}x{max}"
         ));
     }
     Ok((w, h))
