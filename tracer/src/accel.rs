@@ -22,6 +22,7 @@ use glam::{DVec3, Vec2, Vec3, Vec3A};
 use obvhs::cwbvh::CwBvh;
 use obvhs::ray::{Ray, RayHit};
 use obvhs::triangle::Triangle;
+use std::collections::HashSet;
 
 /// Per-triangle shading attributes, world space.
 #[derive(Clone, Copy, Debug)]
@@ -183,6 +184,12 @@ impl Accel {
         let mut tris = Vec::new();
         let mut attrs = Vec::new();
         let mut rejected = None;
+        // Exact copies of a triangle already placed (the same three world-space vertices):
+        // many of them in one place make obvhs build a BVH deeper than its traversal stack,
+        // which drops hits (docs/obvhs-defect.md §3). A copy can never be the only closest
+        // hit, so the first placed (lowest instance index) is kept: a deterministic choice
+        // among coincident surfaces.
+        let mut placed: HashSet<[[u32; 3]; 3]> = HashSet::new();
         for (ii, inst) in instances.iter().enumerate() {
             let Some(mesh) = meshes.get(inst.mesh) else {
                 continue;
@@ -222,6 +229,11 @@ impl Accel {
                 // than its traversal stack (docs/obvhs-defect.md): leave them out.
                 let [a, b, c] = [i0, i1, i2].map(|i| pos[i].as_dvec3());
                 if (b - a).cross(c - a) == DVec3::ZERO {
+                    continue;
+                }
+                let mut key = [i0, i1, i2].map(|i| pos[i].to_array().map(f32::to_bits));
+                key.sort_unstable();
+                if !placed.insert(key) {
                     continue;
                 }
                 tris.push(Triangle {

@@ -121,3 +121,25 @@ fn coincident_degenerate_triangles_are_left_out() {
     assert_eq!(stats.triangles, 4);
     assert_eq!(film.layer("beauty").unwrap().at(4 * 9 + 4, 0), 1.0);
 }
+
+/// A thousand instances of one quad under one transform: a thousand coincident boxes made
+/// obvhs build a tree deeper than its traversal stack (a debug assertion; in release, hits
+/// silently lost). Exact copies are left out of the BVH, the first placed kept: the quad
+/// renders, every pixel that sees it sees it in the first instance's material.
+#[test]
+fn a_thousand_copies_of_one_quad_render() {
+    let mut text = TWO_QUADS.to_string();
+    for _ in 0..1000 {
+        text.push_str("\n[[instances]]\nmesh = \"q\"\nmaterial = \"far\"\nscale = 1e-4\n");
+    }
+    let s = scene::parse(&text, Path::new("t.toml")).unwrap();
+    let r = Renderer::new(s, programs(), &InterpBackend).unwrap();
+    let (film, stats) = r.render(&|_, _| {});
+    assert_eq!(stats.triangles, 4, "one copy of each quad's triangles");
+    let b = film.layer("beauty").unwrap();
+    assert_eq!(
+        [0, 1, 2, 3].map(|c| b.at(4 * 9 + 4, c)),
+        [1.0, 0.0, 0.0, 1.0],
+        "the centre sees the tiny quad in the first instance's material (red)"
+    );
+}
