@@ -142,7 +142,16 @@ pub enum InputError {
 /// Checks that `path` is a regular file within its kind's limit; returns its size. `role`
 /// says what the file is to the reader (`network`, `scene`, `texture`…) in messages.
 pub fn check(path: &Path, kind: FileKind, role: &'static str) -> Result<u64, InputError> {
-    let limit = kind.limit()?;
+    check_within(path, kind, role, kind.limit()?)
+}
+
+/// [`check`] against a limit already looked up.
+fn check_within(
+    path: &Path,
+    kind: FileKind,
+    role: &'static str,
+    limit: u64,
+) -> Result<u64, InputError> {
     let meta = std::fs::metadata(path).map_err(|source| InputError::Io {
         role,
         path: path.to_path_buf(),
@@ -202,8 +211,8 @@ fn file_type_name(meta: &std::fs::Metadata) -> &'static str {
 
 /// Reads a whole file after [`check`], through a reader bounded at the limit.
 pub fn read(path: &Path, kind: FileKind, role: &'static str) -> Result<Vec<u8>, InputError> {
-    let size = check(path, kind, role)?;
     let limit = kind.limit()?;
+    let size = check_within(path, kind, role, limit)?;
     let io = |source| InputError::Io {
         role,
         path: path.to_path_buf(),

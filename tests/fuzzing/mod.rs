@@ -279,17 +279,16 @@ pub fn show(input: &[u8]) -> String {
 }
 
 /// Saves a failing input and prints it; returns the path.
-pub fn save(target: &Target, input: &[u8], what: &str) -> PathBuf {
+pub fn save(name: &str, ext: &str, input: &[u8], what: &str) -> PathBuf {
     let dir = crash_dir();
     let _ = std::fs::create_dir_all(&dir);
     let hash = input.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
         (h ^ *b as u64).wrapping_mul(0x100_0000_01b3)
     });
-    let path = dir.join(format!("{}-{hash:016x}.{}", target.name, target.ext));
+    let path = dir.join(format!("{name}-{hash:016x}.{ext}"));
     let _ = std::fs::write(&path, input);
     eprintln!(
-        "fuzz {}: {what}\n  input saved as {}\n  input: {}",
-        target.name,
+        "fuzz {name}: {what}\n  input saved as {}\n  input: {}",
         path.display(),
         show(input)
     );
@@ -336,14 +335,12 @@ fn watchdog(target: &'static str, ext: &'static str, current: Current) {
             if let Some((start, input)) = guard.as_ref()
                 && start.elapsed() > limit
             {
-                let t = Target {
-                    name: target,
-                    seeds: Vec::new(),
-                    mutate: |_, s, _| s.to_vec(),
-                    exec: |_| {},
+                save(
+                    target,
                     ext,
-                };
-                save(&t, input, &format!("hang: one input ran over {limit:?}"));
+                    input,
+                    &format!("hang: one input ran over {limit:?}"),
+                );
                 std::process::exit(3);
             }
         }
@@ -395,7 +392,7 @@ pub fn run(target: &Target, budget: Duration, seed: u64) -> Report {
         }
         report.cases += 1;
         if let Some(what) = finding {
-            let path = save(target, &input, &what);
+            let path = save(target.name, target.ext, &input, &what);
             report.findings.push((what, path));
             if report.findings.len() >= 5 {
                 break;

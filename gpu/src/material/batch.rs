@@ -9,7 +9,7 @@ use super::buffers::Buffers;
 use super::host::light_samples;
 use super::{GpuMaterial, sample_total, with_error_scopes};
 use crate::context::GpuError;
-use crate::plan::{HostKind, LIGHT_COLUMNS, Layout, Step};
+use crate::plan::{HostKind, LIGHT_COLUMNS, Step};
 use shadenet_runtime::backend::BatchTimes;
 use shadenet_runtime::{Fragment, SceneServices, ShadeEnv};
 use std::time::Instant;
@@ -106,11 +106,8 @@ impl GpuMaterial {
         out: &mut [f32],
         times: &mut BatchTimes,
     ) -> Result<u64, GpuError> {
-        let n = frags.len();
-        let l = &self.plan.layout;
-        let samples = sample_total(env);
         let (result, errors) = with_error_scopes(self.device(), || {
-            self.batch_scoped(env, mask, scene, frags, out, times, samples, n, l)
+            self.batch_scoped(env, mask, scene, frags, out, times)
         });
         if !errors.is_empty() {
             return Err(GpuError::Runtime(errors.join("; ")));
@@ -118,7 +115,7 @@ impl GpuMaterial {
         result
     }
 
-    #[allow(clippy::too_many_arguments)]
+    /// [`Self::batch`] inside the device's error scopes.
     fn batch_scoped(
         &self,
         env: &ShadeEnv,
@@ -127,10 +124,10 @@ impl GpuMaterial {
         frags: &[Fragment],
         out: &mut [f32],
         times: &mut BatchTimes,
-        samples: usize,
-        n: usize,
-        l: &Layout,
     ) -> Result<u64, GpuError> {
+        let n = frags.len();
+        let l = &self.plan.layout;
+        let samples = sample_total(env);
         let device = self.device();
         // Upload.
         let t = Instant::now();
