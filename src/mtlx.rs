@@ -6,6 +6,7 @@
 
 use shadenet_graph::Compiled;
 use shadenet_graph::mtlx::{self, Library, MtlxError, Selection};
+use shadenet_graph::network::Network;
 use shadenet_runtime::input::{FileKind, InputError, read_to_string};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -95,6 +96,18 @@ pub fn library(dir: &Path) -> Result<&'static Library, LibraryError> {
     if let Some(l) = cache.lock().unwrap_or_else(|e| e.into_inner()).get(dir) {
         return Ok(l);
     }
+    // Leaked on purpose: one library per folder per process, shared by every compile.
+    let lib: &'static Library = Box::leak(Box::new(read_library(dir)?));
+    cache
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .insert(dir.to_path_buf(), lib);
+    Ok(lib)
+}
+
+/// Reads every library document in `dir`'s [`FOLDERS`] (files in name order) and indexes
+/// them, uncached: what [`library`] does once per folder (and what the benchmark times).
+pub fn read_library(dir: &Path) -> Result<Library, LibraryError> {
     let mut docs = Vec::new();
     for folder in FOLDERS {
         let Ok(entries) = std::fs::read_dir(dir.join(folder)) else {
@@ -113,13 +126,7 @@ pub fn library(dir: &Path) -> Result<&'static Library, LibraryError> {
             docs.push((folder.to_string(), doc));
         }
     }
-    // Leaked on purpose: one library per folder per process, shared by every compile.
-    let lib: &'static Library = Box::leak(Box::new(Library::new(docs)));
-    cache
-        .lock()
-        .unwrap_or_else(|e| e.into_inner())
-        .insert(dir.to_path_buf(), lib);
-    Ok(lib)
+    Ok(Library::new(docs))
 }
 
 /// A MaterialX document that could not be compiled.
@@ -134,6 +141,21 @@ pub enum MtlxLoadError {
     /// The document is invalid (the error names file:line:column).
     #[error(transparent)]
     Document(#[from] Box<MtlxError>),
+}
+
+/// Reads a `.mtlx` file, finds the libraries (`libraries`, else as [`locate`] says) and
+/// translates the selected outputs to a network, to be linked against the returned
+/// library's atoms (the renderer applies a scene's `set` overrides in between).
+pub fn mtlx_network(
+    path: &Path,
+    libraries: Option<&Path>,
+    selection: &Selection,
+) -> Result<(Network, &'static Library), MtlxLoadError> {
+    let text = read_to_string(path, FileKind::Text, "MaterialX document")?;
+    let lib = library(&locate(libraries)?)?;
+    let net =
+        mtlx::network(&path.display().to_string(), &text, lib, selection).map_err(Box::new)?;
+    Ok((net, lib))
 }
 
 /// Reads a `.mtlx` file, finds the libraries and compiles the selected outputs. The

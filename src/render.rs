@@ -211,14 +211,16 @@ pub struct CompiledMaterial {
     pub ignored_lights: usize,
 }
 
-/// Reads, overrides, links and lowers one material's network.
+/// Reads, overrides, links and lowers one material's network. A MaterialX material finds
+/// the data libraries in `mtlx_libraries`, else as [`crate::mtlx::locate`] says.
 pub fn compile_material(
     m: &MaterialRef,
     files: Files,
     scene_dir: &Path,
+    mtlx_libraries: Option<&Path>,
 ) -> Result<CompiledMaterial, SetupError> {
     let (source_name, dir) = match &m.source {
-        MaterialSource::File(p) => (
+        MaterialSource::File(p) | MaterialSource::Mtlx { file: p, .. } => (
             p.display().to_string(),
             p.parent().map(Path::to_path_buf).unwrap_or_default(),
         ),
@@ -229,27 +231,40 @@ pub fn compile_material(
         source_name: source_name.clone(),
         message,
     };
-    let mut network: Network = match &m.source {
+    let standard;
+    let (mut network, lib): (Network, &NodeLibrary) = match &m.source {
         MaterialSource::File(p) => {
             let text = files.read(p).map_err(|e| fail(error_chain(&e)))?;
-            Network::from_json(&text).map_err(|e| fail(format!("malformed network: {e}")))?
+            standard = NodeLibrary::standard();
+            let net =
+                Network::from_json(&text).map_err(|e| fail(format!("malformed network: {e}")))?;
+            (net, &standard)
         }
-        MaterialSource::Inline(v) => serde_json::from_value(v.clone())
-            .map_err(|e| fail(format!("malformed inline network: {e}")))?,
+        MaterialSource::Inline(v) => {
+            standard = NodeLibrary::standard();
+            let net = serde_json::from_value(v.clone())
+                .map_err(|e| fail(format!("malformed inline network: {e}")))?;
+            (net, &standard)
+        }
+        MaterialSource::Mtlx {
+            file,
+            material,
+            output,
+        } => {
+            let selection = shadenet_graph::mtlx::Selection {
+                material: material.clone(),
+                output: output.clone(),
+            };
+            let (net, lib) = crate::mtlx::mtlx_network(file, mtlx_libraries, &selection)
+                .map_err(|e| fail(error_chain(&e)))?;
+            (net, lib.atoms())
+        }
     };
     for (node, input, value) in &m.overrides {
-        let names: Vec<String> = network.nodes.iter().map(|n| n.name.clone()).collect();
-        let Some(spec) = network.nodes.iter_mut().find(|n| &n.name == node) else {
-            return Err(fail(format!(
-                "set \"{node}.{input}\": the network has no node `{node}` (its nodes: {})",
-                names.join(", ")
-            )));
-        };
-        spec.inputs.insert(input.clone(), value.clone());
+        set_input(&mut network, node, input, value).map_err(&fail)?;
     }
-    let lib = NodeLibrary::standard();
-    let linked = link(&network, &lib).map_err(|e| fail(e.to_string()))?;
-    let mut program = lower(&linked, &lib).map_err(|e| fail(e.to_string()))?;
+    let linked = link(&network, lib).map_err(|e| fail(e.to_string()))?;
+    let mut program = lower(&linked, lib).map_err(|e| fail(e.to_string()))?;
     shadenet_graph::ir::validate(&program)
         .map_err(|e| fail(format!("internal error: invalid IR: {e}")))?;
     program.name = m.name.clone();
@@ -262,6 +277,53 @@ pub fn compile_material(
         program,
         ignored_lights: linked.lights.len(),
     })
+}
+
+/// Applies one `set` override: `node.input` on a node of the network, or
+/// `graph/node.input` on a node inside a nodegraph (a compound the network instantiates as
+/// the node `graph`: how MaterialX documents arrive); `graph.input` sets a nodegraph's
+/// interface input.
+fn set_input(
+    network: &mut Network,
+    node: &str,
+    input: &str,
+    value: &serde_json::Value,
+) -> Result<(), String> {
+    let names = |nodes: &[shadenet_graph::network::NodeSpec]| {
+        nodes
+            .iter()
+            .map(|n| n.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let (outer, inner) = match node.split_once('/') {
+        Some((g, n)) => (g, Some(n)),
+        None => (node, None),
+    };
+    let Some(spec) = network.nodes.iter_mut().find(|n| n.name == outer) else {
+        return Err(format!(
+            "set \"{node}.{input}\": the network has no node `{outer}` (its nodes: {})",
+            names(&network.nodes)
+        ));
+    };
+    let Some(inner) = inner else {
+        spec.inputs.insert(input.to_string(), value.clone());
+        return Ok(());
+    };
+    let ty = spec.ty.clone();
+    let Some(compound) = network.compounds.iter_mut().find(|c| c.name == ty) else {
+        return Err(format!(
+            "set \"{node}.{input}\": `{outer}` is a `{ty}` node, not a nodegraph"
+        ));
+    };
+    let known = names(&compound.nodes);
+    let Some(spec) = compound.nodes.iter_mut().find(|n| n.name == inner) else {
+        return Err(format!(
+            "set \"{node}.{input}\": the nodegraph `{outer}` has no node `{inner}` (its nodes: {known})"
+        ));
+    };
+    spec.inputs.insert(input.to_string(), value.clone());
+    Ok(())
 }
 
 /// The back end for a kind.
@@ -289,17 +351,19 @@ pub fn gpu_backend(options: GpuOptions) -> Result<Box<dyn ShaderBackend>, SetupE
     Ok(Box::new(BatchedBackend(Arc::new(gpu))))
 }
 
-/// Compiles every material of a scene and prepares the renderer.
+/// Compiles every material of a scene and prepares the renderer (`mtlx_libraries`: where
+/// MaterialX materials find the data libraries, see [`compile_material`]).
 pub fn prepare(
     scene: Scene,
     files: Files,
     scene_dir: &Path,
     backend: &dyn ShaderBackend,
+    mtlx_libraries: Option<&Path>,
 ) -> Result<(Renderer, Vec<CompiledMaterial>), SetupError> {
     let compiled = scene
         .materials
         .iter()
-        .map(|m| compile_material(m, files, scene_dir))
+        .map(|m| compile_material(m, files, scene_dir, mtlx_libraries))
         .collect::<Result<Vec<_>, _>>()?;
     let programs = compiled.iter().map(|c| c.program.clone()).collect();
     let renderer = Renderer::new(scene, programs, backend)?;
@@ -332,5 +396,5 @@ pub fn setup_with(
         ),
     };
     apply_options(&mut scene, opts)?;
-    Ok(prepare(scene, files, &dir, backend)?.0)
+    Ok(prepare(scene, files, &dir, backend, None)?.0)
 }

@@ -138,7 +138,9 @@ fn render_scene_text(text: &str, dir: &Path) {
     }
     for kind in [BackendKind::Interp, BackendKind::Jit] {
         let backend = r::backend(kind).expect("CPU back ends start");
-        if let Ok((renderer, _)) = r::prepare(scene.clone(), Files::Disk, dir, backend.as_ref()) {
+        if let Ok((renderer, _)) =
+            r::prepare(scene.clone(), Files::Disk, dir, backend.as_ref(), None)
+        {
             let _ = renderer.render(&|_, _| {});
         }
     }

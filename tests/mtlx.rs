@@ -107,6 +107,134 @@ fn atoms_match_their_formulas() {
     assert_close(&v, &[0.75, 0.0, 0.25], 0.0, "combine3 of swizzled channels");
 }
 
+/// remap and smoothstep (MaterialX 1.39 "adjustment" atoms) against their formulas, on the
+/// edges as well: remap is unclamped, smoothstep tests `in >= high` before `in <= low`.
+#[test]
+fn remap_and_smoothstep_match_the_specification() {
+    let remap = |x: f64| {
+        eval(
+            &format!(
+                r#"<remap name="r" type="float"><input name="in" type="float" value="{x}"/>
+             <input name="inlow" type="float" value="0.2"/><input name="inhigh" type="float" value="0.6"/>
+             <input name="outlow" type="float" value="-1"/><input name="outhigh" type="float" value="3"/></remap>
+           <output name="out" type="float" nodename="r"/>"#
+            ),
+            [0.5, 0.5],
+        )
+    };
+    let Some(v) = remap(0.3) else {
+        return;
+    };
+    assert_close(&v, &[-1.0 + (0.3 - 0.2) * 4.0 / 0.4], 1e-12, "remap inside");
+    assert_close(
+        &remap(1.0).unwrap(),
+        &[-1.0 + 0.8 * 4.0 / 0.4],
+        1e-12,
+        "remap is unclamped",
+    );
+    let step = |x: f64, lo: f64, hi: f64| {
+        eval(
+            &format!(
+                r#"<smoothstep name="s" type="float"><input name="in" type="float" value="{x}"/>
+             <input name="low" type="float" value="{lo}"/><input name="high" type="float" value="{hi}"/></smoothstep>
+           <output name="out" type="float" nodename="s"/>"#
+            ),
+            [0.5, 0.5],
+        )
+        .unwrap()[0]
+    };
+    let t: f64 = (0.35 - 0.2) / 0.4;
+    assert!((step(0.35, 0.2, 0.6) - t * t * (3.0 - 2.0 * t)).abs() < 1e-12);
+    assert_eq!(step(0.1, 0.2, 0.6), 0.0);
+    assert_eq!(step(0.6, 0.2, 0.6), 1.0, "in >= high is 1");
+    assert_eq!(
+        step(0.5, 0.5, 0.5),
+        1.0,
+        "low = high: a step, high tested first"
+    );
+    assert_eq!(step(0.4, 0.5, 0.5), 0.0);
+    // The vector variants are library nodegraphs over the float atom.
+    let v = eval(
+        r#"<smoothstep name="s" type="color3"><input name="in" type="color3" value="0.1, 0.4, 0.9"/>
+             <input name="low" type="color3" value="0.2, 0.2, 0.2"/><input name="high" type="color3" value="0.6, 0.6, 0.6"/></smoothstep>
+           <output name="out" type="color3" nodename="s"/>"#,
+        [0.5, 0.5],
+    )
+    .unwrap();
+    let t: f64 = 0.5;
+    assert_close(
+        &v,
+        &[0.0, t * t * (3.0 - 2.0 * t), 1.0],
+        1e-12,
+        "ND_smoothstep_color3",
+    );
+}
+
+/// A scene takes a MaterialX document as a material (`mtlx = …`), shows its colour output
+/// as the beauty, and `set` reaches a nodegraph's interface input (`graph.input`) and a node
+/// inside it (`graph/node.input`); bad keys are errors naming them.
+#[test]
+fn scenes_take_mtlx_materials_with_overrides() {
+    if lib().is_none() {
+        return;
+    }
+    let dir = tmp("mtlx-scene", "");
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("flat.mtlx"),
+        doc(r#"<nodegraph name="g">
+             <input name="gain" type="float" value="1.0"/>
+             <constant name="c" type="color3"><input name="value" type="color3" value="0.25, 0.5, 0.75"/></constant>
+             <multiply name="m" type="color3"><input name="in1" type="color3" nodename="c"/>
+               <input name="in2" type="float" interfacename="gain"/></multiply>
+             <output name="out" type="color3" nodename="m"/>
+           </nodegraph>"#),
+    )
+    .unwrap();
+    let scene = |material: &str| {
+        let p = dir.join("s.toml");
+        std::fs::write(
+            &p,
+            format!(
+                "[camera]\nposition = [0, 0, 2]\nlook_at = [0, 0, 0]\nfov = 20\nresolution = [4, 4]\n\
+                 [render]\nspp = 1\n[materials.m]\n{material}\n[meshes.q]\ntype = \"quad\"\n\
+                 [[instances]]\nmesh = \"q\"\nmaterial = \"m\"\n"
+            ),
+        )
+        .unwrap();
+        let opts = shadenet::render::RenderOptions::default();
+        shadenet::render::setup(Some(&p), &opts).map(|r| {
+            let (film, _) = r.render(&|_, _| {});
+            let b = film.layer("beauty").unwrap();
+            (0..3).map(|c| b.at(5, c)).collect::<Vec<f32>>()
+        })
+    };
+    let beauty = scene("mtlx = \"flat.mtlx\"").unwrap();
+    assert_eq!(beauty, [0.25, 0.5, 0.75], "the colour output is the beauty");
+    let beauty = scene("mtlx = \"flat.mtlx\"\nset = { \"g.gain\" = 2.0 }").unwrap();
+    assert_eq!(beauty, [0.5, 1.0, 1.5], "an interface input");
+    let beauty = scene("mtlx = \"flat.mtlx\"\nset = { \"g/c.value\" = [1.0, 0.0, 0.5] }").unwrap();
+    assert_eq!(beauty, [1.0, 0.0, 0.5], "a node inside the nodegraph");
+    let e = |m: &str| error_chain(&scene(m).expect_err("should fail"));
+    let text = e("mtlx = \"flat.mtlx\"\nset = { \"g/nope.value\" = 1.0 }");
+    assert!(
+        text.contains("the nodegraph `g` has no node `nope` (its nodes: c, m)"),
+        "{text}"
+    );
+    let text = e("network = \"a.json\"\nmaterial = \"M\"");
+    assert!(
+        text.contains("materials.m.material") && text.contains("only a MaterialX material"),
+        "{text}"
+    );
+    let text = e("mtlx = \"flat.mtlx\"\noutput = \"nope\"");
+    assert!(
+        text.contains("flat.mtlx") && text.contains("nope"),
+        "{text}"
+    );
+    let text = e("mtlx = \"missing.mtlx\"");
+    assert!(text.contains("missing.mtlx"), "{text}");
+}
+
 #[test]
 fn library_nodegraphs_expand_as_compounds() {
     // place2d is implemented by a nodegraph in stdlib_ng: (uv - pivot)/scale, rotated, offset.

@@ -475,7 +475,7 @@ fn compile_scene(s: &Scene, dir: &Path) -> Vec<Program> {
     s.materials
         .iter()
         .map(|m| {
-            crate::render::compile_material(m, crate::render::Files::Disk, dir)
+            crate::render::compile_material(m, crate::render::Files::Disk, dir, None)
                 .expect("the material compiles")
                 .program
         })

@@ -57,6 +57,10 @@ pub(crate) struct RenderArgs {
     res: Option<(u32, u32)>,
     #[command(flatten)]
     threads: ThreadsArg,
+    /// The MaterialX `libraries` folder for materials given as `mtlx = "…"` (default:
+    /// SHADENET_MTLX_LIBRARIES, then each MATERIALX_SEARCH_PATH entry's `libraries/`).
+    #[arg(long, value_name = "DIR")]
+    mtlx_libraries: Option<PathBuf>,
     /// Print nothing but errors (no progress bar, no summary).
     #[arg(short, long)]
     quiet: bool,
@@ -169,7 +173,8 @@ fn setup(
             res: args.res,
         },
     )?;
-    let (renderer, compiled) = r::prepare(scene, files, &dir, backend)?;
+    let (renderer, compiled) =
+        r::prepare(scene, files, &dir, backend, args.mtlx_libraries.as_deref())?;
     Ok((renderer, compiled, name))
 }
 

@@ -251,13 +251,24 @@ pub struct RuleSpec {
     pub override_: Option<String>,
 }
 
-/// `[materials.NAME]`: a network file, or an inline network, with parameter overrides.
+/// `[materials.NAME]`: a network file, a MaterialX document, or an inline network, with
+/// parameter overrides.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MaterialSpec {
     /// A network file, relative to the scene file.
     #[serde(default)]
     pub network: Option<String>,
+    /// A MaterialX document (`.mtlx`), relative to the scene file.
+    #[serde(default)]
+    pub mtlx: Option<String>,
+    /// With `mtlx`: the document's material to use (closures: not built yet, issue 15).
+    #[serde(default)]
+    pub material: Option<String>,
+    /// With `mtlx`: the output to use — a top-level `<output>`, a nodegraph, or
+    /// `nodegraph/output` (default: the document's outputs, the first one the beauty).
+    #[serde(default)]
+    pub output: Option<String>,
     /// An inline network as a TOML table (the JSON format's keys).
     #[serde(default)]
     pub inline: Option<toml::Value>,
@@ -454,6 +465,15 @@ pub enum MaterialSource {
     File(PathBuf),
     /// An inline network, as JSON.
     Inline(serde_json::Value),
+    /// A MaterialX document and what to take from it.
+    Mtlx {
+        /// The document (already made absolute or relative to the working directory).
+        file: PathBuf,
+        /// `material = "…"`: a material of the document.
+        material: Option<String>,
+        /// `output = "…"`: an output of the document.
+        output: Option<String>,
+    },
 }
 
 /// A material as the scene names it; the caller compiles it to a program.
@@ -706,6 +726,49 @@ fn resolve_camera(cx: &Ctx, c: &CameraSpec) -> Result<CameraDesc, SceneError> {
     })
 }
 
+/// Where one `[materials.NAME]` (`key`) comes from: exactly one of `network`, `mtlx`,
+/// `inline`, `json`; `material` and `output` only with `mtlx`, and not both.
+fn material_source(cx: &Ctx, key: &str, m: &MaterialSpec) -> Result<MaterialSource, SceneError> {
+    if m.mtlx.is_none() {
+        for (k, v) in [("material", &m.material), ("output", &m.output)] {
+            if v.is_some() {
+                return Err(cx.invalid(
+                    format!("{key}.{k}"),
+                    "only a MaterialX material (`mtlx = \"file.mtlx\"`) selects a material or output",
+                ));
+            }
+        }
+    }
+    if m.material.is_some() && m.output.is_some() {
+        return Err(cx.invalid(
+            format!("{key}.output"),
+            "give `material` or `output`, not both",
+        ));
+    }
+    Ok(match (&m.network, &m.mtlx, &m.inline, &m.json) {
+        (Some(f), None, None, None) => MaterialSource::File(cx.file(f)),
+        (None, Some(f), None, None) => MaterialSource::Mtlx {
+            file: cx.file(f),
+            material: m.material.clone(),
+            output: m.output.clone(),
+        },
+        (None, None, Some(t), None) => MaterialSource::Inline(
+            serde_json::to_value(t)
+                .map_err(|e| cx.invalid(format!("{key}.inline"), e.to_string()))?,
+        ),
+        (None, None, None, Some(j)) => MaterialSource::Inline(
+            serde_json::from_str(j)
+                .map_err(|e| cx.invalid(format!("{key}.json"), e.to_string()))?,
+        ),
+        _ => {
+            return Err(cx.invalid(
+                key,
+                "give exactly one of `network` (a file), `mtlx` (a MaterialX document), `inline` (a table) or `json` (text)",
+            ));
+        }
+    })
+}
+
 /// `[materials]`: each one's network source and its `set` overrides.
 fn resolve_materials(
     cx: &Ctx,
@@ -714,23 +777,7 @@ fn resolve_materials(
     let mut materials = Vec::new();
     for (name, m) in specs {
         let key = format!("materials.{name}");
-        let source = match (&m.network, &m.inline, &m.json) {
-            (Some(f), None, None) => MaterialSource::File(cx.file(f)),
-            (None, Some(t), None) => MaterialSource::Inline(
-                serde_json::to_value(t)
-                    .map_err(|e| cx.invalid(format!("{key}.inline"), e.to_string()))?,
-            ),
-            (None, None, Some(j)) => MaterialSource::Inline(
-                serde_json::from_str(j)
-                    .map_err(|e| cx.invalid(format!("{key}.json"), e.to_string()))?,
-            ),
-            _ => {
-                return Err(cx.invalid(
-                    key,
-                    "give exactly one of `network` (a file), `inline` (a table) or `json` (text)",
-                ));
-            }
-        };
+        let source = material_source(cx, &key, m)?;
         let mut overrides = Vec::new();
         for (target, value) in &m.set {
             let k = format!("{key}.set.\"{target}\"");

@@ -90,6 +90,9 @@ const ATOMS: &[Atom] = &[
     a("rotate2d", "in amount", l::rotate2d),
     a("rotate3d", "in amount axis", l::rotate3d),
     a("mix", "fg bg mix", l::mix),
+    // adjustment
+    a("remap", "in inlow inhigh outlow outhigh", l::remap),
+    a("smoothstep", "in low high", l::smoothstep),
     // compositing
     a("plus", "fg bg mix", l::plus),
     a("minus", "fg bg mix", l::minus),

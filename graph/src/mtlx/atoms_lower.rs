@@ -326,6 +326,41 @@ pub fn mix(b: &mut Builder, inp: &NodeInputs) -> Out {
     let t = inp.get("mix");
     one(b.mix(bg, fg, t))
 }
+/// `outlow + (in − inlow)·(outhigh − outlow)/(inhigh − inlow)`, unclamped (the
+/// specification's and the reference implementations' formula; `inhigh = inlow` divides by
+/// zero and the output guard zeroes the result).
+pub fn remap(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let ty = out_ty(inp);
+    let x = get(b, inp, "in", ty);
+    let (il, ih) = (get(b, inp, "inlow", ty), get(b, inp, "inhigh", ty));
+    let (ol, oh) = (get(b, inp, "outlow", ty), get(b, inp, "outhigh", ty));
+    let d = b.sub(x, il);
+    let out_span = b.sub(oh, ol);
+    let in_span = b.sub(ih, il);
+    let scaled = b.mul(d, out_span);
+    let t = b.div(scaled, in_span);
+    one(b.add(ol, t))
+}
+/// Hermite smoothstep of a float: 0 at or below `low`, 1 at or above `high` (tested in that
+/// order, as the reference implementations do, so `low = high` is a step), else
+/// `t²(3 − 2t)` with `t = (in − low)/(high − low)`. The vector variants are library
+/// nodegraphs over this one.
+pub fn smoothstep(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let (x, lo, hi) = (inp.get("in"), inp.get("low"), inp.get("high"));
+    let d = b.sub(x, lo);
+    let span = b.sub(hi, lo);
+    let t = b.div(d, span);
+    let t2 = b.mul(t, t);
+    let two_t = b.add(t, t);
+    let three = b.float(3.0);
+    let k = b.sub(three, two_t);
+    let curve = b.mul(t2, k);
+    let (zero, one_) = (b.float(0.0), b.float(1.0));
+    let below = b.binary(BinOp::Le, x, lo);
+    let low_or_curve = b.select(below, zero, curve);
+    let above = b.binary(BinOp::Ge, x, hi);
+    one(b.select(above, one_, low_or_curve))
+}
 
 /// `mix·f(fg, bg) + (1 − mix)·bg`, the compositing nodes' blend.
 fn composite(
