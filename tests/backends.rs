@@ -1642,3 +1642,6 @@ fn gpu_pass_plans_agree() {
         programs.len()
     );
 }
+
+#[path = "backends/mtlx.rs"]
+mod mtlx;
