@@ -190,6 +190,12 @@ pub fn missing_reason(nd: &NodeDefElem) -> &'static str {
     if ATOMS.iter().any(|r| r.node == nd.node) {
         if NOT_FOUR_WIDE.contains(&nd.node.as_str()) && has_four_wide(nd) {
             "vector noise has no four-component form yet"
+        } else if nd
+            .outputs
+            .iter()
+            .any(|o| o.ty == "string" || o.ty == "filename")
+        {
+            "a string output never reaches the IR (strings are uniform inputs only)"
         } else if has_matrix(nd) {
             "matrix arithmetic other than transforms has no IR op yet"
         } else {
