@@ -333,3 +333,26 @@ fn four_component_atoms_match_their_formulas() {
     .unwrap();
     assert!(e.contains("color4") && e.contains("color3"), "{e}");
 }
+
+/// A color4 output shades through the CLI: its EXR layer has R, G, B and A channels.
+#[test]
+fn a_color4_output_writes_rgba_layers() {
+    if lib().is_none() {
+        return;
+    }
+    let out = tmp("mtlx", "over.exr");
+    let (code, _, err) = shadenet(&[
+        "shade",
+        "examples/materials/over.mtlx",
+        "-o",
+        out.to_str().unwrap(),
+        "--res",
+        "8x8",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let bytes = std::fs::read(&out).unwrap();
+    let text = String::from_utf8_lossy(&bytes);
+    for ch in ["out.R", "out.G", "out.B", "out.A"] {
+        assert!(text.contains(ch), "EXR lacks channel {ch}");
+    }
+}
