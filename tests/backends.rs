@@ -1650,3 +1650,40 @@ fn gpu_pass_plans_agree() {
         programs.len()
     );
 }
+
+/// The MaterialX example documents (color4 compositing, noise, nodegraphs) through every
+/// back end, optimized and not. Needs the MaterialX libraries: fails without them when `CI`
+/// is set, skips with a message otherwise.
+#[test]
+fn mtlx_examples_on_every_backend() {
+    let (w, h) = (23, 17);
+    let frags: Vec<Fragment> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| shadenet::shade::grid_fragment(x, y, w, h)))
+        .collect();
+    let env = shadenet::shade::grid_env(&[]);
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/materials");
+    let mut docs: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "mtlx"))
+        .collect();
+    docs.sort();
+    assert!(docs.iter().any(|p| p.ends_with("over.mtlx")));
+    for path in docs {
+        let c = match shadenet::mtlx::compile_mtlx(&path, &Default::default()) {
+            Ok(c) => c,
+            Err(shadenet::mtlx::MtlxLoadError::Libraries(e))
+                if std::env::var_os("CI").is_none() =>
+            {
+                eprintln!("SKIPPED: {e}");
+                return;
+            }
+            Err(e) => panic!("{}: {e}", path.display()),
+        };
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        let (p, _) = opt::run(&c.program, &Specialization::default());
+        check_program(&name, &p, &env, u32::MAX, &frags, Class::Mixed);
+        let what = format!("{name} (unoptimized)");
+        check_program(&what, &c.program, &env, u32::MAX, &frags, Class::Mixed);
+    }
+}
