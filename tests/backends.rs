@@ -530,6 +530,10 @@ const INPUTS: &str = "
   %ny = extract %n, 1 : float
   %nz = extract %n, 2 : float
   %nc = construct %nx, %ny, %nz : color
+  %p4 = construct %a, %b, %c, %nx : vec4
+  %n4 = construct %nx, %ny, %nz, %b : vec4
+  %pc4 = construct %a, %b, %c, %nz : color4
+  %nc4 = construct %nx, %ny, %nz, %a : color4
   %k = stream raydepth : int
   %m = stream raytype : int
   %q = lt %a, %b : bool
@@ -543,17 +547,21 @@ fn inputs(ty: Type) -> Option<(&'static str, &'static str)> {
         Type::Vec2 => ("%uv", "%ba"),
         Type::Vec3 => ("%p", "%n"),
         Type::Color => ("%pc", "%nc"),
+        Type::Vec4 => ("%p4", "%n4"),
+        Type::Color4 => ("%pc4", "%nc4"),
         Type::Int => ("%k", "%m"),
         Type::Bool => ("%q", "%r"),
         Type::Matrix44 | Type::String => return None,
     })
 }
 
-const TYPES: [Type; 6] = [
+const TYPES: [Type; 8] = [
     Type::Float,
     Type::Vec2,
     Type::Vec3,
     Type::Color,
+    Type::Vec4,
+    Type::Color4,
     Type::Int,
     Type::Bool,
 ];

@@ -360,3 +360,127 @@ fn examples_compile_and_the_cli_shades_them() {
         }
     }
 }
+
+#[test]
+fn four_component_atoms_match_their_formulas() {
+    // premult: (rgb·a, a).
+    let Some(v) = eval(
+        r#"<premult name="p" type="color4"><input name="in" type="color4" value="0.5, 0.25, 1, 0.5"/></premult>
+           <output name="out" type="color4" nodename="p"/>"#,
+        [0.5, 0.5],
+    ) else {
+        return;
+    };
+    assert_close(&v, &[0.25, 0.125, 0.5, 0.5], 0.0, "premult");
+    // over: fg + bg·(1 − fg.a), mix 1.
+    let v = eval(
+        r#"<over name="o" type="color4"><input name="fg" type="color4" value="0.5, 0.5, 0.5, 0.5"/>
+             <input name="bg" type="color4" value="1, 0, 0.25, 1"/></over>
+           <output name="out" type="color4" nodename="o"/>"#,
+        [0.5, 0.5],
+    )
+    .unwrap();
+    assert_close(&v, &[1.0, 0.5, 0.625, 1.0], 0.0, "over");
+    // unpremult of a zero alpha: the total division gives 0.
+    let v = eval(
+        r#"<unpremult name="u" type="color4"><input name="in" type="color4" value="0.5, 0.25, 1, 0"/></unpremult>
+           <output name="out" type="color4" nodename="u"/>"#,
+        [0.5, 0.5],
+    )
+    .unwrap();
+    assert_close(&v, &[0.0, 0.0, 0.0, 0.0], 0.0, "unpremult at alpha 0");
+    // combine4 of varying channels (a 1.38 swizzle), scaled by a float, then a dot product.
+    let v = eval(
+        r#"<texcoord name="uv" type="vector2"/>
+           <combine4 name="c" type="vector4"><input name="in1" type="float" nodename="uv" channels="x"/>
+             <input name="in2" type="float" nodename="uv" channels="y"/>
+             <input name="in3" type="float" value="2"/><input name="in4" type="float" value="-1"/></combine4>
+           <multiply name="m" type="vector4"><input name="in1" type="vector4" nodename="c"/>
+             <input name="in2" type="float" value="2"/></multiply>
+           <output name="out" type="vector4" nodename="m"/>"#,
+        [0.5, 0.25],
+    )
+    .unwrap();
+    assert_close(&v, &[1.0, 0.5, 4.0, -2.0], 0.0, "combine4 × float");
+    let v = eval(
+        r#"<texcoord name="uv" type="vector2"/>
+           <combine4 name="c" type="vector4"><input name="in1" type="float" nodename="uv" channels="x"/>
+             <input name="in2" type="float" nodename="uv" channels="y"/>
+             <input name="in3" type="float" value="2"/><input name="in4" type="float" value="-1"/></combine4>
+           <dotproduct name="d" type="float"><input name="in1" type="vector4" nodename="c"/>
+             <input name="in2" type="vector4" value="1, 0, 0, 1"/></dotproduct>
+           <extract name="e" type="float"><input name="in" type="vector4" nodename="c"/>
+             <input name="index" type="integer" value="3"/></extract>
+           <add name="s" type="float"><input name="in1" type="float" nodename="d"/>
+             <input name="in2" type="float" nodename="e"/></add>
+           <output name="out" type="float" nodename="s"/>"#,
+        [0.5, 0.25],
+    )
+    .unwrap();
+    assert_close(&v, &[-1.5], 0.0, "dot(c, (1,0,0,1)) + c[3] = 0.5 - 1 - 1");
+    // combine2 of a color3 and a float; luminance keeps alpha; a channel swizzle reads alpha.
+    let v = eval(
+        r#"<combine2 name="c" type="color4"><input name="in1" type="color3" value="1, 0.5, 0.25"/>
+             <input name="in2" type="float" value="0.75"/></combine2>
+           <luminance name="l" type="color4"><input name="in" type="color4" nodename="c"/>
+             <input name="lumacoeffs" type="color3" value="0.5, 0.25, 1"/></luminance>
+           <output name="out" type="color4" nodename="l"/>"#,
+        [0.5, 0.5],
+    )
+    .unwrap();
+    assert_close(
+        &v,
+        &[0.875, 0.875, 0.875, 0.75],
+        0.0,
+        "luminance of a color4",
+    );
+    // remap and smoothstep (the atoms the color4 range/colorcorrect graphs use).
+    let v = eval(
+        r#"<remap name="r" type="vector4"><input name="in" type="vector4" value="0.5, 1, 0, 2"/>
+             <input name="inlow" type="float" value="0"/><input name="inhigh" type="float" value="2"/>
+             <input name="outlow" type="float" value="1"/><input name="outhigh" type="float" value="3"/></remap>
+           <output name="out" type="vector4" nodename="r"/>"#,
+        [0.5, 0.5],
+    )
+    .unwrap();
+    assert_close(&v, &[1.5, 2.0, 1.0, 3.0], 0.0, "remap");
+    let v = eval(
+        r#"<smoothstep name="s" type="float"><input name="in" type="float" value="0.25"/></smoothstep>
+           <output name="out" type="float" nodename="s"/>"#,
+        [0.5, 0.5],
+    )
+    .unwrap();
+    assert_close(&v, &[0.15625], 0.0, "smoothstep(0, 1, 0.25) = t²(3 − 2t)");
+    // A color4 feeding a color3 port is a type error naming both types.
+    let e = err(
+        r#"<constant name="k" type="color4"><input name="value" type="color4" value="1, 1, 1, 1"/></constant>
+           <add name="a" type="color3"><input name="in1" type="color3" nodename="k"/>
+             <input name="in2" type="color3" value="0, 0, 0"/></add>
+           <output name="out" type="color3" nodename="a"/>"#,
+    )
+    .unwrap();
+    assert!(e.contains("color4") && e.contains("color3"), "{e}");
+}
+
+/// A color4 output shades through the CLI: its EXR layer has R, G, B and A channels.
+#[test]
+fn a_color4_output_writes_rgba_layers() {
+    if lib().is_none() {
+        return;
+    }
+    let out = tmp("mtlx", "over.exr");
+    let (code, _, err) = shadenet(&[
+        "shade",
+        "examples/materials/over.mtlx",
+        "-o",
+        out.to_str().unwrap(),
+        "--res",
+        "8x8",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let bytes = std::fs::read(&out).unwrap();
+    let text = String::from_utf8_lossy(&bytes);
+    for ch in ["out.R", "out.G", "out.B", "out.A"] {
+        assert!(text.contains(ch), "EXR lacks channel {ch}");
+    }
+}

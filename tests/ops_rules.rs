@@ -64,7 +64,7 @@ fn check_total<F: Real>() {
         Val::Int(i32::MIN)
     );
     // float → int conversion saturates, NaN → 0
-    let to_int = |x: f64| ops::convert(shadenet_graph::Type::Int, Val::Float(f(x)));
+    let to_int = |x: f64| ops::convert(shadenet_graph::types::Type::Int, Val::Float(f(x)));
     assert_eq!(to_int(1e20), Val::Int(i32::MAX));
     assert_eq!(to_int(f64::NAN), Val::Int(0));
     assert_eq!(to_int(-2.7), Val::Int(-2));
@@ -113,4 +113,51 @@ fn guard_zeroes_and_counts_nonfinite_outputs() {
     let o64 = Interpreter::<f64>::new(&prog).unwrap().shade(&ctx);
     assert_eq!(o64.nonfinite, 0);
     assert_eq!(o64.values[0], 1e30 * 1e30);
+}
+
+/// vec4 and color4 values: component-wise arithmetic, the total division and normalize, and
+/// the constant folder's direction keeps color4 apart from vec4.
+#[test]
+fn four_component_values() {
+    let a: Val<f32> = Val::Vec4([1.0, -2.0, 0.0, 4.0]);
+    let b: Val<f32> = Val::Vec4([2.0, 0.0, 0.0, -0.5]);
+    assert_eq!(
+        ops::binary(BinOp::Div, a, b),
+        Val::Vec4([0.5, 0.0, 0.0, -8.0])
+    );
+    assert_eq!(
+        ops::binary(BinOp::Min, a, b),
+        Val::Vec4([1.0, -2.0, 0.0, -0.5])
+    );
+    assert_eq!(ops::binary(BinOp::Dot, a, b), Val::Float(0.0));
+    assert_eq!(
+        ops::unary(UnOp::Length, Val::<f64>::Vec4([1.0, 1.0, 1.0, 1.0])),
+        Val::Float(2.0)
+    );
+    assert_eq!(
+        ops::unary(UnOp::Normalize, Val::<f64>::Vec4([0.0, 0.0, 3.0, 4.0])),
+        Val::Vec4([0.0, 0.0, 0.6, 0.8])
+    );
+    assert_eq!(
+        ops::unary(UnOp::Normalize, Val::<f32>::Vec4([0.0; 4])),
+        Val::Vec4([0.0; 4])
+    );
+    let c = ops::construct::<f32>(
+        shadenet_graph::types::Type::Color4,
+        &[
+            Val::Float(1.0),
+            Val::Float(0.5),
+            Val::Float(0.25),
+            Val::Float(0.0),
+        ],
+    );
+    assert_eq!(
+        c.to_const(shadenet_graph::types::Type::Color4),
+        shadenet_graph::types::ConstValue::Color4([1.0, 0.5, 0.25, 0.0])
+    );
+    assert_eq!(ops::extract(c, 3), Val::Float(0.0));
+    assert_eq!(
+        ops::splat::<f32>(shadenet_graph::types::Type::Vec4, Val::Float(2.0)),
+        Val::Vec4([2.0; 4])
+    );
 }

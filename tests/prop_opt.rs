@@ -486,8 +486,8 @@ fn literal(ty: Type, l: &Lit) -> Json {
         Type::Bool => Json::Bool(l.flag),
         Type::Int => json!(l.int),
         Type::Float => num(v(0)),
-        Type::Vec2 | Type::Vec3 | Type::Color if l.flag => num(v(0)),
-        Type::Vec2 | Type::Vec3 | Type::Color => {
+        t if t.is_vector() && l.flag => num(v(0)),
+        Type::Vec2 | Type::Vec3 | Type::Color | Type::Vec4 | Type::Color4 => {
             Json::Array((0..ty.width()).map(|k| num(v(k))).collect())
         }
         Type::Matrix44 if l.flag => Json::Array(

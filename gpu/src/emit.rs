@@ -145,6 +145,7 @@ pub fn wgsl_type(ty: Type) -> Result<&'static str, EmitError> {
         Type::Float => "f32",
         Type::Vec2 => "vec2<f32>",
         Type::Vec3 | Type::Color => "vec3<f32>",
+        Type::Vec4 | Type::Color4 => "vec4<f32>",
         Type::Matrix44 => "array<vec4<f32>, 4>",
         Type::String => return Err(EmitError::Type(ty.name().into())),
     })
@@ -190,6 +191,7 @@ pub fn literal(c: &ConstValue) -> Result<String, EmitError> {
         ConstValue::Float(x) => float_literal(*x as f32),
         ConstValue::Vec2(v) => floats_literal("vec2<f32>", *v),
         ConstValue::Vec3(v) | ConstValue::Color(v) => floats_literal("vec3<f32>", *v),
+        ConstValue::Vec4(v) | ConstValue::Color4(v) => floats_literal("vec4<f32>", *v),
         ConstValue::Matrix44(m) => {
             let rows: Vec<String> = m
                 .chunks(4)
@@ -307,6 +309,7 @@ pub fn op_expr(
                 ConstValue::Float(_) => keyed("sn_o", &lit),
                 ConstValue::Vec2(_) => keyed("sn_o2", &lit),
                 ConstValue::Vec3(_) | ConstValue::Color(_) => keyed("sn_o3", &lit),
+                ConstValue::Vec4(_) | ConstValue::Color4(_) => keyed("sn_o4", &lit),
                 ConstValue::Matrix44(m) => {
                     let rows: Vec<String> = m
                         .chunks(4)
@@ -396,10 +399,11 @@ fn unary(op: UnOp, t: Type, x: &str) -> Result<String, EmitError> {
     if !t.is_float_based() {
         return Err(ill_typed(op.name(), t));
     }
-    let vector = |f2: &str, f3: &str| -> Result<String, EmitError> {
+    let vector = |f2: &str, f3: &str, f4: &str| -> Result<String, EmitError> {
         match t {
             Type::Vec2 => Ok(format!("{f2}({x})")),
             Type::Vec3 | Type::Color => Ok(format!("{f3}({x})")),
+            Type::Vec4 | Type::Color4 => Ok(format!("{f4}({x})")),
             _ => Err(ill_typed(op.name(), t)),
         }
     };
@@ -417,8 +421,8 @@ fn unary(op: UnOp, t: Type, x: &str) -> Result<String, EmitError> {
         Tan => Ok(format!("tan({x})")),
         Asin => map1(t, "sn_asin", x),
         Acos => map1(t, "sn_acos", x),
-        Length => vector("sn_length2", "sn_length3"),
-        Normalize => vector("sn_normalize2", "sn_normalize3"),
+        Length => vector("sn_length2", "sn_length3", "sn_length4"),
+        Normalize => vector("sn_normalize2", "sn_normalize3", "sn_normalize4"),
         Not => Err(ill_typed(op.name(), t)),
     }
 }
@@ -462,15 +466,17 @@ fn binary(op: BinOp, t: Type, x: &str, y: &str) -> Result<String, EmitError> {
             _ => Err(ill_typed(op.name(), t)),
         },
         _ if t.is_float_based() => {
-            let vector = |f2: &str, f3: &str| match t {
+            let vector = |f2: &str, f3: &str, f4: &str| match t {
                 Type::Vec2 => Ok(format!("{f2}({x}, {y})")),
                 Type::Vec3 | Type::Color => Ok(format!("{f3}({x}, {y})")),
+                Type::Vec4 | Type::Color4 => Ok(format!("{f4}({x}, {y})")),
                 _ => Err(ill_typed(op.name(), t)),
             };
             // y through the key: x and y may be one value (`x - x` is NaN for an infinite x).
             let keyed = |e: &str| match t {
                 Type::Vec2 => format!("sn_o2({e}, {KEY})"),
                 Type::Vec3 | Type::Color => format!("sn_o3({e}, {KEY})"),
+                Type::Vec4 | Type::Color4 => format!("sn_o4({e}, {KEY})"),
                 _ => format!("sn_o({e}, {KEY})"),
             };
             match op {
@@ -484,10 +490,11 @@ fn binary(op: BinOp, t: Type, x: &str, y: &str) -> Result<String, EmitError> {
                 // a < b ? a : b, component-wise (a NaN in a yields b).
                 Min => Ok(format!("select({y}, {x}, {x} < {y})")),
                 Max => Ok(format!("select({y}, {x}, {x} > {y})")),
-                Dot => vector("sn_dot2", "sn_dot3"),
+                Dot => vector("sn_dot2", "sn_dot3", "sn_dot4"),
                 Distance => match t {
                     Type::Vec2 => Ok(format!("sn_length2({x} - {})", keyed(y))),
                     Type::Vec3 | Type::Color => Ok(format!("sn_length3({x} - {})", keyed(y))),
+                    Type::Vec4 | Type::Color4 => Ok(format!("sn_length4({x} - {})", keyed(y))),
                     _ => Err(ill_typed(op.name(), t)),
                 },
                 Cross if matches!(t, Type::Vec3 | Type::Color) => {
@@ -538,7 +545,9 @@ pub fn store_columns(ty: Type, e: &str) -> Vec<String> {
     match ty {
         Type::Bool => vec![format!("select(0.0f, 1.0f, {e})")],
         Type::Int => vec![format!("bitcast<f32>({e})")],
-        Type::Float | Type::Vec2 | Type::Vec3 | Type::Color => components(ty, e),
+        Type::Float | Type::Vec2 | Type::Vec3 | Type::Color | Type::Vec4 | Type::Color4 => {
+            components(ty, e)
+        }
         Type::Matrix44 => {
             let a = atom(e);
             (0..16)
@@ -559,6 +568,9 @@ pub fn load_columns(ty: Type, cols: &[String]) -> String {
         Type::Float | Type::String => col(0),
         Type::Vec2 => format!("vec2<f32>({}, {})", col(0), col(1)),
         Type::Vec3 | Type::Color => format!("vec3<f32>({}, {}, {})", col(0), col(1), col(2)),
+        Type::Vec4 | Type::Color4 => {
+            format!("vec4<f32>({}, {}, {}, {})", col(0), col(1), col(2), col(3))
+        }
         Type::Matrix44 => {
             let rows: Vec<String> = (0..4)
                 .map(|r| {
@@ -578,7 +590,9 @@ pub fn output_columns(ty: Type, e: &str) -> Vec<String> {
     match ty {
         Type::Bool => vec![format!("select(0.0f, 1.0f, {e})")],
         Type::Int => vec![format!("f32({e})")],
-        Type::Float | Type::Vec2 | Type::Vec3 | Type::Color => components(ty, e),
+        Type::Float | Type::Vec2 | Type::Vec3 | Type::Color | Type::Vec4 | Type::Color4 => {
+            components(ty, e)
+        }
         Type::Matrix44 => vec!["0.0f".into(); 16],
         Type::String => vec!["0.0f".into()],
     }

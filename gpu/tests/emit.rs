@@ -291,11 +291,13 @@ impl Row {
     }
 }
 
-const TYPES: [Type; 6] = [
+const TYPES: [Type; 8] = [
     Type::Float,
     Type::Vec2,
     Type::Vec3,
     Type::Color,
+    Type::Vec4,
+    Type::Color4,
     Type::Int,
     Type::Bool,
 ];
@@ -572,6 +574,7 @@ fn to_val(ty: Type, cols: &[f32]) -> (Val<f32>, [f32; 16]) {
         Type::Float => Val::Float(cols[0]),
         Type::Vec2 => Val::Vec2([cols[0], cols[1]]),
         Type::Vec3 | Type::Color => Val::Vec3([cols[0], cols[1], cols[2]]),
+        Type::Vec4 | Type::Color4 => Val::Vec4([cols[0], cols[1], cols[2], cols[3]]),
         Type::Matrix44 => {
             m.copy_from_slice(&cols[..16]);
             Val::Mat(0)

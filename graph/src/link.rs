@@ -574,7 +574,7 @@ pub(crate) fn edit_distance(a: &str, b: &str) -> usize {
 pub fn coercible(from: Type, to: Type) -> bool {
     from == to
         || (from == Type::Float && to.is_vector())
-        || (matches!(from, Type::Vec3 | Type::Color) && matches!(to, Type::Vec3 | Type::Color))
+        || from.is_renaming_of(to)
         || (from == Type::Int && to == Type::Float)
         || (from == Type::Bool && matches!(to, Type::Int | Type::Float))
 }
@@ -610,7 +610,7 @@ pub fn literal(json: &Json, ty: Type) -> Result<ConstValue, String> {
             .as_str()
             .map(|s| ConstValue::String(s.to_string()))
             .ok_or_else(|| format!("expects a string, not {json}")),
-        Type::Vec2 | Type::Vec3 | Type::Color | Type::Matrix44 => {
+        Type::Vec2 | Type::Vec3 | Type::Color | Type::Vec4 | Type::Color4 | Type::Matrix44 => {
             let n = ty.width();
             let flat: Vec<&Json> = match json {
                 Json::Number(_) if ty != Type::Matrix44 => vec![json; n],

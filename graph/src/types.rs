@@ -2,7 +2,7 @@
 //!
 //! A network port has a [`Type`]; the IR uses the same enum. `Color` and `Vec3` are both
 //! three floats and lower to the same IR arithmetic, but stay distinct for type checking and
-//! documentation (the linker coerces between them).
+//! documentation (the linker coerces between them); `Color4` and `Vec4` likewise, with four.
 
 use std::fmt;
 
@@ -21,6 +21,11 @@ pub enum Type {
     Vec3,
     /// Three floats: linear RGB.
     Color,
+    /// Four floats: a 4-vector (MaterialX `vector4`).
+    Vec4,
+    /// Four floats: linear RGB and alpha (MaterialX `color4`). Same arithmetic as `vec4`,
+    /// distinct for type checking, as `color` is from `vec3`.
+    Color4,
     /// A 4×4 matrix, row-major, points are column vectors (`M * p`).
     Matrix44,
     /// A string; uniform only (file names, enum-like options), never reaches the IR.
@@ -29,13 +34,15 @@ pub enum Type {
 
 impl Type {
     /// Every type, in a fixed order.
-    pub const ALL: [Type; 8] = [
+    pub const ALL: [Type; 10] = [
         Type::Bool,
         Type::Int,
         Type::Float,
         Type::Vec2,
         Type::Vec3,
         Type::Color,
+        Type::Vec4,
+        Type::Color4,
         Type::Matrix44,
         Type::String,
     ];
@@ -49,6 +56,8 @@ impl Type {
             Type::Vec2 => "vec2",
             Type::Vec3 => "vec3",
             Type::Color => "color",
+            Type::Vec4 => "vec4",
+            Type::Color4 => "color4",
             Type::Matrix44 => "matrix44",
             Type::String => "string",
         }
@@ -65,27 +74,45 @@ impl Type {
             Type::Bool | Type::Int | Type::Float => 1,
             Type::Vec2 => 2,
             Type::Vec3 | Type::Color => 3,
+            Type::Vec4 | Type::Color4 => 4,
             Type::Matrix44 => 16,
             Type::String => 0,
         }
     }
 
-    /// True for float-based vector types (`vec2`, `vec3`, `color`).
+    /// True for float-based vector types (`vec2`, `vec3`, `color`, `vec4`, `color4`).
     pub fn is_vector(self) -> bool {
-        matches!(self, Type::Vec2 | Type::Vec3 | Type::Color)
+        matches!(
+            self,
+            Type::Vec2 | Type::Vec3 | Type::Color | Type::Vec4 | Type::Color4
+        )
     }
 
     /// True for `float` and the float vector types.
     pub fn is_float_based(self) -> bool {
-        matches!(self, Type::Float | Type::Vec2 | Type::Vec3 | Type::Color)
+        self == Type::Float || self.is_vector()
     }
 
-    /// The type with `n` float components: 1 → float, 2 → vec2, 3 → vec3.
+    /// True for the colour types (`color`, `color4`).
+    pub fn is_color(self) -> bool {
+        matches!(self, Type::Color | Type::Color4)
+    }
+
+    /// Whether `self` and `other` are the same float vector under two names (color ↔ vec3,
+    /// color4 ↔ vec4): a connection between them keeps every component.
+    pub fn is_renaming_of(self, other: Type) -> bool {
+        let three = |t: Type| matches!(t, Type::Vec3 | Type::Color);
+        let four = |t: Type| matches!(t, Type::Vec4 | Type::Color4);
+        (three(self) && three(other)) || (four(self) && four(other))
+    }
+
+    /// The type with `n` float components: 1 → float, 2 → vec2, 3 → vec3, 4 → vec4.
     pub fn float_vec(n: usize) -> Option<Type> {
         match n {
             1 => Some(Type::Float),
             2 => Some(Type::Vec2),
             3 => Some(Type::Vec3),
+            4 => Some(Type::Vec4),
             _ => None,
         }
     }
@@ -96,6 +123,8 @@ impl Type {
             Type::Vec2 => &["x", "y"],
             Type::Vec3 => &["x", "y", "z"],
             Type::Color => &["r", "g", "b"],
+            Type::Vec4 => &["x", "y", "z", "w"],
+            Type::Color4 => &["r", "g", "b", "a"],
             _ => &[],
         }
     }
@@ -107,6 +136,7 @@ impl Type {
             "x" | "r" | "u" => 0,
             "y" | "g" | "v" => 1,
             "z" | "b" => 2,
+            "w" | "a" => 3,
             _ => return None,
         };
         (idx < self.width() && self.is_vector()).then_some(idx)
@@ -135,6 +165,10 @@ pub enum ConstValue {
     Vec3([f64; 3]),
     /// A linear RGB color.
     Color([f64; 3]),
+    /// A 4-vector.
+    Vec4([f64; 4]),
+    /// A linear RGBA color.
+    Color4([f64; 4]),
     /// A row-major 4×4 matrix.
     Matrix44([f64; 16]),
     /// A string (uniform only).
@@ -151,6 +185,8 @@ impl ConstValue {
             ConstValue::Vec2(_) => Type::Vec2,
             ConstValue::Vec3(_) => Type::Vec3,
             ConstValue::Color(_) => Type::Color,
+            ConstValue::Vec4(_) => Type::Vec4,
+            ConstValue::Color4(_) => Type::Color4,
             ConstValue::Matrix44(_) => Type::Matrix44,
             ConstValue::String(_) => Type::String,
         }
@@ -162,6 +198,7 @@ impl ConstValue {
             ConstValue::Float(x) => std::slice::from_ref(x),
             ConstValue::Vec2(v) => v,
             ConstValue::Vec3(v) | ConstValue::Color(v) => v,
+            ConstValue::Vec4(v) | ConstValue::Color4(v) => v,
             ConstValue::Matrix44(m) => m,
             _ => &[],
         }
@@ -178,6 +215,8 @@ impl ConstValue {
             Type::Vec2 => ConstValue::Vec2([v[0], v[1]]),
             Type::Vec3 => ConstValue::Vec3([v[0], v[1], v[2]]),
             Type::Color => ConstValue::Color([v[0], v[1], v[2]]),
+            Type::Vec4 => ConstValue::Vec4([v[0], v[1], v[2], v[3]]),
+            Type::Color4 => ConstValue::Color4([v[0], v[1], v[2], v[3]]),
             Type::Matrix44 => {
                 let mut m = [0.0; 16];
                 m.copy_from_slice(v);
@@ -234,5 +273,36 @@ impl fmt::Display for ConstValue {
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn four_component_types() {
+        for t in Type::ALL {
+            assert_eq!(Type::from_name(t.name()), Some(t), "{t}");
+        }
+        assert_eq!((Type::Vec4.width(), Type::Color4.width()), (4, 4));
+        assert!(Type::Vec4.is_vector() && Type::Color4.is_float_based());
+        assert!(Type::Color4.is_color() && !Type::Vec4.is_color());
+        assert_eq!(Type::float_vec(4), Some(Type::Vec4));
+        assert_eq!(Type::Color4.component_index("a"), Some(3));
+        assert_eq!(Type::Vec4.component_index("w"), Some(3));
+        assert_eq!(
+            Type::Color.component_index("a"),
+            None,
+            "a color has no alpha"
+        );
+        assert!(Type::Vec4.is_renaming_of(Type::Color4) && Type::Color4.is_renaming_of(Type::Vec4));
+        assert!(!Type::Vec4.is_renaming_of(Type::Color) && !Type::Vec3.is_renaming_of(Type::Vec4));
+        let c = ConstValue::from_floats(Type::Color4, &[1.0, 2.0, 3.0, 0.5]).unwrap();
+        assert_eq!(c, ConstValue::Color4([1.0, 2.0, 3.0, 0.5]));
+        assert_eq!(c.ty(), Type::Color4);
+        assert_eq!(c.to_string(), "(1.0, 2.0, 3.0, 0.5)");
+        assert_eq!(ConstValue::zero(Type::Vec4), ConstValue::Vec4([0.0; 4]));
+        assert_eq!(ConstValue::from_floats(Type::Vec4, &[1.0, 2.0, 3.0]), None);
     }
 }

@@ -387,6 +387,7 @@ fn const_bits(c: &ConstValue) -> Vec<u32> {
         ConstValue::Float(x) => vec![f(x)],
         ConstValue::Vec2(v) => v.iter().map(f).collect(),
         ConstValue::Vec3(v) | ConstValue::Color(v) => v.iter().map(f).collect(),
+        ConstValue::Vec4(v) | ConstValue::Color4(v) => v.iter().map(f).collect(),
         ConstValue::Matrix44(m) => m.iter().map(f).collect(),
     }
 }

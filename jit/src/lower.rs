@@ -587,6 +587,9 @@ impl<'a, 'b> Lowerer<'a, 'b> {
             ConstValue::Vec3(v) | ConstValue::Color(v) => {
                 v.iter().map(|x| self.fconst(*x as f32)).collect()
             }
+            ConstValue::Vec4(v) | ConstValue::Color4(v) => {
+                v.iter().map(|x| self.fconst(*x as f32)).collect()
+            }
             ConstValue::Matrix44(m) => m.iter().map(|x| self.fconst(*x as f32)).collect(),
         }
     }

@@ -289,9 +289,9 @@ impl<F: Real> Interpreter<F> {
             Op::Binary(op, a, b) => ops::binary(*op, reg(a), reg(b)),
             Op::Select { cond, a, b } => ops::select(reg(cond), reg(a), reg(b)),
             Op::Construct(args) => {
-                let vals: [Val<F>; 3] =
+                let vals: [Val<F>; 4] =
                     std::array::from_fn(|i| args.get(i).map_or(Val::Int(0), reg));
-                ops::construct(expr.ty.unwrap_or(Type::Vec3), &vals[..args.len().min(3)])
+                ops::construct(expr.ty.unwrap_or(Type::Vec3), &vals[..args.len().min(4)])
             }
             Op::Extract(a, i) => ops::extract(reg(a), *i),
             Op::Splat(a) => ops::splat(expr.ty.unwrap_or(Type::Vec3), reg(a)),

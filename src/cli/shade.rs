@@ -373,6 +373,8 @@ fn exr_layers(job: &Job, grid: &Grid, slots: &Slots) -> Vec<(String, Vec<f32>)> 
         let suffixes: &[&str] = match ty.width() {
             2 => &["X", "Y"],
             3 => &["R", "G", "B"],
+            4 if ty.is_color() => &["R", "G", "B", "A"],
+            4 => &["X", "Y", "Z", "W"],
             _ => &["Y"],
         };
         let mut layers: Vec<(String, Option<Option<u8>>)> = vec![(name.to_string(), None)];

@@ -89,6 +89,9 @@ fn keep(ty: Type, e: &str) -> String {
         Type::Vec3 | Type::Color => {
             format!("bitcast<vec3<f32>>(bitcast<vec3<u32>>({e}) ^ vec3<u32>({k}))")
         }
+        Type::Vec4 | Type::Color4 => {
+            format!("bitcast<vec4<f32>>(bitcast<vec4<u32>>({e}) ^ vec4<u32>({k}))")
+        }
         _ => e.to_string(),
     }
 }
@@ -105,6 +108,9 @@ fn kept_const(c: &ConstValue) -> Option<String> {
         ConstValue::Vec2(v) => keep(Type::Vec2, &format!("vec2<f32>({})", row(v))),
         ConstValue::Vec3(v) | ConstValue::Color(v) => {
             keep(Type::Vec3, &format!("vec3<f32>({})", row(v)))
+        }
+        ConstValue::Vec4(v) | ConstValue::Color4(v) => {
+            keep(Type::Vec4, &format!("vec4<f32>({})", row(v)))
         }
         ConstValue::Matrix44(m) => {
             let rows: Vec<String> = m

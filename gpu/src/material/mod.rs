@@ -164,6 +164,7 @@ fn encode_val(v: &Val<f32>, mats: &[[f32; 16]], ty: Type) -> Vec<f32> {
         Val::Float(x) => vec![*x],
         Val::Vec2(x) => x.to_vec(),
         Val::Vec3(x) => x.to_vec(),
+        Val::Vec4(x) => x.to_vec(),
         Val::Mat(i) => mats.get(*i as usize).map_or(vec![0.0; 16], |m| m.to_vec()),
     };
     out.resize(crate::emit::columns(ty), 0.0);

@@ -682,12 +682,20 @@ fn sn_dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {
     return (sn_plus_zero(a.x * b.x) + a.y * b.y) + a.z * b.z;
 }
 
+fn sn_dot4(a: vec4<f32>, b: vec4<f32>) -> f32 {
+    return ((sn_plus_zero(a.x * b.x) + a.y * b.y) + a.z * b.z) + a.w * b.w;
+}
+
 fn sn_length2(v: vec2<f32>) -> f32 {
     return sn_sqrt(sn_dot2(v, v));
 }
 
 fn sn_length3(v: vec3<f32>) -> f32 {
     return sn_sqrt(sn_dot3(v, v));
+}
+
+fn sn_length4(v: vec4<f32>) -> f32 {
+    return sn_sqrt(sn_dot4(v, v));
 }
 
 fn sn_normalize2(v: vec2<f32>) -> vec2<f32> {
@@ -698,6 +706,11 @@ fn sn_normalize2(v: vec2<f32>) -> vec2<f32> {
 fn sn_normalize3(v: vec3<f32>) -> vec3<f32> {
     let l = sn_length3(v);
     return vec3<f32>(sn_div(v.x, l), sn_div(v.y, l), sn_div(v.z, l));
+}
+
+fn sn_normalize4(v: vec4<f32>) -> vec4<f32> {
+    let l = sn_length4(v);
+    return vec4<f32>(sn_div(v.x, l), sn_div(v.y, l), sn_div(v.z, l), sn_div(v.w, l));
 }
 
 // ops::cross; the second product of each component through the key (k: see sn_o), so that

@@ -355,18 +355,18 @@ impl Builder {
         self.push(Op::Convert(v), Some(ty))
     }
 
-    /// Reinterprets a vec3 as a color or back (same components; no op is emitted, the IR
-    /// treats both as three floats). Returns a value of type `ty`.
+    /// Reinterprets a vec3 as a color or back, or a vec4 as a color4 or back (same
+    /// components, rebuilt with extracts and a construct). Returns a value of type `ty`.
     pub fn retype(&mut self, ty: Type, v: Value) -> Value {
         let from = self.ty(v);
         if from == ty {
             return v;
         }
-        if !(matches!(from, Type::Vec3 | Type::Color) && matches!(ty, Type::Vec3 | Type::Color)) {
+        if !from.is_renaming_of(ty) {
             self.fail(format!("cannot retype {from} as {ty}"));
             return v;
         }
-        let parts: Vec<Value> = (0..3).map(|i| self.extract(v, i)).collect();
+        let parts: Vec<Value> = (0..ty.width()).map(|i| self.extract(v, i)).collect();
         self.construct(ty, &parts)
     }
 

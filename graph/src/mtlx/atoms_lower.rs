@@ -326,42 +326,6 @@ pub fn mix(b: &mut Builder, inp: &NodeInputs) -> Out {
     let t = inp.get("mix");
     one(b.mix(bg, fg, t))
 }
-/// `outlow + (in − inlow)·(outhigh − outlow)/(inhigh − inlow)`, unclamped (the
-/// specification's and the reference implementations' formula; `inhigh = inlow` divides by
-/// zero and the output guard zeroes the result).
-pub fn remap(b: &mut Builder, inp: &NodeInputs) -> Out {
-    let ty = out_ty(inp);
-    let x = get(b, inp, "in", ty);
-    let (il, ih) = (get(b, inp, "inlow", ty), get(b, inp, "inhigh", ty));
-    let (ol, oh) = (get(b, inp, "outlow", ty), get(b, inp, "outhigh", ty));
-    let d = b.sub(x, il);
-    let out_span = b.sub(oh, ol);
-    let in_span = b.sub(ih, il);
-    let scaled = b.mul(d, out_span);
-    let t = b.div(scaled, in_span);
-    one(b.add(ol, t))
-}
-/// Hermite smoothstep of a float: 0 at or below `low`, 1 at or above `high` (tested in that
-/// order, as the reference implementations do, so `low = high` is a step), else
-/// `t²(3 − 2t)` with `t = (in − low)/(high − low)`. The vector variants are library
-/// nodegraphs over this one.
-pub fn smoothstep(b: &mut Builder, inp: &NodeInputs) -> Out {
-    let (x, lo, hi) = (inp.get("in"), inp.get("low"), inp.get("high"));
-    let d = b.sub(x, lo);
-    let span = b.sub(hi, lo);
-    let t = b.div(d, span);
-    let t2 = b.mul(t, t);
-    let two_t = b.add(t, t);
-    let three = b.float(3.0);
-    let k = b.sub(three, two_t);
-    let curve = b.mul(t2, k);
-    let (zero, one_) = (b.float(0.0), b.float(1.0));
-    let below = b.binary(BinOp::Le, x, lo);
-    let low_or_curve = b.select(below, zero, curve);
-    let above = b.binary(BinOp::Ge, x, hi);
-    one(b.select(above, one_, low_or_curve))
-}
-
 /// `mix·f(fg, bg) + (1 − mix)·bg`, the compositing nodes' blend.
 fn composite(
     b: &mut Builder,
@@ -432,18 +396,20 @@ pub fn outside(b: &mut Builder, inp: &NodeInputs) -> Out {
 /// `dot(in, lumacoeffs)` in every channel.
 pub fn luminance(b: &mut Builder, inp: &NodeInputs) -> Out {
     let (x, k) = (input(inp), inp.get("lumacoeffs"));
-    let l = b.dot(x, k);
-    one(b.splat(Type::Color, l))
+    one(on_rgb(b, x, |b, rgb| {
+        let l = b.dot(rgb, k);
+        b.splat(Type::Color, l)
+    }))
 }
 /// RGB → HSV (hue in [0, 1)).
 pub fn rgbtohsv(b: &mut Builder, inp: &NodeInputs) -> Out {
     let x = input(inp);
-    one(b.call(Intrinsic::RgbToHsv, &[x]))
+    one(on_rgb(b, x, |b, c| b.call(Intrinsic::RgbToHsv, &[c])))
 }
 /// HSV → RGB.
 pub fn hsvtorgb(b: &mut Builder, inp: &NodeInputs) -> Out {
     let x = input(inp);
-    one(b.call(Intrinsic::HsvToRgb, &[x]))
+    one(on_rgb(b, x, |b, c| b.call(Intrinsic::HsvToRgb, &[c])))
 }
 
 fn conditional(b: &mut Builder, inp: &NodeInputs, op: BinOp) -> Out {
@@ -495,14 +461,171 @@ pub fn convert(b: &mut Builder, inp: &NodeInputs) -> Out {
     let x = input(inp);
     one(b.convert(ty, x))
 }
-/// A vector from its components `in1`, `in2` (, `in3`).
+/// A vector from the components of `in1`, `in2` (, `in3`, `in4`) in order: floats, or the
+/// components of vector inputs (`combine2` of a color3 and a float makes a color4).
 pub fn combine(b: &mut Builder, inp: &NodeInputs) -> Out {
     let ty = out_ty(inp);
-    let parts: Vec<Value> = ["in1", "in2", "in3"][..ty.width()]
-        .iter()
-        .map(|p| inp.get(p))
-        .collect();
+    let mut parts: Vec<Value> = Vec::new();
+    for port in ["in1", "in2", "in3", "in4"] {
+        if inp.def.input(port).is_none() {
+            continue;
+        }
+        let v = inp.get(port);
+        parts.extend(components(b, v));
+    }
+    if parts.len() != ty.width() {
+        return Err(format!(
+            "{} components make no {}",
+            parts.len(),
+            super::value::mx_name(ty)
+        ));
+    }
     one(b.construct(ty, &parts))
+}
+
+/// The float components of `v` (itself for a float).
+fn components(b: &mut Builder, v: Value) -> Vec<Value> {
+    let t = b.ty(v);
+    if t.is_vector() {
+        (0..t.width()).map(|i| b.extract(v, i)).collect()
+    } else {
+        vec![v]
+    }
+}
+
+/// The colour of a color4 (its first three components) and its alpha.
+fn rgb_alpha(b: &mut Builder, c: Value) -> (Value, Value) {
+    let parts = components(b, c);
+    let rgb = b.construct(Type::Color, &parts[..3]);
+    (rgb, parts[3])
+}
+
+/// A color4 from a colour and an alpha.
+fn with_alpha(b: &mut Builder, rgb: Value, a: Value) -> Value {
+    let mut parts = components(b, rgb);
+    parts.push(a);
+    b.construct(Type::Color4, &parts)
+}
+
+/// `f` of the colour of `x`; a color4's alpha passes through unchanged.
+fn on_rgb(b: &mut Builder, x: Value, f: impl FnOnce(&mut Builder, Value) -> Value) -> Value {
+    if b.ty(x) != Type::Color4 {
+        return f(b, x);
+    }
+    let (rgb, a) = rgb_alpha(b, x);
+    let r = f(b, rgb);
+    with_alpha(b, r, a)
+}
+
+/// `v · s` with `s` a float broadcast to `v`'s type.
+fn scale(b: &mut Builder, v: Value, s: Value) -> Value {
+    let ty = b.ty(v);
+    let s = b.splat_to(ty, s);
+    b.mul(v, s)
+}
+
+/// `(in.rgb · in.a, in.a)`.
+pub fn premult(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let (rgb, a) = rgb_alpha(b, input(inp));
+    let r = scale(b, rgb, a);
+    one(with_alpha(b, r, a))
+}
+/// `(in.rgb / in.a, in.a)` (0 where alpha is 0: the IR's total division).
+pub fn unpremult(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let (rgb, a) = rgb_alpha(b, input(inp));
+    let aa = b.splat(Type::Color, a);
+    let r = b.div(rgb, aa);
+    one(with_alpha(b, r, a))
+}
+
+/// `f(fg, bg)·mix + bg·(1 − mix)`, the color4 compositing operators' blend (MaterialX's
+/// GLSL writes it in this form, not as `mix`).
+fn composite4(
+    b: &mut Builder,
+    inp: &NodeInputs,
+    f: impl FnOnce(&mut Builder, Value, Value) -> Value,
+) -> Out {
+    let (fg, bg) = (inp.get("fg"), inp.get("bg"));
+    let m = inp.get("mix");
+    let v = f(b, fg, bg);
+    let o = b.float(1.0);
+    let om = b.sub(o, m);
+    let x = scale(b, v, m);
+    let y = scale(b, bg, om);
+    one(b.add(x, y))
+}
+/// `fg + bg·(1 − fg.a)`, blended by `mix`.
+pub fn over(b: &mut Builder, inp: &NodeInputs) -> Out {
+    composite4(b, inp, |b, fg, bg| {
+        let fa = b.extract(fg, 3);
+        let o = b.float(1.0);
+        let k = b.sub(o, fa);
+        let t = scale(b, bg, k);
+        b.add(fg, t)
+    })
+}
+/// `fg · bg.a`, blended by `mix`.
+pub fn in_(b: &mut Builder, inp: &NodeInputs) -> Out {
+    composite4(b, inp, |b, fg, bg| {
+        let ba = b.extract(bg, 3);
+        scale(b, fg, ba)
+    })
+}
+/// `bg · fg.a`, blended by `mix`.
+pub fn mask(b: &mut Builder, inp: &NodeInputs) -> Out {
+    composite4(b, inp, |b, fg, bg| {
+        let fa = b.extract(fg, 3);
+        scale(b, bg, fa)
+    })
+}
+/// `fg · (1 − bg.a)`, blended by `mix`.
+pub fn out(b: &mut Builder, inp: &NodeInputs) -> Out {
+    composite4(b, inp, |b, fg, bg| {
+        let ba = b.extract(bg, 3);
+        let o = b.float(1.0);
+        let k = b.sub(o, ba);
+        scale(b, fg, k)
+    })
+}
+/// `(fg.rgb·fg.a + bg.rgb·(1 − fg.a), fg.a + bg.a·(1 − fg.a))`, blended by `mix`.
+pub fn matte(b: &mut Builder, inp: &NodeInputs) -> Out {
+    composite4(b, inp, |b, fg, bg| {
+        let (frgb, fa) = rgb_alpha(b, fg);
+        let (brgb, ba) = rgb_alpha(b, bg);
+        let o = b.float(1.0);
+        let k = b.sub(o, fa);
+        let x = scale(b, frgb, fa);
+        let y = scale(b, brgb, k);
+        let rgb = b.add(x, y);
+        let bk = b.mul(ba, k);
+        let a = b.add(fa, bk);
+        with_alpha(b, rgb, a)
+    })
+}
+/// Disjoint over: where `fg.a + bg.a ≤ 1`, `fg.rgb + bg.rgb`; else `fg.rgb + bg.rgb·(1 −
+/// fg.a)/bg.a` (0 where `|bg.a| < 1e-6`); alpha `min(fg.a + bg.a, 1)`; blended by `mix`
+/// (MaterialX's `mx_disjointover_color4`).
+pub fn disjointover(b: &mut Builder, inp: &NodeInputs) -> Out {
+    composite4(b, inp, |b, fg, bg| {
+        let (frgb, fa) = rgb_alpha(b, fg);
+        let (brgb, ba) = rgb_alpha(b, bg);
+        let o = b.float(1.0);
+        let sum = b.add(fa, ba);
+        let under = b.binary(BinOp::Le, sum, o);
+        let plain = b.add(frgb, brgb);
+        let k = b.sub(o, fa);
+        let x = b.div(k, ba);
+        let sb = scale(b, brgb, x);
+        let scaled = b.add(frgb, sb);
+        let aba = b.unary(UnOp::Abs, ba);
+        let eps = b.float(1e-6);
+        let tiny = b.binary(BinOp::Lt, aba, eps);
+        let zero = b.zero(Type::Color);
+        let over = b.select(tiny, zero, scaled);
+        let rgb = b.select(under, plain, over);
+        let a = b.binary(BinOp::Min, sum, o);
+        with_alpha(b, rgb, a)
+    })
 }
 /// Component `index` of `in` (0 for an index out of range).
 pub fn extract(b: &mut Builder, inp: &NodeInputs) -> Out {
@@ -698,6 +821,12 @@ pub fn image(b: &mut Builder, inp: &NodeInputs) -> Out {
     let c = b.texture(t, uv, false);
     one(match ty {
         Type::Color => c,
+        Type::Color4 | Type::Vec4 => {
+            let a = b.texture(t, uv, true);
+            let mut parts = components(b, c);
+            parts.push(a);
+            b.construct(ty, &parts)
+        }
         Type::Float => b.extract(c, 0),
         Type::Vec3 => {
             let parts: Vec<Value> = (0..3).map(|i| b.extract(c, i)).collect();
@@ -709,4 +838,60 @@ pub fn image(b: &mut Builder, inp: &NodeInputs) -> Out {
         }
         other => return Err(format!("image of type {other} is not lowered")),
     })
+}
+
+/// `outlow + (in − inlow)·(outhigh − outlow) / (inhigh − inlow)`, in that order (MaterialX's
+/// GLSL); the division is the IR's total one (0 where `inhigh = inlow`).
+pub fn remap(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let ty = out_ty(inp);
+    let x = get(b, inp, "in", ty);
+    let (il, ih) = (get(b, inp, "inlow", ty), get(b, inp, "inhigh", ty));
+    let (ol, oh) = (get(b, inp, "outlow", ty), get(b, inp, "outhigh", ty));
+    let d = b.sub(x, il);
+    let r = b.sub(oh, ol);
+    let n = b.mul(d, r);
+    let w = b.sub(ih, il);
+    let q = b.div(n, w);
+    one(b.add(ol, q))
+}
+/// 1 where `in ≥ high`, 0 where `in ≤ low`, else `t²(3 − 2t)` with `t = (in − low)/(high −
+/// low)` (MaterialX's `mx_smoothstep_float`), per component.
+pub fn smoothstep(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let ty = out_ty(inp);
+    let (x, lo, hi) = (
+        get(b, inp, "in", ty),
+        get(b, inp, "low", ty),
+        get(b, inp, "high", ty),
+    );
+    let parts: Vec<(Value, Value, Value)> = if ty.is_vector() {
+        (0..ty.width())
+            .map(|i| (b.extract(x, i), b.extract(lo, i), b.extract(hi, i)))
+            .collect()
+    } else {
+        vec![(x, lo, hi)]
+    };
+    let out: Vec<Value> = parts
+        .into_iter()
+        .map(|(x, lo, hi)| {
+            let (z, o) = (b.float(0.0), b.float(1.0));
+            let d = b.sub(x, lo);
+            let w = b.sub(hi, lo);
+            let t = b.div(d, w);
+            let two = b.float(2.0);
+            let three = b.float(3.0);
+            let tt = b.mul(t, t);
+            let t2 = b.mul(two, t);
+            let k = b.sub(three, t2);
+            let s = b.mul(tt, k);
+            let below = b.binary(BinOp::Le, x, lo);
+            let s = b.select(below, z, s);
+            let above = b.binary(BinOp::Ge, x, hi);
+            b.select(above, o, s)
+        })
+        .collect();
+    if ty.is_vector() {
+        one(b.construct(ty, &out))
+    } else {
+        one(out[0])
+    }
 }

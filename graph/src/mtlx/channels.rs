@@ -16,6 +16,7 @@ fn component(c: char) -> Option<&'static str> {
         'r' | 'x' => "x",
         'g' | 'y' => "y",
         'b' | 'z' => "z",
+        'a' | 'w' => "w",
         _ => return None,
     })
 }
@@ -50,6 +51,7 @@ pub fn swizzle(
         "float" => 1,
         "vector2" => 2,
         "vector3" | "color3" => 3,
+        "vector4" | "color4" => 4,
         other => return Err(err(format!("cannot swizzle a {other}"))),
     };
     let one = |c: char| -> Result<Json, MtlxError> {
@@ -58,7 +60,13 @@ pub fn swizzle(
             '1' => Ok(json!(1.0)),
             _ => match component(c) {
                 Some(k) if width == 1 && k == "x" => Ok(Json::String(src.to_string())),
-                Some(k) if ["x", "y", "z"].iter().position(|x| *x == k).unwrap_or(9) < width => {
+                Some(k)
+                    if ["x", "y", "z", "w"]
+                        .iter()
+                        .position(|x| *x == k)
+                        .unwrap_or(9)
+                        < width =>
+                {
                     Ok(Json::String(format!("{src}.{k}")))
                 }
                 _ => Err(err(format!("`{c}` is not a channel of a {src_ty}"))),

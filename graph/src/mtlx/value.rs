@@ -40,6 +40,8 @@ pub fn classify(mx: &str) -> MxType {
         "color3" => Type::Color,
         "vector2" => Type::Vec2,
         "vector3" => Type::Vec3,
+        "color4" => Type::Color4,
+        "vector4" => Type::Vec4,
         "matrix44" => Type::Matrix44,
         "string" | "filename" => Type::String,
         _ if CLOSURE_TYPES.contains(&mx) => return MxType::Closure,
@@ -51,8 +53,8 @@ pub fn classify(mx: &str) -> MxType {
 /// Why a MaterialX type has no IR type, for messages.
 pub fn unsupported_reason(mx: &str) -> String {
     match mx {
-        "color4" | "vector4" | "matrix33" => {
-            format!("type {mx} has no IR type yet (only color3, vector2/3 and matrix44 do)")
+        "matrix33" => {
+            format!("type {mx} has no IR type yet (only color3/4, vector2/3/4 and matrix44 do)")
         }
         _ if CLOSURE_TYPES.contains(&mx) => {
             format!("type {mx} is a closure: closures are not built yet (issue 15)")
@@ -71,6 +73,8 @@ pub fn mx_name(t: Type) -> &'static str {
         Type::Color => "color3",
         Type::Vec2 => "vector2",
         Type::Vec3 => "vector3",
+        Type::Color4 => "color4",
+        Type::Vec4 => "vector4",
         Type::Matrix44 => "matrix44",
         Type::String => "string",
     }
@@ -111,7 +115,9 @@ pub fn literal(text: &str, ty: Type) -> Result<Json, String> {
             .map(|i| json!(i))
             .map_err(|_| format!("`{text}` is not a 32-bit integer"))?,
         Type::Float => json!(floats(1)?[0]),
-        Type::Vec2 | Type::Vec3 | Type::Color => json!(floats(ty.width())?),
+        Type::Vec2 | Type::Vec3 | Type::Color | Type::Vec4 | Type::Color4 => {
+            json!(floats(ty.width())?)
+        }
         Type::Matrix44 => {
             let m = floats(16)?;
             let rows: Vec<Vec<f64>> = (0..4)
@@ -135,6 +141,15 @@ mod tests {
         assert_eq!(literal(" 3 ", Type::Int).unwrap(), json!(3));
         assert_eq!(literal("true", Type::Bool).unwrap(), json!(true));
         assert_eq!(literal("1,2", Type::Vec2).unwrap(), json!([1.0, 2.0]));
+        assert_eq!(
+            literal("0.5, 1, 2, 0.25", Type::Color4).unwrap(),
+            json!([0.5, 1.0, 2.0, 0.25])
+        );
+        assert!(
+            literal("1,2,3", Type::Vec4)
+                .unwrap_err()
+                .contains("vector4")
+        );
         assert_eq!(literal("a b", Type::String).unwrap(), json!("a b"));
         let m = "1,0,0,0, 0,1,0,0, 0,0,1,0, 5,6,7,1";
         let j = literal(m, Type::Matrix44).unwrap();
@@ -153,7 +168,9 @@ mod tests {
     fn type_classes() {
         assert_eq!(classify("color3"), MxType::Value(Type::Color));
         assert_eq!(classify("BSDF"), MxType::Closure);
-        assert_eq!(classify("color4"), MxType::Unsupported);
-        assert!(unsupported_reason("vector4").contains("no IR type"));
+        assert_eq!(classify("color4"), MxType::Value(Type::Color4));
+        assert_eq!(classify("vector4"), MxType::Value(Type::Vec4));
+        assert_eq!(classify("matrix33"), MxType::Unsupported);
+        assert!(unsupported_reason("matrix33").contains("no IR type"));
     }
 }

@@ -184,6 +184,8 @@ pub enum Val<F> {
     Vec2([F; 2]),
     /// A vec3 or color.
     Vec3([F; 3]),
+    /// A vec4 or color4.
+    Vec4([F; 4]),
     /// A matrix, by index into the evaluator's matrix table.
     Mat(u32),
 }
@@ -197,6 +199,7 @@ impl<F: Real> Val<F> {
             Type::Float => Val::Float(F::ZERO),
             Type::Vec2 => Val::Vec2([F::ZERO; 2]),
             Type::Vec3 | Type::Color => Val::Vec3([F::ZERO; 3]),
+            Type::Vec4 | Type::Color4 => Val::Vec4([F::ZERO; 4]),
             Type::Matrix44 => Val::Mat(0),
         }
     }
@@ -211,6 +214,7 @@ impl<F: Real> Val<F> {
             ConstValue::Float(x) => Val::Float(f(*x)),
             ConstValue::Vec2(v) => Val::Vec2([f(v[0]), f(v[1])]),
             ConstValue::Vec3(v) | ConstValue::Color(v) => Val::Vec3([f(v[0]), f(v[1]), f(v[2])]),
+            ConstValue::Vec4(v) | ConstValue::Color4(v) => Val::Vec4(v.map(f)),
             ConstValue::Matrix44(_) => Val::Mat(0),
             ConstValue::String(_) => Val::Int(0),
         }
@@ -231,6 +235,14 @@ impl<F: Real> Val<F> {
                     ConstValue::Vec3(v)
                 }
             }
+            Val::Vec4(v) => {
+                let v = v.map(|x| x.to_f64());
+                if ty == Type::Color4 {
+                    ConstValue::Color4(v)
+                } else {
+                    ConstValue::Vec4(v)
+                }
+            }
             Val::Mat(_) => ConstValue::identity(),
         }
     }
@@ -241,6 +253,7 @@ impl<F: Real> Val<F> {
             Val::Float(x) => std::slice::from_ref(x),
             Val::Vec2(v) => v,
             Val::Vec3(v) => v,
+            Val::Vec4(v) => v,
             _ => &[],
         }
     }
@@ -279,6 +292,7 @@ impl<F: Real> Val<F> {
             Val::Float(x) => Val::Float(f(x)),
             Val::Vec2(v) => Val::Vec2(v.map(f)),
             Val::Vec3(v) => Val::Vec3(v.map(f)),
+            Val::Vec4(v) => Val::Vec4(v.map(f)),
             other => other,
         }
     }
@@ -290,6 +304,7 @@ impl<F: Real> Val<F> {
             (Val::Vec3(x), Val::Vec3(y)) => {
                 Val::Vec3([f(x[0], y[0]), f(x[1], y[1]), f(x[2], y[2])])
             }
+            (Val::Vec4(x), Val::Vec4(y)) => Val::Vec4(std::array::from_fn(|i| f(x[i], y[i]))),
             (a, _) => a,
         }
     }
@@ -516,6 +531,7 @@ pub fn unary<F: Real>(op: UnOp, a: Val<F>) -> Val<F> {
         (Length, v) => Val::Float(length(v.floats())),
         (Normalize, Val::Vec2(v)) => Val::Vec2(normalize(v)),
         (Normalize, Val::Vec3(v)) => Val::Vec3(normalize(v)),
+        (Normalize, Val::Vec4(v)) => Val::Vec4(normalize(v)),
         (Neg, v) => v.map(|x| -x),
         (Abs, v) => v.map(F::abs),
         (Floor, v) => v.map(F::floor),
@@ -601,6 +617,7 @@ pub fn construct<F: Real>(ty: Type, args: &[Val<F>]) -> Val<F> {
     match ty {
         Type::Vec2 => Val::Vec2([c(0), c(1)]),
         Type::Vec3 | Type::Color => Val::Vec3([c(0), c(1), c(2)]),
+        Type::Vec4 | Type::Color4 => Val::Vec4([c(0), c(1), c(2), c(3)]),
         _ => Val::Float(c(0)),
     }
 }
@@ -616,6 +633,7 @@ pub fn splat<F: Real>(ty: Type, x: Val<F>) -> Val<F> {
     match ty {
         Type::Vec2 => Val::Vec2([x; 2]),
         Type::Vec3 | Type::Color => Val::Vec3([x; 3]),
+        Type::Vec4 | Type::Color4 => Val::Vec4([x; 4]),
         _ => Val::Float(x),
     }
 }

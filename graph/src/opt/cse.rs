@@ -113,6 +113,8 @@ impl ConstKey {
             | ConstValue::Vec2(_)
             | ConstValue::Vec3(_)
             | ConstValue::Color(_)
+            | ConstValue::Vec4(_)
+            | ConstValue::Color4(_)
             | ConstValue::Matrix44(_) => {
                 ConstKey::Floats(c.floats().iter().map(|x| x.to_bits()).collect())
             }
