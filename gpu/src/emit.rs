@@ -88,6 +88,7 @@
 
 use shadenet_graph::ir::{BinOp, Intrinsic, UnOp};
 use shadenet_graph::ir::{Op, Program, Value};
+use shadenet_graph::ops;
 use shadenet_graph::types::{ConstValue, Type};
 
 /// `wgsl/lib.wgsl` as written: [`library`] fills in the noise permutation.
@@ -360,7 +361,8 @@ pub fn op_expr(
         Op::Convert(a) => convert(program.ty(*a), ty, &arg(*a)),
         Op::Call(i, args) => {
             let mut parts: Vec<String> = args.iter().map(|a| arg(*a)).collect();
-            if *i == Intrinsic::RgbToHsv {
+            let worley = ops::osl_intrinsic_operands(*i).is_some_and(|o| o.get(1) == Some(&Type::Float));
+            if *i == Intrinsic::RgbToHsv || worley {
                 parts.push(KEY.into());
             }
             let f = match i {
@@ -370,6 +372,8 @@ pub fn op_expr(
                 Intrinsic::CellNoise3 => "sn_cellnoise3",
                 Intrinsic::RgbToHsv => "sn_rgb_to_hsv",
                 Intrinsic::HsvToRgb => "sn_hsv_to_rgb",
+                // The OSL/MaterialX noise: `sn_` and the IR name (`sn_osl_perlin3`, …).
+                osl => return Ok(format!("sn_{}({})", osl.name(), parts.join(", "))),
             };
             Ok(format!("{f}({})", parts.join(", ")))
         }
