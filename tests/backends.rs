@@ -704,7 +704,11 @@ fn op_table() -> Vec<Row> {
     // Worley noise in each metric and style, and jitter 1 as a constant (the GPU keeps the
     // jitter's 0.5s from folding).
     for name in ["mx_worley2_v3", "mx_worley3_v3"] {
-        let p = if name.starts_with("mx_worley2") { "%uv" } else { "%p" };
+        let p = if name.starts_with("mx_worley2") {
+            "%uv"
+        } else {
+            "%p"
+        };
         for (style, metric) in [(0, 0), (0, 1), (0, 2), (0, 3), (1, 0), (7, 9)] {
             let body = format!(
                 "  %j = const 1.0 : float\n  %s = const {style} : int\n  %t = const {metric} : int\n  %x = call {name} {p}, %j, %s, %t : vec3"

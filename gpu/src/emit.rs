@@ -361,7 +361,8 @@ pub fn op_expr(
         Op::Convert(a) => convert(program.ty(*a), ty, &arg(*a)),
         Op::Call(i, args) => {
             let mut parts: Vec<String> = args.iter().map(|a| arg(*a)).collect();
-            let worley = ops::osl_intrinsic_operands(*i).is_some_and(|o| o.get(1) == Some(&Type::Float));
+            let worley =
+                ops::osl_intrinsic_operands(*i).is_some_and(|o| o.get(1) == Some(&Type::Float));
             if *i == Intrinsic::RgbToHsv || worley {
                 parts.push(KEY.into());
             }

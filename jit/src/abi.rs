@@ -279,10 +279,20 @@ fn mx_worley2(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
     o[0] = osl_noise::worley2([a[0], a[1]], a[2], int(a[3]), int(a[4]));
 }
 fn mx_worley2_v2(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
-    o.copy_from_slice(&osl_noise::worley2_v2([a[0], a[1]], a[2], int(a[3]), int(a[4])));
+    o.copy_from_slice(&osl_noise::worley2_v2(
+        [a[0], a[1]],
+        a[2],
+        int(a[3]),
+        int(a[4]),
+    ));
 }
 fn mx_worley2_v3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
-    o.copy_from_slice(&osl_noise::worley2_v3([a[0], a[1]], a[2], int(a[3]), int(a[4])));
+    o.copy_from_slice(&osl_noise::worley2_v3(
+        [a[0], a[1]],
+        a[2],
+        int(a[3]),
+        int(a[4]),
+    ));
 }
 fn mx_worley3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
     o[0] = osl_noise::worley3([a[0], a[1], a[2]], a[3], int(a[4]), int(a[5]));

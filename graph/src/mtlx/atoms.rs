@@ -141,6 +141,8 @@ const ATOMS: &[Atom] = &[
     ),
     a("cellnoise2d", "texcoord", l::cellnoise2d),
     a("cellnoise3d", "position", l::cellnoise3d),
+    a("worleynoise2d", "texcoord jitter style", l::worleynoise2d),
+    a("worleynoise3d", "position jitter style", l::worleynoise3d),
     // texture
     a("image", "file default texcoord", l::image),
 ];
@@ -176,9 +178,7 @@ pub fn missing_reason(nd: &NodeDefElem) -> &'static str {
                 "no per-vertex attribute streams in the shading context yet"
             }
             "frame" => "no frame number in the shading context yet",
-            "worleynoise2d" | "worleynoise3d" | "flake2d" | "flake3d" => {
-                "no Worley/flake noise intrinsic yet"
-            }
+            "flake2d" | "flake3d" => "no flake noise intrinsic yet",
             "hextiledimage" | "hextilednormalmap" | "heighttonormal" | "normalmap" => {
                 "needs texture derivatives or tangent frames (issue 11)"
             }

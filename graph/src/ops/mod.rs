@@ -715,7 +715,12 @@ fn osl_intrinsic<F: Real>(i: Intrinsic, args: &[Val<F>]) -> Val<F> {
         [0, 1].map(|c| f.get(c).copied().unwrap_or(F::ZERO))
     };
     let v3 = || arg(0).as_vec3();
-    let (n, f1, i2, i3) = (arg(1).as_int(), arg(1).as_float(), arg(2).as_int(), arg(3).as_int());
+    let (n, f1, i2, i3) = (
+        arg(1).as_int(),
+        arg(1).as_float(),
+        arg(2).as_int(),
+        arg(3).as_int(),
+    );
     let (f2, f3) = (arg(2).as_float(), arg(3).as_float());
     match i {
         Intrinsic::OslPerlin2 => Val::Float(o::perlin2(v2())),
