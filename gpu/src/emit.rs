@@ -14,8 +14,10 @@
 //! `0 +` (never WGSL's `dot`/`length`, whose order is unspecified), the cross product and the
 //! matrix products written out, wrapping integer arithmetic with division and modulo by zero
 //! giving 0 and `rem_euclid` modulo, float → int as Rust's `as` (truncation, saturation, NaN →
-//! 0, with explicit tests, never WGSL's out-of-range conversion), Perlin noise, fBm, cell noise
-//! and the HSV conversions ported line by line. NaN and infinity are tested on the bits.
+//! 0, with explicit tests, never WGSL's out-of-range conversion), Perlin noise, fBm, cell noise,
+//! OSL's noise and MaterialX's fractal and Worley noise (`ops::osl_noise`: u32 hashing, every
+//! int → float conversion rounded once by hand) and the HSV conversions ported line by line.
+//! NaN and infinity are tested on the bits.
 //!
 //! On a device that does IEEE f32 arithmetic with exact division and square root, without
 //! contracting `a * b + c` into a fused multiply-add and without flushing subnormals (Mesa's
@@ -82,7 +84,8 @@
 //! (r is the CPU's result; ulps count representable floats between the two results.) The
 //! same bounds as code: [`crate::testing::documented_bound`], which the op table and the
 //! parity suite (`tests/backends.rs`) apply.
-//! Everything else — noise, fBm, cell noise, HSV, texture lookups included — is exact.
+//! Everything else — noise, fBm, cell noise, OSL/MaterialX noise, HSV, texture lookups
+//! included — is exact.
 //! A device that contracts into FMA, flushes subnormals or has other `sin`/`cos`/`tan`
 //! needs its own measurement: run the op table there (`SHADENET_GPU_ADAPTER`).
 

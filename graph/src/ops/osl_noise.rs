@@ -575,7 +575,7 @@ mod tests {
     /// `bjfinal` written out from lookup3's `mix`/`final` macros.
     fn reference_inthash(k: &[u32]) -> u32 {
         fn rot(x: u32, k: u32) -> u32 {
-            (x << k) | (x >> (32 - k))
+            x.rotate_left(k)
         }
         fn mix(a: &mut u32, b: &mut u32, c: &mut u32) {
             for (r, [x, y, z]) in [4, 6, 8, 16, 19, 4].into_iter().zip([
