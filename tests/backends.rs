@@ -685,13 +685,48 @@ fn op_table() -> Vec<Row> {
             Intrinsic::Noise3 | Intrinsic::CellNoise3 => "%p",
             Intrinsic::Fbm3 => "%n, %k, %a, %b",
             Intrinsic::RgbToHsv | Intrinsic::HsvToRgb => "%pc",
+            // OSL/MaterialX noise: the point, then (octaves, lacunarity, diminish) or
+            // (jitter, style, metric) from the fragment's hard values.
+            osl => match ops::osl_intrinsic_operands(osl).expect("an OSL noise intrinsic") {
+                [Type::Vec2] => "%uv",
+                [Type::Vec3] => "%p",
+                [Type::Vec2, Type::Int, ..] => "%uv, %k, %a, %b",
+                [Type::Vec3, Type::Int, ..] => "%n, %k, %a, %b",
+                [Type::Vec2, ..] => "%uv, %a, %k, %m",
+                _ => "%n, %b, %k, %m",
+            },
         };
-        let rt = match i {
-            Intrinsic::RgbToHsv | Intrinsic::HsvToRgb => Type::Color,
-            _ => Type::Float,
-        };
+        let operands: Vec<Type> = ops::osl_intrinsic_operands(i).map_or_else(
+            || match i {
+                Intrinsic::Noise2 => vec![Type::Vec2],
+                Intrinsic::Fbm3 => vec![Type::Vec3, Type::Int, Type::Float, Type::Float],
+                Intrinsic::RgbToHsv | Intrinsic::HsvToRgb => vec![Type::Color],
+                _ => vec![Type::Vec3],
+            },
+            <[Type]>::to_vec,
+        );
+        let rt = ops::intrinsic_type(i, &operands).expect("intrinsic type");
         let body = format!("  %x = call {} {args} : {}", i.name(), rt.name());
         rows.push((i.name().to_string(), program(&body), Class::Intrinsic));
+    }
+    // Worley noise in each metric and style, and jitter 1 as a constant (the GPU keeps the
+    // jitter's 0.5s from folding).
+    for name in ["mx_worley2_v3", "mx_worley3_v3"] {
+        let p = if name.starts_with("mx_worley2") {
+            "%uv"
+        } else {
+            "%p"
+        };
+        for (style, metric) in [(0, 0), (0, 1), (0, 2), (0, 3), (1, 0), (7, 9)] {
+            let body = format!(
+                "  %j = const 1.0 : float\n  %s = const {style} : int\n  %t = const {metric} : int\n  %x = call {name} {p}, %j, %s, %t : vec3"
+            );
+            rows.push((
+                format!("{name} style {style} metric {metric}"),
+                program(&body),
+                Class::Intrinsic,
+            ));
+        }
     }
     for kind in XformKind::ALL {
         for from in Space::ALL {

@@ -484,3 +484,124 @@ fn a_color4_output_writes_rgba_layers() {
         assert!(text.contains(ch), "EXR lacks channel {ch}");
     }
 }
+
+/// The noise nodes are OSL's noise and MaterialX's `mx_noise` library
+/// (`graph::ops::osl_noise`): amplitude, pivot, the vector2 outputs' `.xy` and the fractal's
+/// second sample at `p + (19, 193[, 17])` as the genglsl/genosl implementations write them.
+#[test]
+fn noise_nodes_are_osl_and_materialx_noise() {
+    use shadenet::graph::ops::osl_noise as o;
+    let uv = [0.37, 1.81];
+    let node = |body: &str, ty: &str| {
+        let body = format!("{body}\n<output name=\"out\" type=\"{ty}\" nodename=\"n\"/>");
+        eval(&body, uv)
+    };
+    // The fragment's uv is f32.
+    let uv = uv.map(|x| x as f32 as f64);
+    let Some(v) = node(
+        r#"<noise2d name="n" type="float"><input name="amplitude" type="float" value="2"/>
+             <input name="pivot" type="float" value="0.5"/></noise2d>"#,
+        "float",
+    ) else {
+        return;
+    };
+    assert_close(&v, &[o::perlin2(uv) * 2.0 + 0.5], 1e-12, "noise2d float");
+    let v = node(
+        r#"<noise2d name="n" type="vector3"><input name="amplitude" type="vector3" value="1, 2, 3"/>
+             <input name="pivot" type="float" value="0.25"/></noise2d>"#,
+        "vector3",
+    )
+    .unwrap();
+    let n = o::vperlin2(uv);
+    let want = [n[0] + 0.25, n[1] * 2.0 + 0.25, n[2] * 3.0 + 0.25];
+    assert_close(&v, &want, 1e-12, "noise2d vector3 (OSL vector snoise)");
+    let v = node(r#"<noise2d name="n" type="vector2"/>"#, "vector2").unwrap();
+    assert_close(&v, &[n[0], n[1]], 1e-12, "noise2d vector2 is value.xy");
+    // Four components (MaterialX mx_noise2d_vector4): the vector noise and the float noise
+    // at uv + (19, 73); the fractal's fourth at uv + (19, 193).
+    let v = node(
+        r#"<noise2d name="n" type="color4"><input name="amplitude" type="vector4" value="1, 1, 1, 2"/>
+             <input name="pivot" type="float" value="0.5"/></noise2d>"#,
+        "color4",
+    )
+    .unwrap();
+    let w = o::perlin2([uv[0] + 19.0, uv[1] + 73.0]);
+    let want = [n[0] + 0.5, n[1] + 0.5, n[2] + 0.5, w * 2.0 + 0.5];
+    assert_close(&v, &want, 1e-12, "noise2d color4");
+    let v = node(
+        r#"<fractal2d name="n" type="vector4"><input name="octaves" type="integer" value="3"/></fractal2d>"#,
+        "vector4",
+    )
+    .unwrap();
+    let c = o::vfractal2(uv, 3, 2.0, 0.5);
+    let w = o::fractal2([uv[0] + 19.0, uv[1] + 193.0], 3, 2.0, 0.5);
+    assert_close(&v, &[c[0], c[1], c[2], w], 1e-12, "fractal2d vector4");
+    let v = node(
+        r#"<fractal2d name="n" type="vector2"><input name="octaves" type="integer" value="4"/></fractal2d>"#,
+        "vector2",
+    )
+    .unwrap();
+    let q = [uv[0] + 19.0, uv[1] + 193.0];
+    let want = [o::fractal2(uv, 4, 2.0, 0.5), o::fractal2(q, 4, 2.0, 0.5)];
+    assert_close(&v, &want, 1e-12, "fractal2d vector2");
+    let v = node(r#"<cellnoise2d name="n" type="float"/>"#, "float").unwrap();
+    assert_close(&v, &[o::cell2(uv)], 1e-12, "cellnoise2d");
+    let v = node(
+        r#"<worleynoise2d name="n" type="vector3"><input name="jitter" type="float" value="0.8"/></worleynoise2d>"#,
+        "vector3",
+    )
+    .unwrap();
+    assert_close(
+        &v,
+        &o::worley2_v3(uv, 0.8, 0, 0),
+        1e-12,
+        "worleynoise2d F1 F2 F3",
+    );
+    let v = node(
+        r#"<worleynoise2d name="n" type="float"><input name="style" type="integer" value="1"/></worleynoise2d>"#,
+        "float",
+    )
+    .unwrap();
+    assert_close(
+        &v,
+        &[o::worley2(uv, 1.0, 1, 0)],
+        1e-12,
+        "worleynoise2d solid",
+    );
+    let p = [0.3, 0.7, 1.9];
+    let pos = r#"<input name="position" type="vector3" value="0.3, 0.7, 1.9"/>"#;
+    let v = node(
+        &format!(r#"<noise3d name="n" type="float">{pos}</noise3d>"#),
+        "float",
+    )
+    .unwrap();
+    assert_close(&v, &[o::perlin3(p)], 1e-12, "noise3d float");
+    let v = node(
+        &format!(r#"<fractal3d name="n" type="vector3">{pos}</fractal3d>"#),
+        "vector3",
+    )
+    .unwrap();
+    assert_close(
+        &v,
+        &o::vfractal3(p, 3, 2.0, 0.5),
+        1e-12,
+        "fractal3d vector3",
+    );
+    let v = node(
+        &format!(r#"<worleynoise3d name="n" type="vector2">{pos}</worleynoise3d>"#),
+        "vector2",
+    )
+    .unwrap();
+    assert_close(
+        &v,
+        &o::worley3_v2(p, 1.0, 0, 0),
+        1e-12,
+        "worleynoise3d F1 F2",
+    );
+    let v = node(
+        &format!(r#"<cellnoise3d name="n" type="float">{pos}</cellnoise3d>"#),
+        "float",
+    )
+    .unwrap();
+    assert_close(&v, &[o::cell3(p)], 1e-12, "cellnoise3d");
+}

@@ -14,8 +14,10 @@
 //! `0 +` (never WGSL's `dot`/`length`, whose order is unspecified), the cross product and the
 //! matrix products written out, wrapping integer arithmetic with division and modulo by zero
 //! giving 0 and `rem_euclid` modulo, float → int as Rust's `as` (truncation, saturation, NaN →
-//! 0, with explicit tests, never WGSL's out-of-range conversion), Perlin noise, fBm, cell noise
-//! and the HSV conversions ported line by line. NaN and infinity are tested on the bits.
+//! 0, with explicit tests, never WGSL's out-of-range conversion), Perlin noise, fBm, cell noise,
+//! OSL's noise and MaterialX's fractal and Worley noise (`ops::osl_noise`: u32 hashing, every
+//! int → float conversion rounded once by hand) and the HSV conversions ported line by line.
+//! NaN and infinity are tested on the bits.
 //!
 //! On a device that does IEEE f32 arithmetic with exact division and square root, without
 //! contracting `a * b + c` into a fused multiply-add and without flushing subnormals (Mesa's
@@ -82,12 +84,14 @@
 //! (r is the CPU's result; ulps count representable floats between the two results.) The
 //! same bounds as code: [`crate::testing::documented_bound`], which the op table and the
 //! parity suite (`tests/backends.rs`) apply.
-//! Everything else — noise, fBm, cell noise, HSV, texture lookups included — is exact.
+//! Everything else — noise, fBm, cell noise, OSL/MaterialX noise, HSV, texture lookups
+//! included — is exact.
 //! A device that contracts into FMA, flushes subnormals or has other `sin`/`cos`/`tan`
 //! needs its own measurement: run the op table there (`SHADENET_GPU_ADAPTER`).
 
 use shadenet_graph::ir::{BinOp, Intrinsic, UnOp};
 use shadenet_graph::ir::{Op, Program, Value};
+use shadenet_graph::ops;
 use shadenet_graph::types::{ConstValue, Type};
 
 /// `wgsl/lib.wgsl` as written: [`library`] fills in the noise permutation.
@@ -363,7 +367,9 @@ pub fn op_expr(
         Op::Convert(a) => convert(program.ty(*a), ty, &arg(*a)),
         Op::Call(i, args) => {
             let mut parts: Vec<String> = args.iter().map(|a| arg(*a)).collect();
-            if *i == Intrinsic::RgbToHsv {
+            let worley =
+                ops::osl_intrinsic_operands(*i).is_some_and(|o| o.get(1) == Some(&Type::Float));
+            if *i == Intrinsic::RgbToHsv || worley {
                 parts.push(KEY.into());
             }
             let f = match i {
@@ -373,6 +379,8 @@ pub fn op_expr(
                 Intrinsic::CellNoise3 => "sn_cellnoise3",
                 Intrinsic::RgbToHsv => "sn_rgb_to_hsv",
                 Intrinsic::HsvToRgb => "sn_hsv_to_rgb",
+                // The OSL/MaterialX noise: `sn_` and the IR name (`sn_osl_perlin3`, …).
+                osl => return Ok(format!("sn_{}({})", osl.name(), parts.join(", "))),
             };
             Ok(format!("{f}({})", parts.join(", ")))
         }

@@ -393,6 +393,9 @@ fn op_table() -> Vec<Row> {
             Intrinsic::Noise3 | Intrinsic::CellNoise3 => vec![Type::Vec3],
             Intrinsic::Fbm3 => vec![Type::Vec3, Type::Int, Type::Float, Type::Float],
             Intrinsic::RgbToHsv | Intrinsic::HsvToRgb => vec![Type::Color],
+            osl => ops::osl_intrinsic_operands(osl)
+                .expect("an OSL noise intrinsic")
+                .to_vec(),
         };
         let rt = ops::intrinsic_type(i, &operands).expect("intrinsic type");
         let args: Vec<Value> = (0..operands.len()).map(v).collect();

@@ -16,7 +16,7 @@
 //!   immediate (a texture or light index). Batch (`_x4`) versions take structure-of-arrays
 //!   slots, four lanes per component, and loop over the lanes in Rust.
 
-use shadenet_graph::ops::{self, noise};
+use shadenet_graph::ops::{self, noise, osl_noise};
 use shadenet_runtime::ctx::{Fragment, SceneServices, ShadeEnv};
 use shadenet_runtime::interp;
 use shadenet_runtime::lights;
@@ -234,6 +234,77 @@ fn fbm3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
 fn cellnoise3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
     o[0] = noise::cellnoise3([a[0], a[1], a[2]]);
 }
+// OSL/MaterialX noise (`ops::osl_noise`): ints arrive as their bits.
+fn int(x: f32) -> i32 {
+    x.to_bits() as i32
+}
+fn osl_perlin2(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = osl_noise::perlin2([a[0], a[1]]);
+}
+fn osl_perlin3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = osl_noise::perlin3([a[0], a[1], a[2]]);
+}
+fn osl_vperlin2(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&osl_noise::vperlin2([a[0], a[1]]));
+}
+fn osl_vperlin3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&osl_noise::vperlin3([a[0], a[1], a[2]]));
+}
+fn osl_cell2(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = osl_noise::cell2([a[0], a[1]]);
+}
+fn osl_cell3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = osl_noise::cell3([a[0], a[1], a[2]]);
+}
+fn osl_vcell2(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&osl_noise::vcell2([a[0], a[1]]));
+}
+fn osl_vcell3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&osl_noise::vcell3([a[0], a[1], a[2]]));
+}
+fn mx_fractal2(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = osl_noise::fractal2([a[0], a[1]], int(a[2]), a[3], a[4]);
+}
+fn mx_fractal3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = osl_noise::fractal3([a[0], a[1], a[2]], int(a[3]), a[4], a[5]);
+}
+fn mx_vfractal2(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&osl_noise::vfractal2([a[0], a[1]], int(a[2]), a[3], a[4]));
+}
+fn mx_vfractal3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    let p = [a[0], a[1], a[2]];
+    o.copy_from_slice(&osl_noise::vfractal3(p, int(a[3]), a[4], a[5]));
+}
+fn mx_worley2(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = osl_noise::worley2([a[0], a[1]], a[2], int(a[3]), int(a[4]));
+}
+fn mx_worley2_v2(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&osl_noise::worley2_v2(
+        [a[0], a[1]],
+        a[2],
+        int(a[3]),
+        int(a[4]),
+    ));
+}
+fn mx_worley2_v3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&osl_noise::worley2_v3(
+        [a[0], a[1]],
+        a[2],
+        int(a[3]),
+        int(a[4]),
+    ));
+}
+fn mx_worley3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = osl_noise::worley3([a[0], a[1], a[2]], a[3], int(a[4]), int(a[5]));
+}
+fn mx_worley3_v2(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    let p = [a[0], a[1], a[2]];
+    o.copy_from_slice(&osl_noise::worley3_v2(p, a[3], int(a[4]), int(a[5])));
+}
+fn mx_worley3_v3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    let p = [a[0], a[1], a[2]];
+    o.copy_from_slice(&osl_noise::worley3_v3(p, a[3], int(a[4]), int(a[5])));
+}
 fn rgb_to_hsv(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
     o.copy_from_slice(&ops::rgb_to_hsv([a[0], a[1], a[2]]));
 }
@@ -431,6 +502,24 @@ mem_helpers! {
     cellnoise3: 3 -> 1,
     rgb_to_hsv: 3 -> 3,
     hsv_to_rgb: 3 -> 3,
+    osl_perlin2: 2 -> 1,
+    osl_perlin3: 3 -> 1,
+    osl_vperlin2: 2 -> 3,
+    osl_vperlin3: 3 -> 3,
+    osl_cell2: 2 -> 1,
+    osl_cell3: 3 -> 1,
+    osl_vcell2: 2 -> 3,
+    osl_vcell3: 3 -> 3,
+    mx_fractal2: 5 -> 1,
+    mx_fractal3: 6 -> 1,
+    mx_vfractal2: 5 -> 3,
+    mx_vfractal3: 6 -> 3,
+    mx_worley2: 5 -> 1,
+    mx_worley2_v2: 5 -> 2,
+    mx_worley2_v3: 5 -> 3,
+    mx_worley3: 6 -> 1,
+    mx_worley3_v2: 6 -> 2,
+    mx_worley3_v3: 6 -> 3,
     texture: 2 -> 4,
     light: 4 -> 10,
     trace: 7 -> 3,

@@ -687,6 +687,11 @@ impl<'a, 'b> Lowerer<'a, 'b> {
                     Intrinsic::CellNoise3 => ("sn_cellnoise3", 1),
                     Intrinsic::RgbToHsv => ("sn_rgb_to_hsv", 3),
                     Intrinsic::HsvToRgb => ("sn_hsv_to_rgb", 3),
+                    osl => {
+                        let h = abi::mem_helper(&format!("sn_{}", osl.name()))
+                            .ok_or_else(|| self.unsupported(v, "an intrinsic without a helper"))?;
+                        (h.name, h.outs)
+                    }
                 };
                 let imm = self.b.ins().iconst(I32, 0);
                 Ok(self.call_mem(name, imm, &xs, outs))

@@ -911,6 +911,446 @@ fn sn_cellnoise3(p: vec3<f32>) -> f32 {
     return f32(h >> 8u) / 16777216.0f;
 }
 
+// ---- OSL / MaterialX noise (ops::osl_noise), ported line by line ----
+
+// x rotated left by k (0 < k < 32).
+fn sn_rotl(x: u32, k: u32) -> u32 {
+    return (x << k) | (x >> (32u - k));
+}
+
+// OpenImageIO bjhash::bjmix.
+fn sn_bjmix(a_in: u32, b_in: u32, c_in: u32) -> vec3<u32> {
+    var a = a_in;
+    var b = b_in;
+    var c = c_in;
+    a -= c; a ^= sn_rotl(c, 4u); c += b;
+    b -= a; b ^= sn_rotl(a, 6u); a += c;
+    c -= b; c ^= sn_rotl(b, 8u); b += a;
+    a -= c; a ^= sn_rotl(c, 16u); c += b;
+    b -= a; b ^= sn_rotl(a, 19u); a += c;
+    c -= b; c ^= sn_rotl(b, 4u); b += a;
+    return vec3<u32>(a, b, c);
+}
+
+// OpenImageIO bjhash::bjfinal.
+fn sn_bjfinal(a_in: u32, b_in: u32, c_in: u32) -> u32 {
+    var a = a_in;
+    var b = b_in;
+    var c = c_in;
+    c ^= b; c -= sn_rotl(b, 14u);
+    a ^= c; a -= sn_rotl(c, 11u);
+    b ^= a; b -= sn_rotl(a, 25u);
+    c ^= b; c -= sn_rotl(b, 16u);
+    a ^= c; a -= sn_rotl(c, 4u);
+    b ^= a; b -= sn_rotl(a, 14u);
+    c ^= b; c -= sn_rotl(b, 24u);
+    return c;
+}
+
+// OSL inthash of two and three keys (start value 0xdeadbeef + (len << 2) + 13).
+fn sn_inthash2(x: u32, y: u32) -> u32 {
+    let s = 0xdeadbeefu + 21u;
+    return sn_bjfinal(s + x, s + y, s);
+}
+
+fn sn_inthash3(x: u32, y: u32, z: u32) -> u32 {
+    let s = 0xdeadbeefu + 25u;
+    return sn_bjfinal(s + x, s + y, s + z);
+}
+
+// OSL bits_to_01: the f32 nearest h (one rounding: f32(h >> 8) * 256 and f32(h & 255) are
+// exact, their sum rounds once), times 2^-32.
+fn sn_bits_to_01(h: u32) -> f32 {
+    return (f32(h >> 8u) * 256.0f + f32(h & 255u)) * 2.3283064365386963e-10f;
+}
+
+// f32(i) rounded to nearest (the same split as sn_bits_to_01; `i >> 8` is arithmetic).
+fn sn_itof(i: i32) -> f32 {
+    return f32(i >> 8u) * 256.0f + f32(i & 255i);
+}
+
+// OSL ifloor as an unsigned hash key (saturating, NaN -> 0).
+fn sn_osl_ifloor(x: f32) -> u32 {
+    return bitcast<u32>(sn_f2i(floor(x)));
+}
+
+fn sn_osl_grad2(hash: u32, x: f32, y: f32) -> f32 {
+    let h = hash & 7u;
+    let u = select(y, x, h < 4u);
+    let v = 2.0f * select(x, y, h < 4u);
+    return select(u, -u, (h & 1u) != 0u) + select(v, -v, (h & 2u) != 0u);
+}
+
+fn sn_osl_grad3(hash: u32, x: f32, y: f32, z: f32) -> f32 {
+    let h = hash & 15u;
+    let u = select(y, x, h < 8u);
+    let v = select(select(z, x, h == 12u || h == 14u), y, h < 4u);
+    return select(u, -u, (h & 1u) != 0u) + select(v, -v, (h & 2u) != 0u);
+}
+
+// OIIO::bilerp.
+fn sn_osl_bilerp(v0: f32, v1: f32, v2: f32, v3: f32, s: f32, t: f32) -> f32 {
+    let s1 = 1.0f - s;
+    return (1.0f - t) * (v0 * s1 + v1 * s) + t * (v2 * s1 + v3 * s);
+}
+
+// OIIO::trilerp.
+fn sn_osl_trilerp(v: array<f32, 8>, s: f32, t: f32, r: f32) -> f32 {
+    let s1 = 1.0f - s;
+    let t1 = 1.0f - t;
+    let r1 = 1.0f - r;
+    return r1 * (t1 * (v[0] * s1 + v[1] * s) + t * (v[2] * s1 + v[3] * s))
+        + r * (t1 * (v[4] * s1 + v[5] * s) + t * (v[6] * s1 + v[7] * s));
+}
+
+// The hashes of a 2D cell's corners, in bilerp's order.
+fn sn_osl_corners2(x: u32, y: u32) -> vec4<u32> {
+    return vec4<u32>(
+        sn_inthash2(x, y),
+        sn_inthash2(x + 1u, y),
+        sn_inthash2(x, y + 1u),
+        sn_inthash2(x + 1u, y + 1u),
+    );
+}
+
+// The hashes of a 3D cell's corners, in trilerp's order (bit 0: x + 1, bit 1: y + 1,
+// bit 2: z + 1).
+fn sn_osl_corners3(x: u32, y: u32, z: u32) -> array<u32, 8> {
+    var h: array<u32, 8>;
+    for (var k = 0u; k < 8u; k++) {
+        h[k] = sn_inthash3(x + (k & 1u), y + ((k >> 1u) & 1u), z + ((k >> 2u) & 1u));
+    }
+    return h;
+}
+
+// f - 1 where bit `bit` of corner k is set, f otherwise.
+fn sn_osl_off(f: f32, k: u32, bit: u32) -> f32 {
+    return select(f, f - 1.0f, ((k >> bit) & 1u) == 1u);
+}
+
+// bilerp of the 2D gradients of byte `shift / 8` of each corner hash (shift 0 and mask
+// 0xffffffff: the scalar noise).
+fn sn_osl_perlin2_of(h: vec4<u32>, shift: u32, mask: u32, fx: f32, fy: f32) -> f32 {
+    let r = sn_osl_bilerp(
+        sn_osl_grad2((h.x >> shift) & mask, fx, fy),
+        sn_osl_grad2((h.y >> shift) & mask, fx - 1.0f, fy),
+        sn_osl_grad2((h.z >> shift) & mask, fx, fy - 1.0f),
+        sn_osl_grad2((h.w >> shift) & mask, fx - 1.0f, fy - 1.0f),
+        sn_fade(fx),
+        sn_fade(fy),
+    );
+    return 0.6616f * r;
+}
+
+fn sn_osl_perlin3_of(h: array<u32, 8>, shift: u32, mask: u32, f: vec3<f32>) -> f32 {
+    var g: array<f32, 8>;
+    for (var k = 0u; k < 8u; k++) {
+        g[k] = sn_osl_grad3(
+            (h[k] >> shift) & mask,
+            sn_osl_off(f.x, k, 0u),
+            sn_osl_off(f.y, k, 1u),
+            sn_osl_off(f.z, k, 2u),
+        );
+    }
+    return 0.9820f * sn_osl_trilerp(g, sn_fade(f.x), sn_fade(f.y), sn_fade(f.z));
+}
+
+fn sn_osl_perlin2(p: vec2<f32>) -> f32 {
+    let h = sn_osl_corners2(sn_osl_ifloor(p.x), sn_osl_ifloor(p.y));
+    return sn_osl_perlin2_of(h, 0u, 0xffffffffu, sn_cell_frac(p.x), sn_cell_frac(p.y));
+}
+
+fn sn_osl_perlin3(p: vec3<f32>) -> f32 {
+    let h = sn_osl_corners3(sn_osl_ifloor(p.x), sn_osl_ifloor(p.y), sn_osl_ifloor(p.z));
+    let f = vec3<f32>(sn_cell_frac(p.x), sn_cell_frac(p.y), sn_cell_frac(p.z));
+    return sn_osl_perlin3_of(h, 0u, 0xffffffffu, f);
+}
+
+// OSL HashVector's sliceup: component c from byte c of each corner hash.
+fn sn_osl_vperlin2(p: vec2<f32>) -> vec3<f32> {
+    let h = sn_osl_corners2(sn_osl_ifloor(p.x), sn_osl_ifloor(p.y));
+    let fx = sn_cell_frac(p.x);
+    let fy = sn_cell_frac(p.y);
+    return vec3<f32>(
+        sn_osl_perlin2_of(h, 0u, 255u, fx, fy),
+        sn_osl_perlin2_of(h, 8u, 255u, fx, fy),
+        sn_osl_perlin2_of(h, 16u, 255u, fx, fy),
+    );
+}
+
+fn sn_osl_vperlin3(p: vec3<f32>) -> vec3<f32> {
+    let h = sn_osl_corners3(sn_osl_ifloor(p.x), sn_osl_ifloor(p.y), sn_osl_ifloor(p.z));
+    let f = vec3<f32>(sn_cell_frac(p.x), sn_cell_frac(p.y), sn_cell_frac(p.z));
+    return vec3<f32>(
+        sn_osl_perlin3_of(h, 0u, 255u, f),
+        sn_osl_perlin3_of(h, 8u, 255u, f),
+        sn_osl_perlin3_of(h, 16u, 255u, f),
+    );
+}
+
+fn sn_osl_cell2(p: vec2<f32>) -> f32 {
+    return sn_bits_to_01(sn_inthash2(sn_osl_ifloor(p.x), sn_osl_ifloor(p.y)));
+}
+
+fn sn_osl_cell3(p: vec3<f32>) -> f32 {
+    return sn_bits_to_01(
+        sn_inthash3(sn_osl_ifloor(p.x), sn_osl_ifloor(p.y), sn_osl_ifloor(p.z)));
+}
+
+// OSL inthashVec of two keys: inthash(x, y, component).
+fn sn_osl_vcell2(p: vec2<f32>) -> vec3<f32> {
+    let x = sn_osl_ifloor(p.x);
+    let y = sn_osl_ifloor(p.y);
+    return vec3<f32>(
+        sn_bits_to_01(sn_inthash3(x, y, 0u)),
+        sn_bits_to_01(sn_inthash3(x, y, 1u)),
+        sn_bits_to_01(sn_inthash3(x, y, 2u)),
+    );
+}
+
+// OSL inthashVec of three keys: one bjmix, then bjfinal(a + component, b, c).
+fn sn_osl_vcell3(p: vec3<f32>) -> vec3<f32> {
+    let s = 0xdeadbeefu + 29u;
+    let m = sn_bjmix(s + sn_osl_ifloor(p.x), s + sn_osl_ifloor(p.y), s + sn_osl_ifloor(p.z));
+    return vec3<f32>(
+        sn_bits_to_01(sn_bjfinal(m.x, m.y, m.z)),
+        sn_bits_to_01(sn_bjfinal(m.x + 1u, m.y, m.z)),
+        sn_bits_to_01(sn_bjfinal(m.x + 2u, m.y, m.z)),
+    );
+}
+
+// MaterialX fractal noise: octaves clamped to [0, 32] (osl_noise::MAX_OCTAVES).
+fn sn_mx_fractal2(p_in: vec2<f32>, octaves: i32, lacunarity: f32, diminish: f32) -> f32 {
+    var p = p_in;
+    var result = 0.0f;
+    var amplitude = 1.0f;
+    let n = clamp(octaves, 0i, 32i);
+    for (var i = 0i; i < n; i++) {
+        result = result + amplitude * sn_osl_perlin2(p);
+        amplitude = amplitude * diminish;
+        p = p * lacunarity;
+    }
+    return result;
+}
+
+fn sn_mx_fractal3(p_in: vec3<f32>, octaves: i32, lacunarity: f32, diminish: f32) -> f32 {
+    var p = p_in;
+    var result = 0.0f;
+    var amplitude = 1.0f;
+    let n = clamp(octaves, 0i, 32i);
+    for (var i = 0i; i < n; i++) {
+        result = result + amplitude * sn_osl_perlin3(p);
+        amplitude = amplitude * diminish;
+        p = p * lacunarity;
+    }
+    return result;
+}
+
+fn sn_mx_vfractal2(p_in: vec2<f32>, octaves: i32, lacunarity: f32, diminish: f32) -> vec3<f32> {
+    var p = p_in;
+    var result = vec3<f32>(0.0f);
+    var amplitude = 1.0f;
+    let n = clamp(octaves, 0i, 32i);
+    for (var i = 0i; i < n; i++) {
+        result = result + amplitude * sn_osl_vperlin2(p);
+        amplitude = amplitude * diminish;
+        p = p * lacunarity;
+    }
+    return result;
+}
+
+fn sn_mx_vfractal3(p_in: vec3<f32>, octaves: i32, lacunarity: f32, diminish: f32) -> vec3<f32> {
+    var p = p_in;
+    var result = vec3<f32>(0.0f);
+    var amplitude = 1.0f;
+    let n = clamp(octaves, 0i, 32i);
+    for (var i = 0i; i < n; i++) {
+        result = result + amplitude * sn_osl_vperlin3(p);
+        amplitude = amplitude * diminish;
+        p = p * lacunarity;
+    }
+    return result;
+}
+
+// MaterialX Worley noise. Constants and summed products pass through the key (k: see
+// sn_o). Measured on lavapipe: it unrolls the 3x3 search of the 2D noise and reassociates
+// the cell offsets, now constants, with the sums they enter (1-ulp differences in 2D only
+// until `f32(x)` went through the key). The 0.5 of the jitter likewise: with a constant
+// jitter of 1, (t - 0.5) + 0.5 could fold to t; the products are kept from fusing.
+
+// mx_worley_cell_position: the jittered feature point of cell (cx + x, cy + y), relative to
+// cell (cx, cy).
+fn sn_mx_cell_position2(x: i32, y: i32, cx: i32, cy: i32, jitter: f32, k: u32) -> vec2<f32> {
+    let half = sn_o(0.5f, k);
+    let t = sn_osl_vcell2(vec2<f32>(sn_itof(sn_iadd(x, cx)), sn_itof(sn_iadd(y, cy))));
+    let off = vec2<f32>(
+        sn_o((t.x - half) * jitter, k) + half,
+        sn_o((t.y - half) * jitter, k) + half,
+    );
+    return vec2<f32>(sn_o(f32(x), k) + off.x, sn_o(f32(y), k) + off.y);
+}
+
+fn sn_mx_cell_position3(c: vec3<i32>, cell: vec3<i32>, jitter: f32, k: u32) -> vec3<f32> {
+    let half = sn_o(0.5f, k);
+    let q = vec3<f32>(
+        sn_itof(sn_iadd(c.x, cell.x)),
+        sn_itof(sn_iadd(c.y, cell.y)),
+        sn_itof(sn_iadd(c.z, cell.z)),
+    );
+    let t = sn_osl_vcell3(q);
+    return vec3<f32>(
+        sn_o(f32(c.x), k) + (sn_o((t.x - half) * jitter, k) + half),
+        sn_o(f32(c.y), k) + (sn_o((t.y - half) * jitter, k) + half),
+        sn_o(f32(c.z), k) + (sn_o((t.z - half) * jitter, k) + half),
+    );
+}
+
+// GLSL max: a < b ? b : a.
+fn sn_gmax(a: f32, b: f32) -> f32 {
+    return select(a, b, a < b);
+}
+
+// mx_worley_distance's metric: 2 Manhattan, 3 Chebyshev, otherwise squared Euclidean.
+fn sn_mx_metric2(d: vec2<f32>, metric: i32, k: u32) -> f32 {
+    if (metric == 2i) {
+        return abs(d.x) + abs(d.y);
+    }
+    if (metric == 3i) {
+        return sn_gmax(abs(d.x), abs(d.y));
+    }
+    return sn_o(d.x * d.x, k) + sn_o(d.y * d.y, k);
+}
+
+fn sn_mx_metric3(d: vec3<f32>, metric: i32, k: u32) -> f32 {
+    if (metric == 2i) {
+        return (abs(d.x) + abs(d.y)) + abs(d.z);
+    }
+    if (metric == 3i) {
+        return sn_gmax(sn_gmax(abs(d.x), abs(d.y)), abs(d.z));
+    }
+    return (sn_o(d.x * d.x, k) + sn_o(d.y * d.y, k)) + sn_o(d.z * d.z, k);
+}
+
+// The n (1, 2 or 3) nearest distances, sorted, and the nearest feature point relative to
+// the point.
+struct SnWorley {
+    d: vec3<f32>,
+    minpos: vec3<f32>,
+}
+
+fn sn_mx_worley_insert(w: SnWorley, n: u32, dist: f32, cellpos: vec3<f32>) -> SnWorley {
+    var r = w;
+    if (dist < r.d.x) {
+        if (n > 2u) {
+            r.d.z = r.d.y;
+        }
+        if (n > 1u) {
+            r.d.y = r.d.x;
+        }
+        r.d.x = dist;
+        r.minpos = cellpos;
+    } else if (n > 1u && dist < r.d.y) {
+        if (n > 2u) {
+            r.d.z = r.d.y;
+        }
+        r.d.y = dist;
+    } else if (n > 2u && dist < r.d.z) {
+        r.d.z = dist;
+    }
+    return r;
+}
+
+fn sn_mx_worley2_search(p: vec2<f32>, jitter: f32, metric: i32, n: u32, k: u32) -> SnWorley {
+    let cx = sn_f2i(floor(p.x));
+    let cy = sn_f2i(floor(p.y));
+    let lx = sn_cell_frac(p.x);
+    let ly = sn_cell_frac(p.y);
+    var w = SnWorley(vec3<f32>(1e6f), vec3<f32>(0.0f));
+    for (var x = -1i; x <= 1i; x++) {
+        for (var y = -1i; y <= 1i; y++) {
+            let cp = sn_mx_cell_position2(x, y, cx, cy, jitter, k);
+            let diff = vec2<f32>(cp.x - lx, cp.y - ly);
+            w = sn_mx_worley_insert(w, n, sn_mx_metric2(diff, metric, k), vec3<f32>(diff, 0.0f));
+        }
+    }
+    return w;
+}
+
+fn sn_mx_worley3_search(p: vec3<f32>, jitter: f32, metric: i32, n: u32, k: u32) -> SnWorley {
+    let cell = vec3<i32>(sn_f2i(floor(p.x)), sn_f2i(floor(p.y)), sn_f2i(floor(p.z)));
+    let l = vec3<f32>(sn_cell_frac(p.x), sn_cell_frac(p.y), sn_cell_frac(p.z));
+    var w = SnWorley(vec3<f32>(1e6f), vec3<f32>(0.0f));
+    for (var x = -1i; x <= 1i; x++) {
+        for (var y = -1i; y <= 1i; y++) {
+            for (var z = -1i; z <= 1i; z++) {
+                let cp = sn_mx_cell_position3(vec3<i32>(x, y, z), cell, jitter, k);
+                let diff = vec3<f32>(cp.x - l.x, cp.y - l.y, cp.z - l.z);
+                w = sn_mx_worley_insert(w, n, sn_mx_metric3(diff, metric, k), diff);
+            }
+        }
+    }
+    return w;
+}
+
+// The distances at the end: square roots for metric 0.
+fn sn_mx_worley_finish(d: vec3<f32>, metric: i32) -> vec3<f32> {
+    if (metric == 0i) {
+        return vec3<f32>(sn_sqrt(d.x), sn_sqrt(d.y), sn_sqrt(d.z));
+    }
+    return d;
+}
+
+fn sn_mx_worley2(p: vec2<f32>, jitter: f32, style: i32, metric: i32, k: u32) -> f32 {
+    let w = sn_mx_worley2_search(p, jitter, metric, 1u, k);
+    if (style == 1i) {
+        return sn_osl_cell2(vec2<f32>(w.minpos.x + p.x, w.minpos.y + p.y));
+    }
+    return sn_mx_worley_finish(w.d, metric).x;
+}
+
+fn sn_mx_worley2_v2(p: vec2<f32>, jitter: f32, style: i32, metric: i32, k: u32) -> vec2<f32> {
+    let w = sn_mx_worley2_search(p, jitter, metric, 2u, k);
+    if (style == 1i) {
+        return sn_osl_vcell2(vec2<f32>(w.minpos.x + p.x, w.minpos.y + p.y)).xy;
+    }
+    return sn_mx_worley_finish(w.d, metric).xy;
+}
+
+fn sn_mx_worley2_v3(p: vec2<f32>, jitter: f32, style: i32, metric: i32, k: u32) -> vec3<f32> {
+    let w = sn_mx_worley2_search(p, jitter, metric, 3u, k);
+    if (style == 1i) {
+        return sn_osl_vcell2(vec2<f32>(w.minpos.x + p.x, w.minpos.y + p.y));
+    }
+    return sn_mx_worley_finish(w.d, metric);
+}
+
+fn sn_mx_worley3(p: vec3<f32>, jitter: f32, style: i32, metric: i32, k: u32) -> f32 {
+    let w = sn_mx_worley3_search(p, jitter, metric, 1u, k);
+    if (style == 1i) {
+        let m = w.minpos;
+        return sn_osl_cell3(vec3<f32>(m.x + p.x, m.y + p.y, m.z + p.z));
+    }
+    return sn_mx_worley_finish(w.d, metric).x;
+}
+
+fn sn_mx_worley3_v2(p: vec3<f32>, jitter: f32, style: i32, metric: i32, k: u32) -> vec2<f32> {
+    let w = sn_mx_worley3_search(p, jitter, metric, 2u, k);
+    if (style == 1i) {
+        let m = w.minpos;
+        return sn_osl_vcell3(vec3<f32>(m.x + p.x, m.y + p.y, m.z + p.z)).xy;
+    }
+    return sn_mx_worley_finish(w.d, metric).xy;
+}
+
+fn sn_mx_worley3_v3(p: vec3<f32>, jitter: f32, style: i32, metric: i32, k: u32) -> vec3<f32> {
+    let w = sn_mx_worley3_search(p, jitter, metric, 3u, k);
+    if (style == 1i) {
+        let m = w.minpos;
+        return sn_osl_vcell3(vec3<f32>(m.x + p.x, m.y + p.y, m.z + p.z));
+    }
+    return sn_mx_worley_finish(w.d, metric);
+}
+
 // ---- colour (ops::rgb_to_hsv, ops::hsv_to_rgb) ----
 
 fn sn_min(a: f32, b: f32) -> f32 {

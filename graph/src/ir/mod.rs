@@ -447,6 +447,44 @@ named_enum! {
         RgbToHsv = "rgb_to_hsv",
         /// HSV → RGB.
         HsvToRgb = "hsv_to_rgb",
+        /// OSL `snoise(x, y)` (vec2 → float, about [-1, 1]), [`crate::ops::osl_noise`].
+        OslPerlin2 = "osl_perlin2",
+        /// OSL `snoise(p)` (vec3 → float).
+        OslPerlin3 = "osl_perlin3",
+        /// OSL `vector snoise(x, y)` (vec2 → vec3).
+        OslVPerlin2 = "osl_vperlin2",
+        /// OSL `vector snoise(p)` (vec3 → vec3).
+        OslVPerlin3 = "osl_vperlin3",
+        /// OSL `cellnoise(x, y)` (vec2 → float in [0, 1]).
+        OslCell2 = "osl_cell2",
+        /// OSL `cellnoise(p)` (vec3 → float in [0, 1]).
+        OslCell3 = "osl_cell3",
+        /// OSL `vector cellnoise(x, y)` (vec2 → vec3).
+        OslVCell2 = "osl_vcell2",
+        /// OSL `vector cellnoise(p)` (vec3 → vec3).
+        OslVCell3 = "osl_vcell3",
+        /// MaterialX fractal noise of `osl_perlin2`: (p: vec2, octaves: int, lacunarity:
+        /// float, diminish: float) → float.
+        MxFractal2 = "mx_fractal2",
+        /// MaterialX fractal noise of `osl_perlin3`: (p: vec3, int, float, float) → float.
+        MxFractal3 = "mx_fractal3",
+        /// MaterialX fractal noise of `osl_vperlin2`: (p: vec2, int, float, float) → vec3.
+        MxVFractal2 = "mx_vfractal2",
+        /// MaterialX fractal noise of `osl_vperlin3`: (p: vec3, int, float, float) → vec3.
+        MxVFractal3 = "mx_vfractal3",
+        /// MaterialX Worley noise: (p: vec2, jitter: float, style: int, metric: int) → F1
+        /// (float).
+        MxWorley2 = "mx_worley2",
+        /// MaterialX Worley noise (p: vec2, …) → (F1, F2) (vec2).
+        MxWorley2V2 = "mx_worley2_v2",
+        /// MaterialX Worley noise (p: vec2, …) → (F1, F2, F3) (vec3).
+        MxWorley2V3 = "mx_worley2_v3",
+        /// MaterialX Worley noise (p: vec3, jitter: float, style: int, metric: int) → F1.
+        MxWorley3 = "mx_worley3",
+        /// MaterialX Worley noise (p: vec3, …) → (F1, F2) (vec2).
+        MxWorley3V2 = "mx_worley3_v2",
+        /// MaterialX Worley noise (p: vec3, …) → (F1, F2, F3) (vec3).
+        MxWorley3V3 = "mx_worley3_v3",
     }
 }
 

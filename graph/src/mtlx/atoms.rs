@@ -152,6 +152,8 @@ const ATOMS: &[Atom] = &[
     ),
     a("cellnoise2d", "texcoord", l::cellnoise2d),
     a("cellnoise3d", "position", l::cellnoise3d),
+    a("worleynoise2d", "texcoord jitter style", l::worleynoise2d),
+    a("worleynoise3d", "position jitter style", l::worleynoise3d),
     // texture
     a("image", "file default texcoord", l::image),
 ];
@@ -163,17 +165,6 @@ fn has_matrix(nd: &NodeDefElem) -> bool {
         .any(|p| p.ty == "matrix44" || p.ty == "matrix33")
 }
 
-/// Nodes whose lowering has no four-component form yet: their vector noise shifts each
-/// component by a table of three offsets (the noise lowerings are another branch's work).
-const NOT_FOUR_WIDE: &[&str] = &["noise2d", "noise3d", "fractal2d", "fractal3d"];
-
-fn has_four_wide(nd: &NodeDefElem) -> bool {
-    nd.inputs
-        .iter()
-        .chain(&nd.outputs)
-        .any(|p| p.ty == "color4" || p.ty == "vector4")
-}
-
 /// The lowering of an atom nodedef, if the table has one for its node and types and the
 /// nodedef has every input the lowering reads (a document may declare its own nodedef of a
 /// known node with other inputs: it is not an atom then).
@@ -181,16 +172,13 @@ pub fn lowering(nd: &NodeDefElem) -> Option<LowerFn> {
     let row = ATOMS.iter().find(|r| r.node == nd.node)?;
     let has = |p: &str| nd.inputs.iter().any(|i| i.name == p);
     let ports_ok = row.ports.split_whitespace().all(has);
-    let four_ok = !(NOT_FOUR_WIDE.contains(&nd.node.as_str()) && has_four_wide(nd));
-    (ports_ok && four_ok && (row.matrix || !has_matrix(nd))).then_some(row.lower)
+    (ports_ok && (row.matrix || !has_matrix(nd))).then_some(row.lower)
 }
 
 /// Why a nodedef with neither a nodegraph nor a lowering is unsupported (for coverage).
 pub fn missing_reason(nd: &NodeDefElem) -> &'static str {
     if ATOMS.iter().any(|r| r.node == nd.node) {
-        if NOT_FOUR_WIDE.contains(&nd.node.as_str()) && has_four_wide(nd) {
-            "vector noise has no four-component form yet"
-        } else if nd
+        if nd
             .outputs
             .iter()
             .any(|o| o.ty == "string" || o.ty == "filename")
@@ -207,9 +195,7 @@ pub fn missing_reason(nd: &NodeDefElem) -> &'static str {
                 "no per-vertex attribute streams in the shading context yet"
             }
             "frame" => "no frame number in the shading context yet",
-            "worleynoise2d" | "worleynoise3d" | "flake2d" | "flake3d" => {
-                "no Worley/flake noise intrinsic yet"
-            }
+            "flake2d" | "flake3d" => "no flake noise intrinsic yet",
             "hextiledimage" | "hextilednormalmap" | "heighttonormal" | "normalmap" => {
                 "needs texture derivatives or tangent frames (issue 11)"
             }

@@ -726,86 +726,187 @@ pub fn splittb(b: &mut Builder, inp: &NodeInputs) -> Out {
     split(b, inp, 1, "valueb", "valuet")
 }
 
-/// Per-component offsets for vector-valued noise (each component samples the noise at a
-/// shifted position, as OSL's vector noise does).
-const OFFSETS: [[f64; 3]; 3] = [[0.0, 0.0, 0.0], [19.34, 7.66, 3.23], [5.47, 17.85, 11.04]];
-
-/// `noise(p)` in every component of `ty` (shifted per component), with `noise` a closure
-/// taking a vec3.
-fn vector_noise(
-    b: &mut Builder,
-    ty: Type,
-    p: Value,
-    noise: impl Fn(&mut Builder, Value) -> Value,
-) -> Value {
-    if ty == Type::Float {
-        return noise(b, p);
+/// `v` (a float, vec2 or vec3 noise value) as the output type `ty`: a vec3's first two
+/// components for vector2 (MaterialX `value.xy`), its components as a color for color3.
+fn noise_as(b: &mut Builder, v: Value, ty: Type) -> Result<Value, String> {
+    let from = b.ty(v);
+    if from == ty {
+        return Ok(v);
     }
-    let parts: Vec<Value> = (0..ty.width())
-        .map(|i| {
-            let off = b.vec3(OFFSETS[i]);
-            let q = b.add(p, off);
-            noise(b, q)
-        })
-        .collect();
+    let n = ty.width();
+    if !matches!(ty, Type::Vec2 | Type::Vec3 | Type::Color) || from.width() < n {
+        return Err(format!("noise of type {ty} is not lowered"));
+    }
+    let parts: Vec<Value> = (0..n).map(|i| b.extract(v, i)).collect();
+    Ok(b.construct(ty, &parts))
+}
+
+/// `p + offset` (a 2- or 3-component point and offset).
+fn offset_point(b: &mut Builder, p: Value, offset: &[f64]) -> Value {
+    let off = match offset {
+        [x, y] => b.constant(ConstValue::Vec2([*x, *y])),
+        _ => b.vec3([offset[0], offset[1], offset[2]]),
+    };
+    b.add(p, off)
+}
+
+/// A four-component value of type `ty` from a 3-vector `v` and a fourth float `w`.
+fn four(b: &mut Builder, v: Value, w: Value, ty: Type) -> Value {
+    let mut parts: Vec<Value> = (0..3).map(|i| b.extract(v, i)).collect();
+    parts.push(w);
     b.construct(ty, &parts)
 }
 
-fn uv3(b: &mut Builder, uv: Value) -> Value {
-    let (u, v) = (b.extract(uv, 0), b.extract(uv, 1));
-    let z = b.float(0.0);
-    b.construct(Type::Vec3, &[u, v, z])
-}
-
-fn noise_node(b: &mut Builder, inp: &NodeInputs, p: Value) -> Out {
+/// MaterialX `value · amplitude + pivot` of a Perlin noise: OSL `snoise` (float for a float
+/// output, OSL's vector noise otherwise) of `p`, with `scalar`/`vector` the intrinsics of
+/// `p`'s dimension.
+fn noise_node(
+    b: &mut Builder,
+    inp: &NodeInputs,
+    p: Value,
+    (scalar, vector): (Intrinsic, Intrinsic),
+    offset4: &[f64],
+) -> Out {
     let ty = out_ty(inp);
-    let n = vector_noise(b, ty, p, |b, q| b.call(Intrinsic::Noise3, &[q]));
-    let (amp, pivot) = (get(b, inp, "amplitude", ty), get(b, inp, "pivot", ty));
+    let n = if ty == Type::Float {
+        b.call(scalar, &[p])
+    } else if ty.width() == 4 {
+        // MaterialX `mx_noise*_vector4`: the vector noise, and the float noise at
+        // `p + (19, 73[, 29])` as the fourth component.
+        let v = b.call(vector, &[p]);
+        let q = offset_point(b, p, offset4);
+        let w = b.call(scalar, &[q]);
+        four(b, v, w, ty)
+    } else {
+        let v = b.call(vector, &[p]);
+        noise_as(b, v, ty)?
+    };
+    let amp = get(b, inp, "amplitude", ty);
+    let amp = noise_as(b, amp, ty)?;
+    let pivot = get(b, inp, "pivot", ty);
     let s = b.mul(n, amp);
     one(b.add(s, pivot))
 }
-/// `noise(texcoord) · amplitude + pivot`, Perlin noise in [−1, 1].
+/// `snoise(texcoord) · amplitude + pivot`: OSL's signed 2D Perlin noise
+/// ([`crate::ops::osl_noise::perlin2`]; vector outputs from its vector noise).
 pub fn noise2d(b: &mut Builder, inp: &NodeInputs) -> Out {
-    let p = uv3(b, inp.get("texcoord"));
-    noise_node(b, inp, p)
+    let p = inp.get("texcoord");
+    noise_node(
+        b,
+        inp,
+        p,
+        (Intrinsic::OslPerlin2, Intrinsic::OslVPerlin2),
+        &[19.0, 73.0],
+    )
 }
-/// `noise(position) · amplitude + pivot`.
+/// `snoise(position) · amplitude + pivot`: OSL's signed 3D Perlin noise.
 pub fn noise3d(b: &mut Builder, inp: &NodeInputs) -> Out {
     let p = inp.get("position");
-    noise_node(b, inp, p)
+    noise_node(
+        b,
+        inp,
+        p,
+        (Intrinsic::OslPerlin3, Intrinsic::OslVPerlin3),
+        &[19.0, 73.0, 29.0],
+    )
 }
-fn fractal(b: &mut Builder, inp: &NodeInputs, p: Value) -> Out {
+/// MaterialX `mx_fractal*_noise_*` of `p` times `amplitude`: float and vector3 outputs from
+/// the float and vector fractal noise, vector2 from the float fractal noise at `p` and at
+/// `p + offset` (MaterialX's (19, 193[, 17])).
+fn fractal(
+    b: &mut Builder,
+    inp: &NodeInputs,
+    p: Value,
+    (scalar, vector): (Intrinsic, Intrinsic),
+    offset: &[f64],
+) -> Out {
     let ty = out_ty(inp);
     let (oct, lac, dim) = (
         inp.get("octaves"),
         inp.get("lacunarity"),
         inp.get("diminish"),
     );
-    let n = vector_noise(b, ty, p, |b, q| {
-        b.call(Intrinsic::Fbm3, &[q, oct, lac, dim])
-    });
+    let n = match ty {
+        Type::Float => b.call(scalar, &[p, oct, lac, dim]),
+        Type::Vec2 => {
+            let q = offset_point(b, p, offset);
+            let f0 = b.call(scalar, &[p, oct, lac, dim]);
+            let f1 = b.call(scalar, &[q, oct, lac, dim]);
+            b.construct(Type::Vec2, &[f0, f1])
+        }
+        // `mx_fractal*_noise_vec4`: the vector fractal and the float one at `p + offset`.
+        ty if ty.width() == 4 => {
+            let v = b.call(vector, &[p, oct, lac, dim]);
+            let q = offset_point(b, p, offset);
+            let w = b.call(scalar, &[q, oct, lac, dim]);
+            four(b, v, w, ty)
+        }
+        _ => {
+            let v = b.call(vector, &[p, oct, lac, dim]);
+            noise_as(b, v, ty)?
+        }
+    };
     let amp = get(b, inp, "amplitude", ty);
+    let amp = noise_as(b, amp, ty)?;
     one(b.mul(n, amp))
 }
-/// `Σ_{i<octaves} diminish^i · noise(texcoord · lacunarity^i) · amplitude`.
+/// `Σ_{i<octaves} diminishⁱ · snoise(texcoord · lacunarityⁱ) · amplitude` (MaterialX
+/// `mx_fractal2d_noise_*`).
 pub fn fractal2d(b: &mut Builder, inp: &NodeInputs) -> Out {
-    let p = uv3(b, inp.get("texcoord"));
-    fractal(b, inp, p)
+    let p = inp.get("texcoord");
+    let i = (Intrinsic::MxFractal2, Intrinsic::MxVFractal2);
+    fractal(b, inp, p, i, &[19.0, 193.0])
 }
-/// `Σ_{i<octaves} diminish^i · noise(position · lacunarity^i) · amplitude`.
+/// `Σ_{i<octaves} diminishⁱ · snoise(position · lacunarityⁱ) · amplitude` (MaterialX
+/// `mx_fractal3d_noise_*`).
 pub fn fractal3d(b: &mut Builder, inp: &NodeInputs) -> Out {
     let p = inp.get("position");
-    fractal(b, inp, p)
+    let i = (Intrinsic::MxFractal3, Intrinsic::MxVFractal3);
+    fractal(b, inp, p, i, &[19.0, 193.0, 17.0])
 }
-/// A value in [0, 1) constant over each unit cell of `texcoord`.
+/// OSL `cellnoise(texcoord)`: a value in [0, 1] constant over each unit cell.
 pub fn cellnoise2d(b: &mut Builder, inp: &NodeInputs) -> Out {
-    let p = uv3(b, inp.get("texcoord"));
-    one(b.call(Intrinsic::CellNoise3, &[p]))
+    let p = inp.get("texcoord");
+    one(b.call(Intrinsic::OslCell2, &[p]))
 }
-/// A value in [0, 1) constant over each unit cell of `position`.
+/// OSL `cellnoise(position)`.
 pub fn cellnoise3d(b: &mut Builder, inp: &NodeInputs) -> Out {
     let p = inp.get("position");
-    one(b.call(Intrinsic::CellNoise3, &[p]))
+    one(b.call(Intrinsic::OslCell3, &[p]))
+}
+/// MaterialX `mx_worley_noise_*(p, jitter, style, 0)`: Euclidean F1 (float), (F1, F2)
+/// (vector2) or (F1, F2, F3) (vector3); style 1 the cell noise of the nearest feature point.
+fn worley(b: &mut Builder, inp: &NodeInputs, p: Value, by_width: [Intrinsic; 3]) -> Out {
+    let ty = out_ty(inp);
+    let i = match ty {
+        Type::Float => by_width[0],
+        Type::Vec2 => by_width[1],
+        Type::Vec3 => by_width[2],
+        other => return Err(format!("Worley noise of type {other} is not lowered")),
+    };
+    let (jitter, style) = (inp.get("jitter"), inp.get("style"));
+    let metric = b.int(0);
+    one(b.call(i, &[p, jitter, style, metric]))
+}
+/// 2D Worley noise of `texcoord` (MaterialX `worleynoise2d`).
+pub fn worleynoise2d(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let p = inp.get("texcoord");
+    let i = [
+        Intrinsic::MxWorley2,
+        Intrinsic::MxWorley2V2,
+        Intrinsic::MxWorley2V3,
+    ];
+    worley(b, inp, p, i)
+}
+/// 3D Worley noise of `position` (MaterialX `worleynoise3d`).
+pub fn worleynoise3d(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let p = inp.get("position");
+    let i = [
+        Intrinsic::MxWorley3,
+        Intrinsic::MxWorley3V2,
+        Intrinsic::MxWorley3V3,
+    ];
+    worley(b, inp, p, i)
 }
 /// A texture lookup of `file` at `texcoord` (today's texture path: wrap and filtering are
 /// the texture system's); `default` where no file is named. Float and vector outputs take

@@ -16,6 +16,7 @@
 
 pub mod math;
 pub mod noise;
+pub mod osl_noise;
 
 use crate::ir::{BinOp, Intrinsic, UnOp, XformKind};
 use crate::types::{ConstValue, Type};
@@ -506,9 +507,45 @@ pub fn intrinsic_type(i: Intrinsic, args: &[Type]) -> Option<Type> {
         Noise3 | CellNoise3 => args == [Type::Vec3],
         Fbm3 => args == [Type::Vec3, Type::Int, Type::Float, Type::Float],
         RgbToHsv | HsvToRgb => args == [Type::Color],
+        _ => return osl_intrinsic_type(i, args),
     };
     ok.then_some(match i {
         RgbToHsv | HsvToRgb => Type::Color,
+        _ => Type::Float,
+    })
+}
+
+/// The operand types of an OSL/MaterialX noise intrinsic ([`osl_noise`]), or `None` for
+/// the others.
+pub fn osl_intrinsic_operands(i: Intrinsic) -> Option<&'static [Type]> {
+    use Intrinsic::*;
+    const V2: &[Type] = &[Type::Vec2];
+    const V3: &[Type] = &[Type::Vec3];
+    const FRACTAL2: &[Type] = &[Type::Vec2, Type::Int, Type::Float, Type::Float];
+    const FRACTAL3: &[Type] = &[Type::Vec3, Type::Int, Type::Float, Type::Float];
+    const WORLEY2: &[Type] = &[Type::Vec2, Type::Float, Type::Int, Type::Int];
+    const WORLEY3: &[Type] = &[Type::Vec3, Type::Float, Type::Int, Type::Int];
+    Some(match i {
+        OslPerlin2 | OslVPerlin2 | OslCell2 | OslVCell2 => V2,
+        OslPerlin3 | OslVPerlin3 | OslCell3 | OslVCell3 => V3,
+        MxFractal2 | MxVFractal2 => FRACTAL2,
+        MxFractal3 | MxVFractal3 => FRACTAL3,
+        MxWorley2 | MxWorley2V2 | MxWorley2V3 => WORLEY2,
+        MxWorley3 | MxWorley3V2 | MxWorley3V3 => WORLEY3,
+        _ => return None,
+    })
+}
+
+/// The result type of an OSL/MaterialX noise intrinsic on `args`, or `None`.
+fn osl_intrinsic_type(i: Intrinsic, args: &[Type]) -> Option<Type> {
+    use Intrinsic::*;
+    if osl_intrinsic_operands(i)? != args {
+        return None;
+    }
+    Some(match i {
+        OslVPerlin2 | OslVPerlin3 | OslVCell2 | OslVCell3 | MxVFractal2 | MxVFractal3
+        | MxWorley2V3 | MxWorley3V3 => Type::Vec3,
+        MxWorley2V2 | MxWorley3V2 => Type::Vec2,
         _ => Type::Float,
     })
 }
@@ -682,6 +719,47 @@ pub fn intrinsic<F: Real>(i: Intrinsic, args: &[Val<F>]) -> Val<F> {
         Intrinsic::CellNoise3 => Val::Float(noise::cellnoise3(arg(0).as_vec3())),
         Intrinsic::RgbToHsv => Val::Vec3(rgb_to_hsv(arg(0).as_vec3())),
         Intrinsic::HsvToRgb => Val::Vec3(hsv_to_rgb(arg(0).as_vec3())),
+        _ => osl_intrinsic(i, args),
+    }
+}
+
+/// Evaluates an OSL/MaterialX noise intrinsic ([`osl_noise`]).
+fn osl_intrinsic<F: Real>(i: Intrinsic, args: &[Val<F>]) -> Val<F> {
+    use osl_noise as o;
+    let arg = |k: usize| args.get(k).copied().unwrap_or(Val::Int(0));
+    let v2 = || {
+        let p = arg(0);
+        let f = p.floats();
+        [0, 1].map(|c| f.get(c).copied().unwrap_or(F::ZERO))
+    };
+    let v3 = || arg(0).as_vec3();
+    let (n, f1, i2, i3) = (
+        arg(1).as_int(),
+        arg(1).as_float(),
+        arg(2).as_int(),
+        arg(3).as_int(),
+    );
+    let (f2, f3) = (arg(2).as_float(), arg(3).as_float());
+    match i {
+        Intrinsic::OslPerlin2 => Val::Float(o::perlin2(v2())),
+        Intrinsic::OslPerlin3 => Val::Float(o::perlin3(v3())),
+        Intrinsic::OslVPerlin2 => Val::Vec3(o::vperlin2(v2())),
+        Intrinsic::OslVPerlin3 => Val::Vec3(o::vperlin3(v3())),
+        Intrinsic::OslCell2 => Val::Float(o::cell2(v2())),
+        Intrinsic::OslCell3 => Val::Float(o::cell3(v3())),
+        Intrinsic::OslVCell2 => Val::Vec3(o::vcell2(v2())),
+        Intrinsic::OslVCell3 => Val::Vec3(o::vcell3(v3())),
+        Intrinsic::MxFractal2 => Val::Float(o::fractal2(v2(), n, f2, f3)),
+        Intrinsic::MxFractal3 => Val::Float(o::fractal3(v3(), n, f2, f3)),
+        Intrinsic::MxVFractal2 => Val::Vec3(o::vfractal2(v2(), n, f2, f3)),
+        Intrinsic::MxVFractal3 => Val::Vec3(o::vfractal3(v3(), n, f2, f3)),
+        Intrinsic::MxWorley2 => Val::Float(o::worley2(v2(), f1, i2, i3)),
+        Intrinsic::MxWorley2V2 => Val::Vec2(o::worley2_v2(v2(), f1, i2, i3)),
+        Intrinsic::MxWorley2V3 => Val::Vec3(o::worley2_v3(v2(), f1, i2, i3)),
+        Intrinsic::MxWorley3 => Val::Float(o::worley3(v3(), f1, i2, i3)),
+        Intrinsic::MxWorley3V2 => Val::Vec2(o::worley3_v2(v3(), f1, i2, i3)),
+        Intrinsic::MxWorley3V3 => Val::Vec3(o::worley3_v3(v3(), f1, i2, i3)),
+        _ => Val::Int(0),
     }
 }
 
