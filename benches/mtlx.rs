@@ -22,6 +22,51 @@ fn libraries() -> Option<PathBuf> {
     shadenet::mtlx::locate(None).ok()
 }
 
+/// A generated document whose library nodegraphs expand to well over 300 nodes: `stages`
+/// colour-grading stages (`hsvadjust` → `contrast` → `range` → `colorcorrect`, each a
+/// library nodegraph) in a chain over a ramp.
+fn graded_chain(stages: usize) -> String {
+    let mut body = String::from(
+        r#"  <ramplr name="s0" type="color3">
+    <input name="valuel" type="color3" value="0.05, 0.1, 0.4" />
+    <input name="valuer" type="color3" value="0.95, 0.6, 0.2" />
+  </ramplr>
+"#,
+    );
+    for i in 1..=stages {
+        let prev = format!("s{}", i - 1);
+        body += &format!(
+            r#"  <hsvadjust name="h{i}" type="color3">
+    <input name="in" type="color3" nodename="{prev}" />
+    <input name="amount" type="vector3" value="0.01, 1.05, 1.0" />
+  </hsvadjust>
+  <contrast name="c{i}" type="color3">
+    <input name="in" type="color3" nodename="h{i}" />
+    <input name="amount" type="float" value="1.1" />
+  </contrast>
+  <range name="r{i}" type="color3">
+    <input name="in" type="color3" nodename="c{i}" />
+    <input name="doclamp" type="boolean" value="true" />
+  </range>
+  <colorcorrect name="s{i}" type="color3">
+    <input name="in" type="color3" nodename="r{i}" />
+    <input name="gamma" type="float" value="1.02" />
+  </colorcorrect>
+"#
+        );
+    }
+    format!(
+        "<?xml version=\"1.0\"?>\n<materialx version=\"1.39\">\n{body}  <output name=\"out\" type=\"color3\" nodename=\"s{stages}\" />\n</materialx>\n"
+    )
+}
+
+/// The example documents and the generated chain, by name.
+fn documents() -> Vec<(String, String)> {
+    let mut v = examples();
+    v.push(("graded_chain".into(), graded_chain(6)));
+    v
+}
+
 fn examples() -> Vec<(String, String)> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/materials");
     let mut v: Vec<(String, String)> = std::fs::read_dir(&dir)
@@ -80,7 +125,7 @@ fn table(lib: &Library) {
         "{:<14} {:>6} {:>10} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8}",
         "document", "nodes", "ops before", "ops after", "parse", "link", "optimize", "JIT", "total"
     );
-    for (name, text) in examples() {
+    for (name, text) in documents() {
         let best = (0..5)
             .map(|_| steps(lib, &name, &text))
             .min_by_key(|r| r.3.iter().sum::<Duration>())
@@ -107,7 +152,7 @@ fn bench(c: &mut Criterion) {
         b.iter(|| black_box(shadenet::mtlx::read_library(&dir).expect("libraries")))
     });
     let lib = shadenet::mtlx::read_library(&dir).expect("libraries");
-    let (name, text) = examples()
+    let (name, text) = documents()
         .into_iter()
         .max_by_key(|(n, t)| steps(&lib, n, t).0)
         .unwrap();
@@ -127,9 +172,14 @@ fn main() {
     };
     let lib = shadenet::mtlx::read_library(&dir).expect("libraries");
     if !std::env::args().any(|a| a == "--bench") {
-        for (name, text) in examples() {
+        for (name, text) in documents() {
             steps(&lib, &name, &text);
         }
+        let nodes = steps(&lib, "graded_chain", &graded_chain(6)).0;
+        assert!(
+            nodes >= 300,
+            "the generated document expands to {nodes} nodes, not ≥ 300"
+        );
         println!("mtlx bench smoke check: every example compiles (run `cargo bench --bench mtlx`)");
         return;
     }
