@@ -4,11 +4,13 @@
 
 use super::compile::{Action, Specialized};
 use super::film::{
-    Layout, TileOut, add_override_beauty, add_parts, override_channels, put_override_pass,
+    Layout, TileOut, accumulate, add_override_beauty, add_parts, override_channels,
+    put_override_pass,
 };
 use super::services::{BatchServices, HitServices};
 use super::setup::Renderer;
-use super::stats::TileStats;
+use super::stats::{Stage, TileStats};
+use super::trace::RayState;
 use crate::passes::OverrideKind;
 use shadenet_runtime::Fragment;
 use std::collections::HashMap;
@@ -67,9 +69,9 @@ pub(super) struct BatchKey {
 }
 
 impl Renderer {
-    /// The tiles of one group in the deferred mode: trace every camera sample, shade the
-    /// hits per shader and environment in batches, then finish each sample as
-    /// [`Renderer::camera_sample`] does.
+    /// The tiles of one group in the deferred mode: the camera rays of every sample, traced;
+    /// the hits shaded per shader and environment in batches; then each sample finished as
+    /// the immediate path does and added into its pixel.
     pub(super) fn render_group(
         &self,
         tiles: &[(u32, u32, u32, u32)],
@@ -77,79 +79,111 @@ impl Renderer {
         stats: &TileStats,
     ) -> Vec<TileOut> {
         let spp = self.scene.settings.spp;
-        let stride = layout.stride;
-        let nsamples: usize = tiles
-            .iter()
-            .map(|(x0, y0, x1, y1)| ((x1 - x0) * (y1 - y0)) as usize * spp as usize)
-            .sum();
-        let mut samples = vec![0.0f32; nsamples * stride];
-        // 1. Trace: every sample's camera ray; each shading call a hit needs becomes a job
-        //    of the batch of its shader and environment.
-        let mut jobs: Vec<Job> = Vec::new();
-        let mut batches: Vec<BatchKey> = Vec::new();
-        let mut batch_of: HashMap<(usize, usize), usize> = HashMap::new();
-        let mut s = 0usize;
+        let t = std::time::Instant::now();
+        let mut rays = Vec::new();
         for &(x0, y0, x1, y1) in tiles {
             for y in y0..y1 {
                 for x in x0..x1 {
-                    for k in 0..spp {
-                        let ray = self.camera_ray(x, y, k);
-                        let sample = &mut samples[s * stride..(s + 1) * stride];
-                        if let Some((action, prep)) = self.camera_hit(&ray, layout, sample, stats) {
-                            let mut push = |sp: &Specialized, apply: Apply| {
-                                let instance = prep.surface.instance as usize;
-                                let env = if sp.object_space {
-                                    instance
-                                } else {
-                                    usize::MAX
-                                };
-                                let key = (Arc::as_ptr(&sp.shader) as *const u8 as usize, env);
-                                let batch = *batch_of.entry(key).or_insert_with(|| {
-                                    batches.push(BatchKey {
-                                        shader: sp.clone(),
-                                        instance,
-                                        jobs: Vec::new(),
-                                    });
-                                    batches.len() - 1
-                                });
-                                batches[batch].jobs.push(jobs.len());
-                                jobs.push(Job {
-                                    sample: s,
-                                    apply,
-                                    frag: self.fragment(sp, &ray, &prep),
-                                    hit: self.services(&ray, &prep, stats),
-                                });
-                            };
-                            match action {
-                                Action::Material(a) => {
-                                    push(
-                                        &self.shaders[prep.material][*a],
-                                        Apply::Parts(prep.material, *a),
-                                    );
-                                }
-                                Action::Override(o) => match self.override_shader(*o) {
-                                    Some(sp) => push(sp, Apply::OverrideBeauty(*o)),
-                                    None => add_override_beauty([0.0; 3], layout, sample),
-                                },
-                            }
-                            for &(o, off) in &layout.overrides {
-                                match self.override_shader(o) {
-                                    Some(sp) => push(sp, Apply::OverridePass(o, off)),
-                                    None => put_override_pass(o, off, [0.0; 3], sample),
-                                }
-                            }
-                        }
-                        s += 1;
-                    }
+                    rays.extend((0..spp).map(|k| self.camera_ray(x, y, k)));
                 }
             }
         }
-        // 2. Shade: one `shade_many` call per batch.
-        let mut results = vec![(0usize, 0usize); jobs.len()]; // (start in `arena`, width)
+        let t = stats.lap(Stage::Sample, t);
+        let mut samples = vec![0.0f32; rays.len() * layout.stride];
+        let (jobs, batches) = self.trace_group(&rays, layout, &mut samples, stats);
+        let t = stats.lap(Stage::Trace, t);
+        let (arena, results) = self.shade_batches(&jobs, &batches, stats);
+        let t = stats.lap(Stage::Shade, t);
+        self.finish_jobs(&jobs, &arena, &results, layout, &mut samples);
+        let mut s = 0usize;
+        let mut outs = Vec::with_capacity(tiles.len());
+        for &(x0, y0, x1, y1) in tiles {
+            let n = ((x1 - x0) * (y1 - y0)) as usize * spp as usize * layout.stride;
+            let values = accumulate(&samples[s..s + n], spp, layout.stride);
+            s += n;
+            outs.push(TileOut { values });
+        }
+        stats.lap(Stage::Film, t);
+        outs
+    }
+
+    /// Traces every camera ray of a group: a miss or an emitter fills its sample; each
+    /// shading call a hit needs becomes a job of the batch of its shader and environment.
+    fn trace_group<'a>(
+        &'a self,
+        rays: &[RayState],
+        layout: &Layout,
+        samples: &mut [f32],
+        stats: &'a TileStats,
+    ) -> (Vec<Job<'a>>, Vec<BatchKey>) {
+        let stride = layout.stride;
+        let mut jobs: Vec<Job> = Vec::new();
+        let mut batches: Vec<BatchKey> = Vec::new();
+        let mut batch_of: HashMap<(usize, usize), usize> = HashMap::new();
+        for (s, ray) in rays.iter().enumerate() {
+            let sample = &mut samples[s * stride..(s + 1) * stride];
+            let Some((action, prep)) = self.camera_hit(ray, layout, sample, stats) else {
+                continue;
+            };
+            let mut push = |sp: &Specialized, apply: Apply| {
+                let instance = prep.surface.instance as usize;
+                let env = if sp.object_space {
+                    instance
+                } else {
+                    usize::MAX
+                };
+                let key = (Arc::as_ptr(&sp.shader) as *const u8 as usize, env);
+                let batch = *batch_of.entry(key).or_insert_with(|| {
+                    batches.push(BatchKey {
+                        shader: sp.clone(),
+                        instance,
+                        jobs: Vec::new(),
+                    });
+                    batches.len() - 1
+                });
+                batches[batch].jobs.push(jobs.len());
+                jobs.push(Job {
+                    sample: s,
+                    apply,
+                    frag: self.fragment(sp, ray, &prep),
+                    hit: self.services(ray, &prep, stats),
+                });
+            };
+            match action {
+                Action::Material(a) => {
+                    push(
+                        &self.shaders[prep.material][*a],
+                        Apply::Parts(prep.material, *a),
+                    );
+                }
+                Action::Override(o) => match self.override_shader(*o) {
+                    Some(sp) => push(sp, Apply::OverrideBeauty(*o)),
+                    None => add_override_beauty([0.0; 3], layout, sample),
+                },
+            }
+            for &(o, off) in &layout.overrides {
+                match self.override_shader(o) {
+                    Some(sp) => push(sp, Apply::OverridePass(o, off)),
+                    None => put_override_pass(o, off, [0.0; 3], sample),
+                }
+            }
+        }
+        (jobs, batches)
+    }
+
+    /// One `shade_many` call per batch. Returns the outputs of every job, one after the
+    /// other, and each job's (start, width) in them.
+    fn shade_batches(
+        &self,
+        jobs: &[Job],
+        batches: &[BatchKey],
+        stats: &TileStats,
+    ) -> (Vec<f32>, Vec<(usize, usize)>) {
+        let mut results = vec![(0usize, 0usize); jobs.len()];
         let mut arena: Vec<f32> = Vec::new();
         let mut out = Vec::new();
         let mut frags = Vec::new();
-        for b in &batches {
+        for b in batches {
             let env = &self.envs[b.instance];
             frags.clear();
             frags.extend(b.jobs.iter().map(|&j| jobs[j].frag));
@@ -175,9 +209,21 @@ impl Renderer {
             }
             arena.extend_from_slice(&out[..width * b.jobs.len()]);
         }
-        // 3. Finish: apply each job's outputs to its sample, in the order the immediate
-        //    path applies them.
-        for (job, &(start, width)) in jobs.iter().zip(&results) {
+        (arena, results)
+    }
+
+    /// Applies each job's outputs to its sample, in the order the immediate path applies
+    /// them.
+    fn finish_jobs(
+        &self,
+        jobs: &[Job],
+        arena: &[f32],
+        results: &[(usize, usize)],
+        layout: &Layout,
+        samples: &mut [f32],
+    ) {
+        let stride = layout.stride;
+        for (job, &(start, width)) in jobs.iter().zip(results) {
             let values = &arena[start..start + width];
             let sample = &mut samples[job.sample * stride..(job.sample + 1) * stride];
             match job.apply {
@@ -190,25 +236,5 @@ impl Renderer {
                 }
             }
         }
-        // 4. Accumulate the samples into pixels, tile by tile, as `render_tile` does.
-        let inv = 1.0 / spp as f32;
-        let mut s = 0usize;
-        let mut outs = Vec::with_capacity(tiles.len());
-        for &(x0, y0, x1, y1) in tiles {
-            let n = ((x1 - x0) * (y1 - y0)) as usize;
-            let mut values = vec![0.0f32; n * stride];
-            for dst in values.chunks_exact_mut(stride) {
-                for _ in 0..spp {
-                    let sample = &samples[s * stride..(s + 1) * stride];
-                    for (d, v) in dst.iter_mut().zip(sample) {
-                        *d += *v;
-                    }
-                    s += 1;
-                }
-                dst.iter_mut().for_each(|v| *v *= inv);
-            }
-            outs.push(TileOut { values });
-        }
-        outs
     }
 }

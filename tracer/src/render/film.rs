@@ -149,3 +149,23 @@ impl Renderer {
         }
     }
 }
+
+/// The pixels of consecutive camera samples (`spp` per pixel, `stride` floats each, in
+/// pixel order): each pixel's samples added in sample order, then scaled by `1/spp`.
+pub(super) fn accumulate(samples: &[f32], spp: u32, stride: usize) -> Vec<f32> {
+    let inv = 1.0 / spp as f32;
+    let per_pixel = spp as usize * stride;
+    let mut values = vec![0.0f32; samples.len() / per_pixel.max(1) * stride];
+    for (dst, src) in values
+        .chunks_exact_mut(stride)
+        .zip(samples.chunks_exact(per_pixel))
+    {
+        for sample in src.chunks_exact(stride) {
+            for (d, v) in dst.iter_mut().zip(sample) {
+                *d += *v;
+            }
+        }
+        dst.iter_mut().for_each(|v| *v *= inv);
+    }
+    values
+}

@@ -71,10 +71,10 @@ mod trace;
 /// The ray differentials live with the camera that starts them; re-exported here, where
 /// secondary rays carry them on.
 pub use crate::camera::RayDiffs;
-pub use sampler::{hash3, pixel_sample};
 pub use error::RenderError;
+pub use sampler::{hash3, pixel_sample};
 pub use setup::{DeferredOptions, Renderer, ShadingMode};
-pub use stats::RenderStats;
+pub use stats::{RenderStats, StageTimes};
 
 use crate::film::Film;
 use deferred::group_tiles;
@@ -103,9 +103,9 @@ impl Renderer {
         let (outs, tile_stats): (Vec<TileOut>, Vec<TileStats>) = match self.mode {
             ShadingMode::Immediate => tiles
                 .par_iter()
-                .map(|&(x0, y0, x1, y1)| {
+                .map(|&tile| {
                     let stats = TileStats::default();
-                    let out = self.render_tile(x0, y0, x1, y1, &layout, &stats);
+                    let out = self.render_tile(tile, &layout, &stats);
                     let d = done.fetch_add(1, Ordering::Relaxed) + 1;
                     progress(d, total);
                     (out, stats)
@@ -133,6 +133,7 @@ impl Renderer {
                 (outs, stats)
             }
         };
+        let t_film = Instant::now();
         let mut acc = vec![0.0f32; (w as usize) * (h as usize) * layout.stride];
         let mut stats = self.stats.clone();
         for ((x0, y0, x1, _), out) in tiles.iter().zip(outs) {
@@ -144,20 +145,10 @@ impl Renderer {
             }
         }
         for ts in tile_stats {
-            stats.rays += ts.rays.load(Ordering::Relaxed);
-            stats.shading_calls += ts.shading_calls.load(Ordering::Relaxed);
-            stats.nonfinite += ts.nonfinite.load(Ordering::Relaxed);
-            stats.batches += ts.batches.load(Ordering::Relaxed);
-            stats.batched_fragments += ts.batched.load(Ordering::Relaxed);
-            stats.largest_batch = stats.largest_batch.max(ts.largest.load(Ordering::Relaxed));
-            let t = ts
-                .times
-                .lock()
-                .map(|t| *t)
-                .unwrap_or_else(|e| *e.into_inner());
-            stats.batch_times.add(&t);
+            ts.add_to(&mut stats);
         }
         let film = self.compose(&acc, &layout);
+        stats.stages.film += t_film.elapsed();
         stats.render_time = start.elapsed();
         (film, stats)
     }

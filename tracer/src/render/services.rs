@@ -4,7 +4,7 @@
 
 use super::sampler::hash3;
 use super::setup::Renderer;
-use super::stats::TileStats;
+use super::stats::{Stage, TileStats};
 use super::trace::{HitDiffs, Prepared, RayState};
 use crate::accel::orthonormal;
 use crate::camera::RayDiffs;
@@ -119,7 +119,7 @@ impl SceneServices for HitServices<'_> {
     }
 
     fn occluded(&self, from: [f32; 3], to: [f32; 3]) -> bool {
-        self.stats.rays.fetch_add(1, Ordering::Relaxed);
+        let count = self.stats.shadow_rays.fetch_add(1, Ordering::Relaxed);
         let (from, to) = (Vec3::from(from), Vec3::from(to));
         let v = to - from;
         let dist = v.length();
@@ -130,7 +130,9 @@ impl SceneServices for HitServices<'_> {
         let o = self.start(from, d);
         // Stop just short of the light sample so the light's own surface never blocks it.
         let tmax = (to - o).length() * (1.0 - 1e-4);
-        self.r.accel.occluded(o, d, tmax)
+        let accel = &self.r.accel;
+        self.stats
+            .sampled(Stage::ShadowTrace, count, || accel.occluded(o, d, tmax))
     }
 
     fn occlusion(
@@ -162,8 +164,12 @@ impl SceneServices for HitServices<'_> {
             let z = (1.0 - u1).max(0.0).sqrt() as f32;
             let d = (t * (r * math::cos_f32(phi)) + b * (r * math::sin_f32(phi)) + n * z)
                 .normalize_or_zero();
-            self.stats.rays.fetch_add(1, Ordering::Relaxed);
-            if !self.r.accel.occluded(o, d, max_distance) {
+            let count = self.stats.shadow_rays.fetch_add(1, Ordering::Relaxed);
+            let accel = &self.r.accel;
+            let hit = self.stats.sampled(Stage::ShadowTrace, count, || {
+                accel.occluded(o, d, max_distance)
+            });
+            if !hit {
                 open += 1;
             }
         }

@@ -5,7 +5,7 @@
 use super::compile::{Action, Specialized};
 use super::film::override_channels;
 use super::setup::Renderer;
-use super::stats::TileStats;
+use super::stats::{Stage, TileStats};
 use super::trace::{Found, Prepared, RayState};
 use crate::passes::{OverrideKind, RayMatch};
 use shadenet_runtime::{Fragment, ShadeCtx, ShadeOut};
@@ -113,8 +113,9 @@ impl Renderer {
     /// Radiance along a secondary ray: the total of what it hits, shaded with the action
     /// its ray type and depth select.
     pub(super) fn radiance(&self, ray: &RayState, stats: &TileStats) -> [f32; 3] {
-        stats.rays.fetch_add(1, Ordering::Relaxed);
-        let hit = match self.intersect(ray.o, ray.d) {
+        let n = stats.secondary_rays.fetch_add(1, Ordering::Relaxed);
+        let found = stats.sampled(Stage::SecondaryTrace, n, || self.intersect(ray.o, ray.d));
+        let hit = match found {
             Found::Miss => return self.scene.background.map(|x| x as f32),
             Found::Emitter(r) => return r,
             Found::Surface(h) => h,

@@ -437,10 +437,13 @@ fn assert_deferred_matches(text: &str, program: Program, group: usize) -> Render
         assert_eq!(differ, 0, "layer {}: {differ} values differ", la.name);
     }
     assert_eq!(a.layers.len(), b.layers.len());
-    assert_eq!(
-        (sa.rays, sa.shading_calls, sa.nonfinite),
-        (sb.rays, sb.shading_calls, sb.nonfinite)
-    );
+    let counts = |s: &RenderStats| {
+        (
+            (s.rays, s.camera_rays, s.shadow_rays, s.secondary_rays),
+            (s.shading_calls, s.nonfinite),
+        )
+    };
+    assert_eq!(counts(&sa), counts(&sb));
     assert_eq!(sa.batches, 0);
     assert!(sb.batches > 0 && sb.batched_fragments > 0, "{sb:?}");
     sb
@@ -497,6 +500,56 @@ edge_v = [0, 0, 0.6]
 intensity = 2
 samples = 3
 "#;
+
+/// Rays are counted per kind (camera, shadow and occlusion queries, secondary), adding up
+/// to the total, and every stage of the tile loop is timed.
+#[test]
+fn rays_are_counted_per_kind_and_stages_timed() {
+    let r = Renderer::new(
+        scene(BOX_ON_FLOOR),
+        vec![lambert([0.6, 0.5, 0.4])],
+        &InterpBackend,
+    )
+    .unwrap();
+    let (_, s) = r.render(&|_, _| {});
+    assert_eq!(s.camera_rays, 9 * 7 * 3);
+    assert_eq!(
+        s.secondary_rays, 0,
+        "a Lambert surface traces no secondary ray"
+    );
+    // Each camera hit shades five times (material, four override passes) and asks 12
+    // occlusion queries: the point light's, the quad light's 3 samples, the occlusion
+    // pass's 8.
+    let hits = s.shading_calls / 5;
+    assert!(hits > 50, "{s:?}");
+    assert_eq!(s.shadow_rays, 12 * hits, "{s:?}");
+    assert_eq!(s.rays, s.camera_rays + s.shadow_rays + s.secondary_rays);
+    let st = s.stages;
+    for (name, t) in [
+        ("sample", st.sample),
+        ("trace", st.trace),
+        ("shade", st.shade),
+        ("film", st.film),
+    ] {
+        assert!(
+            t > std::time::Duration::ZERO,
+            "stage {name} not timed: {st:?}"
+        );
+    }
+    // A traced ray is a secondary ray; it shades a Lambert hit, whose light sample is a
+    // shadow ray.
+    let stats = TileStats::default();
+    let s = services(&r, &stats, Vec3::new(0.0, 1.0, 0.0), -Vec3::Y);
+    s.trace([0.0, 1.0, 0.0], [0.0, -1.0, 0.0], RAY_REFLECTION, 1);
+    let mut total = RenderStats::default();
+    stats.add_to(&mut total);
+    assert_eq!(
+        (total.camera_rays, total.secondary_rays),
+        (0, 1),
+        "{total:?}"
+    );
+    assert!(total.shadow_rays >= 1, "{total:?}");
+}
 
 /// The deferred mode gives the immediate mode's image, bit for bit, on every layer, and
 /// the same statistics, for groups of one tile, several tiles and the whole frame; an
@@ -590,3 +643,4 @@ fn components_outside_the_first_output_fill_passes_not_beauty() {
         lambert_only.layer("diffuse").unwrap().at(12, 0)
     );
 }
+

@@ -81,7 +81,7 @@ impl Renderer {
         sample: &mut [f32],
         stats: &TileStats,
     ) -> Option<(&Action, Prepared)> {
-        stats.rays.fetch_add(1, Ordering::Relaxed);
+        stats.camera_rays.fetch_add(1, Ordering::Relaxed);
         let em = self.emission * 3;
         let found = self.intersect(ray.o, ray.d);
         let hit = match found {
