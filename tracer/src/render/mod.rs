@@ -7,7 +7,8 @@
 //!
 //! - `setup`: the [`Renderer`]: BVH, components, ray-match actions, compiled shaders
 //!   (`compile` specializes and compiles them);
-//! - `sampler`: where camera samples sit in their pixel and the camera rays;
+//! - `sampler`: the camera rays; `pixel` where camera samples sit (Sobol points through the
+//!   pixel filter); `sobol` the Owen-scrambled Sobol points and the dimension plan;
 //! - `trace`: closest hits (surfaces and emitters), occlusion, the prepared hit;
 //! - `shade`: one shading call at a prepared hit, and secondary radiance;
 //! - `services`: the scene services shaders call back into (trace, occluded, occlusion);
@@ -29,8 +30,9 @@
 //!
 //! # Determinism
 //!
-//! Pixel sample `k` of pixel `(x, y)` sits at a rotated R2 low-discrepancy point (pixel
-//! centres when `spp = 1`) and gets `Fragment::seed = hash(x, y, k)`; secondary rays hash
+//! Pixel sample `k` of pixel `(x, y)` sits at point `k` of an Owen-scrambled Sobol sequence
+//! seeded by the pixel (drawn through the pixel filter; pixel centres when `spp = 1`) and
+//! gets `Fragment::seed = hash(x, y, k)`; secondary rays hash
 //! the parent's seed with the ray type, depth and direction. Nothing depends on which thread
 //! renders a tile, so images are bit-identical for any thread count.
 //!
@@ -59,10 +61,12 @@ mod deferred;
 mod error;
 mod film;
 mod immediate;
+mod pixel;
 mod sampler;
 mod services;
 mod setup;
 mod shade;
+mod sobol;
 mod stats;
 #[cfg(test)]
 mod tests;
@@ -72,8 +76,9 @@ mod trace;
 /// secondary rays carry them on.
 pub use crate::camera::RayDiffs;
 pub use error::RenderError;
-pub use sampler::{hash3, pixel_sample};
+pub use pixel::{hash3, pixel_sample, pixel_seed};
 pub use setup::{DeferredOptions, Renderer, ShadingMode};
+pub use sobol::{Dim, sample1, sample2};
 pub use stats::{RenderStats, StageTimes};
 
 use crate::film::Film;

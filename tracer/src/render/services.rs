@@ -2,7 +2,7 @@
 //! (`occluded`) and ambient occlusion, started from a hit with a robust offset and carrying
 //! its differentials; a batch's services hand each fragment its own. It owns no shading.
 
-use super::sampler::hash3;
+use super::pixel::hash3;
 use super::setup::Renderer;
 use super::stats::{Stage, TileStats};
 use super::trace::{HitDiffs, Prepared, RayState};

@@ -9,6 +9,7 @@ use super::compile::{
     Action, Specialized, action_table, compile_materials, compile_overrides, scene_components,
     shade_envs,
 };
+use super::pixel::PixelSampler;
 use super::stats::RenderStats;
 use crate::accel::Accel;
 use crate::camera::Camera;
@@ -61,6 +62,8 @@ impl Default for DeferredOptions {
 pub struct Renderer {
     pub(super) scene: Scene,
     pub(super) camera: Camera,
+    /// Where camera samples sit: the pixel filter over the sampler's points.
+    pub(super) sampler: PixelSampler,
     pub(super) accel: Accel,
     pub(super) components: Components,
     /// Per instance: lights, camera and object transforms.
@@ -141,10 +144,12 @@ impl Renderer {
         stats.compile_time = t.elapsed();
 
         let camera = Camera::new(&scene.camera);
+        let sampler = PixelSampler::new(scene.settings.filter);
         let envs = shade_envs(&scene);
         Ok(Renderer {
             scene,
             camera,
+            sampler,
             accel,
             components,
             envs,
