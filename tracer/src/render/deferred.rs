@@ -84,7 +84,7 @@ impl Renderer {
         for &(x0, y0, x1, y1) in tiles {
             for y in y0..y1 {
                 for x in x0..x1 {
-                    rays.extend((0..spp).map(|k| self.camera_ray(x, y, k)));
+                    self.camera_rays(x, y, &mut rays);
                 }
             }
         }

@@ -33,7 +33,7 @@ impl Renderer {
         for y in y0..y1 {
             rays.clear();
             for x in x0..x1 {
-                rays.extend((0..spp).map(|k| self.camera_ray(x, y, k)));
+                self.camera_rays(x, y, &mut rays);
             }
             t = stats.lap(Stage::Sample, t);
             samples.iter_mut().for_each(|v| *v = 0.0);

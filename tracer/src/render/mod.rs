@@ -78,7 +78,7 @@ pub use crate::camera::RayDiffs;
 pub use error::RenderError;
 pub use pixel::{hash3, pixel_sample, pixel_seed};
 pub use setup::{DeferredOptions, Renderer, ShadingMode};
-pub use sobol::{Dim, sample1, sample2};
+pub use sobol::{Dim, GroupSeeds, sample1, sample2};
 pub use stats::{RenderStats, StageTimes};
 
 use crate::film::Film;

@@ -2,7 +2,7 @@
 //! [`Dim::Pixel`] group, drawn through the pixel filter) and the per-sample hashes. Pure
 //! arithmetic: it must not trace or shade.
 
-use super::sobol::{Dim, sample2};
+use super::sobol::{Dim, GroupSeeds};
 use crate::scene::{FilterKind, PixelFilter};
 
 /// A 32-bit hash of three words (a counter-based generator: no state).
@@ -32,8 +32,13 @@ pub fn pixel_sample(x: u32, y: u32, k: u32, spp: u32) -> (f32, f32) {
     if spp <= 1 {
         return (0.5, 0.5);
     }
-    let [u, v] = sample2(pixel_seed(x, y), k, Dim::Pixel);
+    let [u, v] = pixel_seeds(x, y).sample2(k);
     (u, v)
+}
+
+/// The seeds of pixel `(x, y)`'s [`Dim::Pixel`] group.
+pub(super) fn pixel_seeds(x: u32, y: u32) -> GroupSeeds {
+    GroupSeeds::new(pixel_seed(x, y), Dim::Pixel)
 }
 
 /// Bins of a tabulated filter's inverse CDF.
@@ -98,11 +103,24 @@ impl PixelSampler {
         (-f64::from(half) + x * 2.0 * f64::from(half)) as f32
     }
 
-    /// Where sample `k` of `spp` of pixel `(x, y)` sits, in continuous pixel coordinates:
-    /// the centre for one sample per pixel; a plain one-pixel box keeps the point inside
-    /// its pixel.
-    pub(super) fn position(&self, x: u32, y: u32, k: u32, spp: u32) -> (f32, f32) {
-        let (u, v) = pixel_sample(x, y, k, spp);
+    /// Where sample `k` of `spp` of pixel `(x, y)` sits, in continuous pixel coordinates
+    /// (`seeds`: the pixel's, [`pixel_seeds`], computed once per pixel by the caller): the
+    /// centre for one sample per pixel; a plain one-pixel box keeps the point inside its
+    /// pixel.
+    pub(super) fn position(
+        &self,
+        x: u32,
+        y: u32,
+        seeds: GroupSeeds,
+        k: u32,
+        spp: u32,
+    ) -> (f32, f32) {
+        let (u, v) = if spp <= 1 {
+            (0.5, 0.5)
+        } else {
+            let [u, v] = seeds.sample2(k);
+            (u, v)
+        };
         if spp <= 1 || (self.cdf.is_empty() && self.filter.width == 1.0) {
             return (x as f32 + u, y as f32 + v);
         }

@@ -53,18 +53,38 @@ const SOBOL1: [u32; 32] = {
     v
 };
 
+/// Sobol dimension 1 by bytes: `SOBOL1_BYTES[j][b]` is the XOR of the generator columns that
+/// the set bits of byte value `b` select at byte `j` of the index (four lookups per point
+/// instead of a 32-step loop: shuffled indices use all 32 bits).
+const SOBOL1_BYTES: [[u32; 256]; 4] = {
+    let mut t = [[0u32; 256]; 4];
+    let mut j = 0;
+    while j < 4 {
+        let mut b = 0;
+        while b < 256 {
+            let mut x = 0u32;
+            let mut bit = 0;
+            while bit < 8 {
+                if b >> bit & 1 != 0 {
+                    x ^= SOBOL1[j * 8 + bit];
+                }
+                bit += 1;
+            }
+            t[j][b] = x;
+            b += 1;
+        }
+        j += 1;
+    }
+    t
+};
+
 /// Sobol dimension 0 (van der Corput: the index's bits reversed) and 1 at `index`.
 fn sobol2(index: u32) -> (u32, u32) {
-    let mut y = 0u32;
-    let mut i = index;
-    let mut bit = 0;
-    while i != 0 {
-        if i & 1 != 0 {
-            y ^= SOBOL1[bit];
-        }
-        i >>= 1;
-        bit += 1;
-    }
+    let [b0, b1, b2, b3] = index.to_le_bytes();
+    let y = SOBOL1_BYTES[0][b0 as usize]
+        ^ SOBOL1_BYTES[1][b1 as usize]
+        ^ SOBOL1_BYTES[2][b2 as usize]
+        ^ SOBOL1_BYTES[3][b3 as usize];
     (index.reverse_bits(), y)
 }
 
@@ -99,16 +119,34 @@ fn unit(x: u32) -> f32 {
     (x >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
 }
 
+/// The seeds of one pixel's 2D group: the index shuffle's and each coordinate's scramble's
+/// (computed once per pixel and group, used for each of its samples).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GroupSeeds([u32; 3]);
+
+impl GroupSeeds {
+    /// The seeds of group `dim` of the pixel whose seed is `pixel_seed`.
+    pub fn new(pixel_seed: u32, dim: Dim) -> GroupSeeds {
+        let seed = mix(pixel_seed, dim.group());
+        GroupSeeds([
+            mix(seed, 0x5348_5546),
+            mix(seed, 0x5843_4f30),
+            mix(seed, 0x5843_4f31),
+        ])
+    }
+
+    /// Sample `index` of the group: a point of [0, 1)².
+    pub fn sample2(self, index: u32) -> [f32; 2] {
+        let [shuffle, sx, sy] = self.0;
+        let (a, b) = sobol2(owen(index, shuffle));
+        [unit(owen(a, sx)), unit(owen(b, sy))]
+    }
+}
+
 /// Sample `index` of the pixel whose seed is `pixel_seed`, in the 2D group `dim`: a point
 /// of [0, 1)².
 pub fn sample2(pixel_seed: u32, index: u32, dim: Dim) -> [f32; 2] {
-    let seed = mix(pixel_seed, dim.group());
-    let i = owen(index, mix(seed, 0x5348_5546)); // shuffle
-    let (a, b) = sobol2(i);
-    [
-        unit(owen(a, mix(seed, 0x5843_4f30))),
-        unit(owen(b, mix(seed, 0x5843_4f31))),
-    ]
+    GroupSeeds::new(pixel_seed, dim).sample2(index)
 }
 
 /// Sample `index` of a pixel in the 1D group `dim` (time, roulette): a value in [0, 1).
@@ -145,6 +183,24 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The byte tables give the generator matrix's product bit for bit.
+    #[test]
+    fn sobol_by_bytes_is_the_matrix_product() {
+        for i in [0u32, 1, 2, 3, 255, 256, 0xdead_beef, u32::MAX, 0x8000_0001] {
+            let mut y = 0u32;
+            for bit in 0..32 {
+                if i >> bit & 1 != 0 {
+                    y ^= SOBOL1[bit];
+                }
+            }
+            assert_eq!(sobol2(i), (i.reverse_bits(), y), "index {i:#x}");
+        }
+        // Dimension 1's first points: 1/2, then 3/4 and 1/4.
+        let unit = |x: u32| x as f64 / 2f64.powi(32);
+        let ys: Vec<f64> = (0..4).map(|i| unit(sobol2(i).1)).collect();
+        assert_eq!(ys, [0.0, 0.5, 0.75, 0.25]);
     }
 
     /// Different pixels and groups get different points; 1D samples stratify too.

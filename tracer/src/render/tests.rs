@@ -698,7 +698,7 @@ fn filter_sampling_follows_the_filter() {
         let n = 4096u32;
         let (mut sum, mut inner) = (0.0f64, 0u32);
         for k in 0..n {
-            let (px, _) = s.position(10, 20, k, n);
+            let (px, _) = s.position(10, 20, super::pixel::pixel_seeds(10, 20), k, n);
             let dx = px - 10.5;
             assert!(dx.abs() <= width / 2.0 + 1e-4, "{kind:?}: {dx}");
             sum += f64::from(dx);
