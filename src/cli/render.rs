@@ -5,6 +5,7 @@ use super::{BackendArg, GpuPassesArg, ThreadsArg, check_extension, parse_res, pr
 use anyhow::{Context, Result, bail};
 use clap::ValueEnum;
 use shadenet::render::{self as r, BackendKind, CompiledMaterial, Files, RenderOptions};
+use shadenet::tracer::render::StageTimes;
 use shadenet::tracer::shader::ShaderBackend;
 use shadenet::tracer::{DeferredOptions, Film, RenderStats, Renderer, ShadingMode};
 use std::path::{Path, PathBuf};
@@ -265,6 +266,17 @@ fn summary(run: &Run, film: &Film, s: &RenderStats) {
         s.shading_calls,
         s.nonfinite
     );
+    let rate = |n: u64| n as f64 / render_s.max(1e-9) / 1e6;
+    say!(
+        "rays by kind: camera {} ({:.2} M/s), shadow {} ({:.2} M/s), secondary {} ({:.2} M/s)",
+        s.camera_rays,
+        rate(s.camera_rays),
+        s.shadow_rays,
+        rate(s.shadow_rays),
+        s.secondary_rays,
+        rate(s.secondary_rays)
+    );
+    say!("{}", stage_split(&s.stages));
     if s.batches > 0 {
         let t = &s.batch_times;
         say!(
@@ -284,4 +296,30 @@ fn summary(run: &Run, film: &Film, s: &RenderStats) {
             t.passes
         );
     }
+}
+
+/// The time split by stage (summed over threads), with each stage's share; the traversal
+/// of shadow and secondary rays is a sampled estimate inside shading.
+fn stage_split(t: &StageTimes) -> String {
+    let total = (t.sample + t.trace + t.shade + t.film)
+        .as_secs_f64()
+        .max(1e-9);
+    let part = |name: &str, d: Duration| {
+        format!(
+            "{name} {:.3} s ({:.0} %)",
+            d.as_secs_f64(),
+            100.0 * d.as_secs_f64() / total
+        )
+    };
+    let nested = t.shadow_trace + t.secondary_trace;
+    format!(
+        "stages (thread time): {}, {}, {} [of which shadow-ray traversal ≈ {:.3} s, secondary-ray traversal ≈ {:.3} s], {}; shading without nested traversal ≈ {:.3} s",
+        part("sample", t.sample),
+        part("trace camera rays", t.trace),
+        part("shade", t.shade),
+        t.shadow_trace.as_secs_f64(),
+        t.secondary_trace.as_secs_f64(),
+        part("film", t.film),
+        t.shade.saturating_sub(nested).as_secs_f64()
+    )
 }

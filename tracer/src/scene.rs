@@ -75,6 +75,8 @@ pub const MAX_OCCLUSION_SAMPLES: u32 = 1 << 16;
 pub const MAX_RESOLUTION: u32 = 16384;
 /// A sphere's `segments`: 3 to this.
 pub const MAX_SEGMENTS: u32 = 4096;
+/// `render.filter_width`, in pixels: above 0, at most this.
+pub const MAX_FILTER_WIDTH: f64 = 16.0;
 
 /// The message for a coordinate beyond [`MAX_COORDINATE`].
 fn out_of_range(x: f64) -> String {
@@ -178,6 +180,12 @@ pub struct RenderSpec {
     /// Tile edge in pixels.
     #[serde(default = "sixteen")]
     pub tile_size: u32,
+    /// The pixel filter: `box` (default), `gaussian` or `blackman-harris`.
+    #[serde(default)]
+    pub filter: Option<String>,
+    /// The pixel filter's full width in pixels (default 1 for `box`, 3 for the others).
+    #[serde(default)]
+    pub filter_width: Option<f64>,
 }
 
 impl Default for RenderSpec {
@@ -193,6 +201,8 @@ impl Default for RenderSpec {
             occlusion_samples: 16,
             occlusion_distance: default_occlusion_distance(),
             tile_size: 16,
+            filter: None,
+            filter_width: None,
         }
     }
 }
@@ -525,6 +535,68 @@ pub struct Settings {
     pub occlusion_distance: f32,
     /// Tile edge.
     pub tile_size: u32,
+    /// The pixel filter camera samples are drawn from.
+    pub filter: PixelFilter,
+}
+
+/// The shape of a pixel filter (`render.filter`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FilterKind {
+    /// Constant over the pixel (`box`): each pixel averages its own samples.
+    Box,
+    /// A Gaussian of standard deviation width/6, cut at ±width/2 (`gaussian`).
+    Gaussian,
+    /// The 4-term Blackman–Harris window over the width (`blackman-harris`).
+    BlackmanHarris,
+}
+
+/// A pixel filter: its shape and full width in pixels. Camera samples are drawn with the
+/// filter's density around the pixel centre (filter importance sampling), so a pixel stays
+/// the plain mean of its own samples.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PixelFilter {
+    /// The shape.
+    pub kind: FilterKind,
+    /// Full width in pixels (the support is ±width/2 around the pixel centre on each axis).
+    pub width: f32,
+}
+
+impl Default for PixelFilter {
+    fn default() -> Self {
+        PixelFilter {
+            kind: FilterKind::Box,
+            width: 1.0,
+        }
+    }
+}
+
+/// `render.filter` and `render.filter_width`, checked.
+fn resolve_filter(cx: &Ctx, r: &RenderSpec) -> Result<PixelFilter, SceneError> {
+    let kind = match r.filter.as_deref() {
+        None | Some("box") => FilterKind::Box,
+        Some("gaussian") => FilterKind::Gaussian,
+        Some("blackman-harris") => FilterKind::BlackmanHarris,
+        Some(other) => {
+            return Err(cx.invalid(
+                "render.filter",
+                format!("unknown filter `{other}`: use box, gaussian or blackman-harris"),
+            ));
+        }
+    };
+    let width = match (r.filter_width, kind) {
+        (Some(w), _) => {
+            if !(w.is_finite() && w > 0.0 && w <= MAX_FILTER_WIDTH) {
+                return Err(cx.invalid(
+                    "render.filter_width",
+                    format!("{w} is out of range: must be above 0 and at most {MAX_FILTER_WIDTH}"),
+                ));
+            }
+            w as f32
+        }
+        (None, FilterKind::Box) => 1.0,
+        (None, _) => 3.0,
+    };
+    Ok(PixelFilter { kind, width })
 }
 
 /// One placed mesh.
@@ -1288,6 +1360,7 @@ fn resolve_settings(cx: &Ctx, r: &RenderSpec) -> Result<Settings, SceneError> {
         occlusion_samples: r.occlusion_samples,
         occlusion_distance: r.occlusion_distance as f32,
         tile_size: r.tile_size,
+        filter: resolve_filter(cx, r)?,
     })
 }
 
@@ -1358,6 +1431,8 @@ mod tests {
             ("[render]\ntile_size = 1025\n".into(), "render.tile_size", "1 to 1024"),
             ("[render]\nocclusion_samples = 65537\n".into(), "render.occlusion_samples", "1 to 65536"),
             ("[render]\nocclusion_distance = 1e39\n".into(), "render.occlusion_distance", "out of range"),
+            ("[render]\nfilter_width = 0\n".into(), "render.filter_width", "out of range"),
+            ("[render]\nfilter = \"tent\"\n".into(), "render.filter", "unknown filter `tent`"),
             ("[[render.rules]]\nray = \"camera\"\ndepth = 65\ncomponents = [\"all\"]\n".into(), "render.rules[0].depth", "0 to 64"),
             ("[meshes.s]\ntype = \"sphere\"\nsegments = 4097\n".into(), "meshes.s.segments", "3 to 4096"),
             ("[[lights]]\ntype = \"point\"\nposition = [0, 1e30, 0]\n".into(), "lights[0].position", "1e30 is outside"),

@@ -1,0 +1,261 @@
+//! The scene services shaders call back into: secondary rays (`trace`), shadow rays
+//! (`occluded`) and ambient occlusion, started from a hit with a robust offset and carrying
+//! its differentials; a batch's services hand each fragment its own. It owns no shading.
+
+use super::pixel::hash3;
+use super::setup::Renderer;
+use super::stats::{Stage, TileStats};
+use super::trace::{HitDiffs, Prepared, RayState};
+use crate::accel::orthonormal;
+use crate::camera::RayDiffs;
+use crate::passes::RayMatch;
+use glam::Vec3;
+use shadenet_graph::ops::math;
+use shadenet_runtime::SceneServices;
+use std::sync::atomic::Ordering;
+
+/// The scene services of one hit: secondary rays start from its point with a robust
+/// offset, and carry its differentials.
+#[derive(Clone, Copy)]
+pub(super) struct HitServices<'a> {
+    pub(super) r: &'a Renderer,
+    pub(super) stats: &'a TileStats,
+    pub(super) p: Vec3,
+    pub(super) ng_facing: Vec3,
+    pub(super) n_facing: Vec3,
+    pub(super) d_in: Vec3,
+    pub(super) diffs: Option<HitDiffs>,
+    pub(super) seed: u32,
+}
+
+impl HitServices<'_> {
+    /// The start of a ray from `origin` towards `dir`: the hit point offset to the side
+    /// `dir` leaves on, when `origin` is the hit point (never for detached services, whose
+    /// point is NaN).
+    pub(super) fn start(&self, origin: Vec3, dir: Vec3) -> Vec3 {
+        let tol = 1e-4 * (1.0 + self.p.abs().max_element());
+        if self.p.is_finite() && (origin - self.p).abs().max_element() <= tol {
+            let side = if dir.dot(self.ng_facing) >= 0.0 {
+                self.ng_facing
+            } else {
+                -self.ng_facing
+            };
+            crate::accel::offset_origin(self.p, side)
+        } else {
+            origin
+        }
+    }
+
+    /// The differentials of a secondary ray leaving this hit along `dir`.
+    pub(super) fn child_diffs(&self, ray: RayMatch, dir: Vec3) -> Option<RayDiffs> {
+        let d = self.diffs?;
+        let n = self.n_facing;
+        let din = self.d_in;
+        let (dddx, dddy) = match ray {
+            // r = d − 2(d·n)n, flat normal: dr = dd − 2(dd·n)n.
+            RayMatch::Reflection => (
+                d.dddx - 2.0 * d.dddx.dot(n) * n,
+                d.dddy - 2.0 * d.dddy.dot(n) * n,
+            ),
+            // Igehy's refraction: dT = η·dD − dμ·n, with η = sinθt / sinθi recovered from the
+            // two directions and dμ = (η − η²(D·n)/(T·n))·d(D·n).
+            RayMatch::Refraction => {
+                let (di, dt) = (din.dot(n), dir.dot(n));
+                let sin_i = din.cross(n).length();
+                let sin_t = dir.cross(n).length();
+                let eta = if sin_i > 1e-6 { sin_t / sin_i } else { 1.0 };
+                let k = if dt.abs() > 1e-6 {
+                    eta - eta * eta * di / dt
+                } else {
+                    0.0
+                };
+                (
+                    eta * d.dddx - k * d.dddx.dot(n) * n,
+                    eta * d.dddy - k * d.dddy.dot(n) * n,
+                )
+            }
+            _ => return None,
+        };
+        let v = RayDiffs {
+            dodx: d.dpdx,
+            dddx,
+            dody: d.dpdy,
+            dddy,
+        };
+        [v.dodx, v.dddx, v.dody, v.dddy]
+            .iter()
+            .all(|x| x.is_finite())
+            .then_some(v)
+    }
+}
+
+impl SceneServices for HitServices<'_> {
+    fn trace(&self, origin: [f32; 3], dir: [f32; 3], ray_type: i32, depth: i32) -> [f32; 3] {
+        let Some(ray) = RayMatch::from_code(ray_type) else {
+            return [0.0; 3];
+        };
+        let depth = depth.max(0) as u32;
+        if ray == RayMatch::Camera || depth > self.r.depth_limit(ray) {
+            return [0.0; 3];
+        }
+        let d = Vec3::from(dir).normalize_or_zero();
+        let o = Vec3::from(origin);
+        if d == Vec3::ZERO || !o.is_finite() {
+            return [0.0; 3];
+        }
+        let state = RayState {
+            o: self.start(o, d),
+            d,
+            ray,
+            depth,
+            seed: hash3(
+                self.seed,
+                (ray_type as u32) << 8 | depth,
+                d.x.to_bits() ^ d.y.to_bits().rotate_left(11) ^ d.z.to_bits().rotate_left(22),
+            ),
+            diffs: self.child_diffs(ray, d),
+        };
+        self.r.radiance(&state, self.stats)
+    }
+
+    fn occluded(&self, from: [f32; 3], to: [f32; 3]) -> bool {
+        let count = self.stats.shadow_rays.fetch_add(1, Ordering::Relaxed);
+        let (from, to) = (Vec3::from(from), Vec3::from(to));
+        let v = to - from;
+        let dist = v.length();
+        if !(dist.is_finite() && dist > 0.0) {
+            return false;
+        }
+        let d = v / dist;
+        let o = self.start(from, d);
+        // Stop just short of the light sample so the light's own surface never blocks it.
+        let tmax = (to - o).length() * (1.0 - 1e-4);
+        let accel = &self.r.accel;
+        self.stats
+            .sampled(Stage::ShadowTrace, count, || accel.occluded(o, d, tmax))
+    }
+
+    fn occlusion(
+        &self,
+        p: [f32; 3],
+        n: [f32; 3],
+        samples: u32,
+        max_distance: f32,
+        seed: u32,
+    ) -> f32 {
+        let n = Vec3::from(n).normalize_or_zero();
+        let p = Vec3::from(p);
+        if n == Vec3::ZERO || samples == 0 || !p.is_finite() {
+            return 1.0;
+        }
+        let (t, b) = orthonormal(n);
+        let o = self.start(p, n);
+        let max_distance = if max_distance > 0.0 {
+            max_distance
+        } else {
+            0.0
+        };
+        let mut open = 0u32;
+        for k in 0..samples {
+            // Cosine-weighted (Malley): uniform on the disk, projected up.
+            let [u1, u2] = shadenet_runtime::lights::random2(seed, 0x0cc1_u32, k);
+            let r = u1.sqrt() as f32;
+            let phi = (2.0 * std::f64::consts::PI * u2) as f32;
+            let z = (1.0 - u1).max(0.0).sqrt() as f32;
+            let d = (t * (r * math::cos_f32(phi)) + b * (r * math::sin_f32(phi)) + n * z)
+                .normalize_or_zero();
+            let count = self.stats.shadow_rays.fetch_add(1, Ordering::Relaxed);
+            let accel = &self.r.accel;
+            let hit = self.stats.sampled(Stage::ShadowTrace, count, || {
+                accel.occluded(o, d, max_distance)
+            });
+            if !hit {
+                open += 1;
+            }
+        }
+        open as f32 / samples as f32
+    }
+}
+
+/// The scene services of a batch (see the module documentation): fragment `i`'s own
+/// services through [`SceneServices::fragment`]; a direct call (a ray that belongs to no
+/// fragment of the batch) gets detached services: the ray starts where asked, with a seed
+/// hashed from the origin and no differentials.
+pub(super) struct BatchServices<'a> {
+    pub(super) hits: Vec<HitServices<'a>>,
+}
+
+impl<'a> BatchServices<'a> {
+    /// Services for a ray from `origin` that belongs to no fragment.
+    pub(super) fn detached(&self, origin: [f32; 3]) -> HitServices<'a> {
+        HitServices {
+            p: Vec3::NAN,
+            ng_facing: Vec3::ZERO,
+            n_facing: Vec3::ZERO,
+            d_in: Vec3::ZERO,
+            diffs: None,
+            seed: hash3(
+                origin[0].to_bits(),
+                origin[1].to_bits(),
+                origin[2].to_bits(),
+            ),
+            ..self.hits[0]
+        }
+    }
+}
+
+impl SceneServices for BatchServices<'_> {
+    fn trace(&self, origin: [f32; 3], dir: [f32; 3], ray_type: i32, depth: i32) -> [f32; 3] {
+        self.detached(origin).trace(origin, dir, ray_type, depth)
+    }
+
+    fn occluded(&self, from: [f32; 3], to: [f32; 3]) -> bool {
+        self.detached(from).occluded(from, to)
+    }
+
+    fn occlusion(
+        &self,
+        p: [f32; 3],
+        n: [f32; 3],
+        samples: u32,
+        max_distance: f32,
+        seed: u32,
+    ) -> f32 {
+        self.detached(p)
+            .occlusion(p, n, samples, max_distance, seed)
+    }
+
+    fn fragment(&self, index: usize) -> Option<&dyn SceneServices> {
+        self.hits.get(index).map(|h| h as &dyn SceneServices)
+    }
+}
+
+impl Renderer {
+    pub(super) fn services<'a>(
+        &'a self,
+        ray: &RayState,
+        prep: &Prepared,
+        stats: &'a TileStats,
+    ) -> HitServices<'a> {
+        HitServices {
+            r: self,
+            stats,
+            p: prep.surface.p,
+            ng_facing: prep.ng_facing,
+            n_facing: prep.n_facing,
+            d_in: ray.d,
+            diffs: prep.diffs,
+            seed: ray.seed,
+        }
+    }
+
+    pub(super) fn depth_limit(&self, ray: RayMatch) -> u32 {
+        let s = &self.scene.settings;
+        match ray {
+            RayMatch::Camera => 0,
+            RayMatch::Reflection => s.max_reflection_depth,
+            RayMatch::Refraction => s.max_refraction_depth,
+            RayMatch::Diffuse => s.max_diffuse_depth,
+        }
+    }
+}
