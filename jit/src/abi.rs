@@ -14,9 +14,11 @@
 //! - **memory**: `unsafe extern "C" fn(ctx, imm, args, out)`: the arguments are floats (ints
 //!   as their bits) in a stack slot, the results are written to another; `imm` is an
 //!   immediate (a texture or light index). Batch (`_x4`) versions take structure-of-arrays
-//!   slots, four lanes per component, and loop over the lanes in Rust.
+//!   slots, four lanes per component, and loop over the lanes in Rust — or, where a helper
+//!   has a four-lane form (`noise3`, `fbm3`: `ops::noise_x4`, SIMD with the scalar bits),
+//!   call that once per packet (`=> name` in the table below).
 
-use shadenet_graph::ops::{self, noise, osl_noise};
+use shadenet_graph::ops::{self, noise, noise_x4, osl_noise};
 use shadenet_runtime::ctx::{Fragment, SceneServices, ShadeEnv};
 use shadenet_runtime::interp;
 use shadenet_runtime::lights;
@@ -230,6 +232,15 @@ fn noise3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
 }
 fn fbm3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
     o[0] = noise::fbm3([a[0], a[1], a[2]], a[3].to_bits() as i32, a[4], a[5]);
+}
+/// The batch form of `noise3`: four lanes at once (`ops::noise_x4`, the scalar bits).
+fn noise3_x4(a: &[[f32; LANES]; 3], o: &mut [[f32; LANES]; 1]) {
+    o[0] = noise_x4::noise3_x4(*a);
+}
+/// The batch form of `fbm3`: four lanes at once, per-lane octaves, lacunarity and gain.
+fn fbm3_x4(a: &[[f32; LANES]; 6], o: &mut [[f32; LANES]; 1]) {
+    let octaves = a[3].map(|x| x.to_bits() as i32);
+    o[0] = noise_x4::fbm3_x4([a[0], a[1], a[2]], octaves, a[4], a[5]);
 }
 fn cellnoise3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
     o[0] = noise::cellnoise3([a[0], a[1], a[2]]);
@@ -464,8 +475,28 @@ unsafe fn call_batch<const A: usize, const O: usize>(
     }
 }
 
+macro_rules! batch_fn {
+    ($name:ident, $args:literal, $outs:literal) => {
+        pub unsafe extern "C" fn batch(c: *const CallCtx, i: u32, a: *const f32, o: *mut f32) {
+            // SAFETY: forwarded from compiled code, see `call_batch`.
+            unsafe { call_batch::<$args, $outs>(super::super::$name, c, i, a, o) }
+        }
+    };
+    ($name:ident, $args:literal, $outs:literal, $batch:ident) => {
+        pub unsafe extern "C" fn batch(_: *const CallCtx, _: u32, a: *const f32, o: *mut f32) {
+            // SAFETY: compiled code passes `A * 4` readable and `O * 4` writable floats.
+            unsafe {
+                super::super::$batch(
+                    &*(a as *const [[f32; LANES]; $args]),
+                    &mut *(o as *mut [[f32; LANES]; $outs]),
+                )
+            }
+        }
+    };
+}
+
 macro_rules! mem_helpers {
-    ($($name:ident: $args:literal -> $outs:literal),* $(,)?) => {
+    ($($name:ident: $args:literal -> $outs:literal $(=> $batch:ident)?),* $(,)?) => {
         mod mem {
             use super::*;
             $(
@@ -475,10 +506,7 @@ macro_rules! mem_helpers {
                         // SAFETY: forwarded from compiled code, see `call_scalar`.
                         unsafe { call_scalar::<$args, $outs>(super::super::$name, c, i, a, o) }
                     }
-                    pub unsafe extern "C" fn batch(c: *const CallCtx, i: u32, a: *const f32, o: *mut f32) {
-                        // SAFETY: forwarded from compiled code, see `call_batch`.
-                        unsafe { call_batch::<$args, $outs>(super::super::$name, c, i, a, o) }
-                    }
+                    batch_fn!($name, $args, $outs $(, $batch)?);
                 }
             )*
         }
@@ -497,8 +525,8 @@ macro_rules! mem_helpers {
 
 mem_helpers! {
     noise2: 2 -> 1,
-    noise3: 3 -> 1,
-    fbm3: 6 -> 1,
+    noise3: 3 -> 1 => noise3_x4,
+    fbm3: 6 -> 1 => fbm3_x4,
     cellnoise3: 3 -> 1,
     rgb_to_hsv: 3 -> 3,
     hsv_to_rgb: 3 -> 3,

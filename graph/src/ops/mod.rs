@@ -16,6 +16,7 @@
 
 pub mod math;
 pub mod noise;
+pub mod noise_x4;
 pub mod osl_noise;
 
 use crate::ir::{BinOp, Intrinsic, UnOp, XformKind};
