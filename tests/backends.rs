@@ -551,7 +551,7 @@ fn inputs(ty: Type) -> Option<(&'static str, &'static str)> {
         Type::Color4 => ("%pc4", "%nc4"),
         Type::Int => ("%k", "%m"),
         Type::Bool => ("%q", "%r"),
-        Type::Matrix44 | Type::String => return None,
+        Type::Matrix33 | Type::Matrix44 | Type::String => return None,
     })
 }
 

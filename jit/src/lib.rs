@@ -21,8 +21,8 @@
 //! bit-identical to `shadenet_graph::ops` (see [`lower`]). Only the scalar entry sees the
 //! renderer's scene (`ShadeCtx::scene`); the batch entry shades as without one.
 //!
-//! An op this back end cannot compile (today: a matrix44 value computed per fragment, which
-//! the IR allows but no node produces) makes [`JitBackend`] fall back to the interpreter for
+//! Matrices are values like vectors (9 or 16 components, row-major), constant, uniform or
+//! per fragment. An op this back end cannot compile makes [`JitBackend`] fall back to the interpreter for
 //! that material, saying once which op and why; it never panics on a valid program.
 //!
 //! It must not touch: the IR, the op semantics or the optimizer (`shadenet-graph`), the
@@ -388,6 +388,7 @@ fn const_bits(c: &ConstValue) -> Vec<u32> {
         ConstValue::Vec2(v) => v.iter().map(f).collect(),
         ConstValue::Vec3(v) | ConstValue::Color(v) => v.iter().map(f).collect(),
         ConstValue::Vec4(v) | ConstValue::Color4(v) => v.iter().map(f).collect(),
+        ConstValue::Matrix33(m) => m.iter().map(f).collect(),
         ConstValue::Matrix44(m) => m.iter().map(f).collect(),
     }
 }

@@ -200,7 +200,7 @@ impl<F: Real> Val<F> {
             Type::Vec2 => Val::Vec2([F::ZERO; 2]),
             Type::Vec3 | Type::Color => Val::Vec3([F::ZERO; 3]),
             Type::Vec4 | Type::Color4 => Val::Vec4([F::ZERO; 4]),
-            Type::Matrix44 => Val::Mat(0),
+            Type::Matrix33 | Type::Matrix44 => Val::Mat(0),
         }
     }
 
@@ -215,7 +215,7 @@ impl<F: Real> Val<F> {
             ConstValue::Vec2(v) => Val::Vec2([f(v[0]), f(v[1])]),
             ConstValue::Vec3(v) | ConstValue::Color(v) => Val::Vec3([f(v[0]), f(v[1]), f(v[2])]),
             ConstValue::Vec4(v) | ConstValue::Color4(v) => Val::Vec4(v.map(f)),
-            ConstValue::Matrix44(_) => Val::Mat(0),
+            ConstValue::Matrix33(_) | ConstValue::Matrix44(_) => Val::Mat(0),
             ConstValue::String(_) => Val::Int(0),
         }
     }
