@@ -169,9 +169,10 @@ macro_rules! impl_real {
 impl_real!(f32, single);
 impl_real!(f64, double);
 
-/// A runtime value. Matrices are not carried in registers: a matrix-typed value is
-/// `Mat(i)`, an index into the evaluator's matrix table (matrices are only ever constant or
-/// uniform).
+/// A runtime value. Matrices are not carried in registers (they would make every register
+/// four times larger): a matrix-typed value is `Mat(i)`, an index into the evaluator's matrix
+/// tables (constants and parameters, and the matrices the program constructs: see the
+/// interpreter).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Val<F> {
     /// A bool.
