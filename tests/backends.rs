@@ -885,6 +885,68 @@ fn regions_and_scene_intrinsics() {
     }
 }
 
+/// Matrices as values: one constructed in the prelude from a parameter, one per fragment
+/// from the streams, chosen per fragment by a select and by an `if`, read by extract and
+/// mulpoint, and written as matrix33 and matrix44 outputs.
+#[test]
+fn matrices() {
+    let env = env();
+    let frags = hard_fragments();
+    let text = r#"program "matrices" {
+  param "m" matrix44 = (1.0, 0.0, 0.0, 2.0, 0.0, 1.0, 0.0, -3.0, 0.0, 0.0, 1.0, 0.5, 0.0, 0.0, 0.0, 1.0)
+  param "s" float = 0.5
+  prelude {
+    %pm = param 0 : matrix44
+    %s = param 1 : float
+    %m00 = extract %pm, 0 : float
+    %ps = mul %m00, %s : float
+    %z = const 0.0 : float
+    %scale = construct %ps, %z, %z, %z, %ps, %z, %z, %z, %ps : matrix33
+  }
+  %p = stream P : vec3
+  %n = stream N : vec3
+  %px = extract %p, 0 : float
+  %py = extract %p, 1 : float
+  %pz = extract %p, 2 : float
+  %nx = extract %n, 0 : float
+  %ny = extract %n, 1 : float
+  %nz = extract %n, 2 : float
+  %one = const 1.0 : float
+  %zero = const 0.0 : float
+  %vm = construct %px, %py, %pz, %nx, %ny, %nz, %py, %pz, %one : matrix33
+  %big = construct %px, %py, %pz, %nx, %ny, %nz, %zero, %one, %pz, %px, %one, %zero, %zero, %zero, %zero, %one : matrix44
+  %c = gt %px, %py : bool
+  %pick = select %c, %vm, %scale : matrix33
+  %i44 = if %c {
+    yield %big
+  } else {
+    yield %pm
+  }
+  %sel44 = proj %i44, 0 : matrix44
+  %e = extract %pick, 4 : float
+  %q = mulpoint %sel44, %n : vec3
+  %r = mulpoint %pm, %p : vec3
+  output pick %pick
+  output sel %sel44
+  output e %e
+  output q %q
+  output r %r
+  output scale %scale
+}
+"#;
+    let p = parse(text).unwrap();
+    check_program("matrices", &p, &env, u32::MAX, &frags, Class::Exact);
+    let (o, _) = opt::run(&p, &Specialization::default());
+    check_program(
+        "matrices (optimized)",
+        &o,
+        &env,
+        u32::MAX,
+        &frags,
+        Class::Exact,
+    );
+}
+
 #[test]
 fn textures() {
     let dir = std::env::temp_dir().join(format!("shadenet-backends-{}", std::process::id()));
