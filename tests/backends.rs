@@ -1276,22 +1276,26 @@ fn random_programs() {
 
 // ---- the back-end contract ----
 
-/// A matrix computed per fragment is valid IR the JIT does not compile: it falls back to the
-/// interpreter for that material, says which op and why, and gives the interpreter's
-/// results; with fallback off it is an error, never a panic.
+/// An op the JIT does not compile (every op of a valid program compiles since matrices are
+/// values: `JitOptions::refuse` makes one unsupported) makes it fall back to the interpreter
+/// for that material, say which op and why, and give the interpreter's results; with
+/// fallback off it is an error, never a panic. Without the refusal the same program (a
+/// matrix chosen per fragment, once the JIT's gap) compiles and agrees bit for bit.
 #[test]
 fn unsupported_op_falls_back_to_the_interpreter() {
     let text = "program \"mat\" {\n  %p = stream P : vec3\n  %a = extract %p, 0 : float\n  %z = const 0.0 : float\n  %q = lt %a, %z : bool\n  %m1 = const (1.0, 0.0, 0.0, 0.5, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0) : matrix44\n  %m2 = const (2.0, 0.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 1.0) : matrix44\n  %m = select %q, %m1, %m2 : matrix44\n  %x = mulpoint %m, %p : vec3\n  output r %x\n}\n";
     let p = parse(text).unwrap();
     shadenet_graph::ir::validate(&p).unwrap();
+    let refuse = vec!["select".to_string()];
     let quiet = JitBackend::with_options(JitOptions {
         log_fallback: false,
+        refuse: refuse.clone(),
         ..JitOptions::default()
     });
     let m = quiet.compile_program(&p, Duration::ZERO).unwrap();
     let why = m.info().fallback.clone().expect("a fallback");
     assert_eq!(m.info().backend, "interp");
-    assert!(why.contains("select") && why.contains("matrix44"), "{why}");
+    assert!(why.contains("select") && why.contains("refused"), "{why}");
     let frags = hard_fragments();
     let env = env();
     let reference = InterpBackend.compile_program(&p, Duration::ZERO).unwrap();
@@ -1301,7 +1305,11 @@ fn unsupported_op_falls_back_to_the_interpreter() {
         a.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
         b.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
     );
-    let strict = jit(OptLevel::Auto);
+    let strict = JitBackend::with_options(JitOptions {
+        fallback: false,
+        refuse,
+        ..JitOptions::default()
+    });
     let err = strict
         .compile_program(&p, Duration::ZERO)
         .err()
@@ -1310,6 +1318,16 @@ fn unsupported_op_falls_back_to_the_interpreter() {
     assert!(
         err.contains("select") && err.contains("not supported"),
         "{err}"
+    );
+    let full = jit(OptLevel::Auto)
+        .compile_program(&p, Duration::ZERO)
+        .unwrap();
+    assert_eq!(full.info().backend, "jit");
+    assert!(full.info().fallback.is_none());
+    let (c, _) = shade_all(&*full, Drive::Batch, &env, u32::MAX, &frags);
+    assert_eq!(
+        c.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+        b.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
     );
 }
 

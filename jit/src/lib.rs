@@ -22,7 +22,8 @@
 //! renderer's scene (`ShadeCtx::scene`); the batch entry shades as without one.
 //!
 //! Matrices are values like vectors (9 or 16 components, row-major), constant, uniform or
-//! per fragment. An op this back end cannot compile makes [`JitBackend`] fall back to the interpreter for
+//! per fragment: every op of a valid program compiles. An op this back end cannot compile
+//! (today only one refused by [`JitOptions::refuse`], which tests use) makes [`JitBackend`] fall back to the interpreter for
 //! that material, saying once which op and why; it never panics on a valid program.
 //!
 //! It must not touch: the IR, the op semantics or the optimizer (`shadenet-graph`), the
@@ -40,7 +41,7 @@ use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::{JITBuilder, JITModule};
 use cranelift_module::{Linkage, Module, default_libcall_names};
 use lower::{Helpers, Lowerer, Mode, UniformLayout, Unsupported};
-use shadenet_graph::ir::Program;
+use shadenet_graph::ir::{Program, Value};
 use shadenet_graph::opt::{self, Specialization};
 use shadenet_graph::types::ConstValue;
 use shadenet_runtime::backend::{CompileStats, FragmentX4, LANES, Material, MaterialInfo};
@@ -81,6 +82,11 @@ pub struct JitOptions {
     pub fallback: bool,
     /// Print one line on standard error when falling back.
     pub log_fallback: bool,
+    /// Ops (by their short name, as `Op::short_name` gives it: `select`, `construct`…) to
+    /// treat as not supported: the fallback path for every valid program is otherwise
+    /// unreachable (the JIT compiles every op), so tests use this to exercise it. Empty by
+    /// default.
+    pub refuse: Vec<String>,
 }
 
 impl Default for JitOptions {
@@ -91,6 +97,7 @@ impl Default for JitOptions {
             opt: OptLevel::Auto,
             fallback: true,
             log_fallback: true,
+            refuse: Vec::new(),
         }
     }
 }
@@ -400,6 +407,16 @@ fn compile(
     speed: bool,
     want_clif: bool,
 ) -> Result<(JitMaterial, String), Fail> {
+    if let Some(v) = (0..program.exprs.len()).map(Value::new).find(|v| {
+        let name = program.op(*v).short_name();
+        options.refuse.iter().any(|r| *r == name)
+    }) {
+        return Err(Fail::Unsupported(Unsupported {
+            value: v,
+            op: format!("{v:?} = {}", program.op(v).short_name()),
+            reason: "refused by JitOptions::refuse".into(),
+        }));
+    }
     let textures = TextureSet::load(&program.textures).map_err(Fail::Texture)?;
     let isa = isa(speed).map_err(Fail::Codegen)?;
     let cg = |e: cranelift_module::ModuleError| Fail::Codegen(format!("{e:?}"));
