@@ -407,10 +407,10 @@ fn compile(
     speed: bool,
     want_clif: bool,
 ) -> Result<(JitMaterial, String), Fail> {
-    if let Some(v) = (0..program.exprs.len()).map(Value::new).find(|v| {
-        let name = program.op(*v).short_name();
-        options.refuse.iter().any(|r| *r == name)
-    }) {
+    if let Some(v) = (0..program.exprs.len())
+        .map(Value::new)
+        .find(|v| options.refuse.contains(&program.op(*v).short_name()))
+    {
         return Err(Fail::Unsupported(Unsupported {
             value: v,
             op: format!("{v:?} = {}", program.op(v).short_name()),
