@@ -225,7 +225,8 @@ impl<F: Real> Interpreter<F> {
         &self.prelude
     }
 
-    /// The matrix table: constants and parameters of type matrix44, row-major.
+    /// The matrix table, row-major: constants and parameters of a matrix type, then the
+    /// matrices the prelude constructs (a matrix33 in the first 9 elements).
     pub fn matrices(&self) -> &[[F; 16]] {
         &self.mats
     }
