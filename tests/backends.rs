@@ -551,7 +551,7 @@ fn inputs(ty: Type) -> Option<(&'static str, &'static str)> {
         Type::Color4 => ("%pc4", "%nc4"),
         Type::Int => ("%k", "%m"),
         Type::Bool => ("%q", "%r"),
-        Type::Matrix44 | Type::String => return None,
+        Type::Matrix33 | Type::Matrix44 | Type::String => return None,
     })
 }
 
@@ -920,6 +920,68 @@ fn regions_and_scene_intrinsics() {
     }
 }
 
+/// Matrices as values: one constructed in the prelude from a parameter, one per fragment
+/// from the streams, chosen per fragment by a select and by an `if`, read by extract and
+/// mulpoint, and written as matrix33 and matrix44 outputs.
+#[test]
+fn matrices() {
+    let env = env();
+    let frags = hard_fragments();
+    let text = r#"program "matrices" {
+  param "m" matrix44 = (1.0, 0.0, 0.0, 2.0, 0.0, 1.0, 0.0, -3.0, 0.0, 0.0, 1.0, 0.5, 0.0, 0.0, 0.0, 1.0)
+  param "s" float = 0.5
+  prelude {
+    %pm = param 0 : matrix44
+    %s = param 1 : float
+    %m00 = extract %pm, 0 : float
+    %ps = mul %m00, %s : float
+    %z = const 0.0 : float
+    %scale = construct %ps, %z, %z, %z, %ps, %z, %z, %z, %ps : matrix33
+  }
+  %p = stream P : vec3
+  %n = stream N : vec3
+  %px = extract %p, 0 : float
+  %py = extract %p, 1 : float
+  %pz = extract %p, 2 : float
+  %nx = extract %n, 0 : float
+  %ny = extract %n, 1 : float
+  %nz = extract %n, 2 : float
+  %one = const 1.0 : float
+  %zero = const 0.0 : float
+  %vm = construct %px, %py, %pz, %nx, %ny, %nz, %py, %pz, %one : matrix33
+  %big = construct %px, %py, %pz, %nx, %ny, %nz, %zero, %one, %pz, %px, %one, %zero, %zero, %zero, %zero, %one : matrix44
+  %c = gt %px, %py : bool
+  %pick = select %c, %vm, %scale : matrix33
+  %i44 = if %c {
+    yield %big
+  } else {
+    yield %pm
+  }
+  %sel44 = proj %i44, 0 : matrix44
+  %e = extract %pick, 4 : float
+  %q = mulpoint %sel44, %n : vec3
+  %r = mulpoint %pm, %p : vec3
+  output pick %pick
+  output sel %sel44
+  output e %e
+  output q %q
+  output r %r
+  output scale %scale
+}
+"#;
+    let p = parse(text).unwrap();
+    check_program("matrices", &p, &env, u32::MAX, &frags, Class::Exact);
+    let (o, _) = opt::run(&p, &Specialization::default());
+    check_program(
+        "matrices (optimized)",
+        &o,
+        &env,
+        u32::MAX,
+        &frags,
+        Class::Exact,
+    );
+}
+
 #[test]
 fn textures() {
     let dir = std::env::temp_dir().join(format!("shadenet-backends-{}", std::process::id()));
@@ -1249,22 +1311,26 @@ fn random_programs() {
 
 // ---- the back-end contract ----
 
-/// A matrix computed per fragment is valid IR the JIT does not compile: it falls back to the
-/// interpreter for that material, says which op and why, and gives the interpreter's
-/// results; with fallback off it is an error, never a panic.
+/// An op the JIT does not compile (every op of a valid program compiles since matrices are
+/// values: `JitOptions::refuse` makes one unsupported) makes it fall back to the interpreter
+/// for that material, say which op and why, and give the interpreter's results; with
+/// fallback off it is an error, never a panic. Without the refusal the same program (a
+/// matrix chosen per fragment, once the JIT's gap) compiles and agrees bit for bit.
 #[test]
 fn unsupported_op_falls_back_to_the_interpreter() {
     let text = "program \"mat\" {\n  %p = stream P : vec3\n  %a = extract %p, 0 : float\n  %z = const 0.0 : float\n  %q = lt %a, %z : bool\n  %m1 = const (1.0, 0.0, 0.0, 0.5, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0) : matrix44\n  %m2 = const (2.0, 0.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 1.0) : matrix44\n  %m = select %q, %m1, %m2 : matrix44\n  %x = mulpoint %m, %p : vec3\n  output r %x\n}\n";
     let p = parse(text).unwrap();
     shadenet_graph::ir::validate(&p).unwrap();
+    let refuse = vec!["select".to_string()];
     let quiet = JitBackend::with_options(JitOptions {
         log_fallback: false,
+        refuse: refuse.clone(),
         ..JitOptions::default()
     });
     let m = quiet.compile_program(&p, Duration::ZERO).unwrap();
     let why = m.info().fallback.clone().expect("a fallback");
     assert_eq!(m.info().backend, "interp");
-    assert!(why.contains("select") && why.contains("matrix44"), "{why}");
+    assert!(why.contains("select") && why.contains("refused"), "{why}");
     let frags = hard_fragments();
     let env = env();
     let reference = InterpBackend.compile_program(&p, Duration::ZERO).unwrap();
@@ -1274,7 +1340,11 @@ fn unsupported_op_falls_back_to_the_interpreter() {
         a.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
         b.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
     );
-    let strict = jit(OptLevel::Auto);
+    let strict = JitBackend::with_options(JitOptions {
+        fallback: false,
+        refuse,
+        ..JitOptions::default()
+    });
     let err = strict
         .compile_program(&p, Duration::ZERO)
         .err()
@@ -1283,6 +1353,16 @@ fn unsupported_op_falls_back_to_the_interpreter() {
     assert!(
         err.contains("select") && err.contains("not supported"),
         "{err}"
+    );
+    let full = jit(OptLevel::Auto)
+        .compile_program(&p, Duration::ZERO)
+        .unwrap();
+    assert_eq!(full.info().backend, "jit");
+    assert!(full.info().fallback.is_none());
+    let (c, _) = shade_all(&*full, Drive::Batch, &env, u32::MAX, &frags);
+    assert_eq!(
+        c.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+        b.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
     );
 }
 

@@ -605,3 +605,187 @@ fn noise_nodes_are_osl_and_materialx_noise() {
     .unwrap();
     assert_close(&v, &[o::cell3(p)], 1e-12, "cellnoise3d");
 }
+
+/// A matrix node `node` on the MaterialX matrix33 A (determinant 1; its inverse has integer
+/// entries) followed by an `extract` of row `row`: `wrap` gives the node's XML with `{A}`.
+fn row_of(node_xml: &str, ty: &str, row: i32) -> Vec<f64> {
+    let vty = if ty == "matrix33" {
+        "vector3"
+    } else {
+        "vector4"
+    };
+    let body = format!(
+        r#"{node_xml}
+           <extract name="e" type="{vty}"><input name="in" type="{ty}" nodename="m"/>
+             <input name="index" type="integer" value="{row}"/></extract>
+           <output name="out" type="{vty}" nodename="e"/>"#
+    );
+    eval(&body, [0.5, 0.5]).expect("libraries checked by the caller")
+}
+
+const A: &str = "1,2,3, 0,1,4, 5,6,0";
+
+#[test]
+fn matrix_atoms_match_their_formulas() {
+    // det A = 1·(0−24) − 2·(0−20) + 3·(0−5) = 1.
+    let Some(v) = eval(
+        &format!(
+            r#"<determinant name="d" type="float"><input name="in" type="matrix33" value="{A}"/></determinant>
+               <output name="out" type="float" nodename="d"/>"#
+        ),
+        [0.5, 0.5],
+    ) else {
+        return;
+    };
+    assert_close(&v, &[1.0], 0.0, "determinant");
+    let m = |xml: &str| xml.replace("{A}", A);
+    // A⁻¹ = ((−24, 18, 5), (20, −15, −4), (−5, 4, 1)), rows as MaterialX writes them.
+    let inv = m(
+        r#"<invertmatrix name="m" type="matrix33"><input name="in" type="matrix33" value="{A}"/></invertmatrix>"#,
+    );
+    assert_close(
+        &row_of(&inv, "matrix33", 1),
+        &[20.0, -15.0, -4.0],
+        0.0,
+        "inverse row 1",
+    );
+    // extract: an index past the last row gives the last row (mx_extract_matrix33).
+    assert_close(
+        &row_of(&inv, "matrix33", 7),
+        &[-5.0, 4.0, 1.0],
+        0.0,
+        "row 7 → last",
+    );
+    // multiply is A·B: B swaps columns 0 and 1 (B·A would swap rows).
+    let mul = m(
+        r#"<multiply name="m" type="matrix33"><input name="in1" type="matrix33" value="{A}"/>
+             <input name="in2" type="matrix33" value="0,1,0, 1,0,0, 0,0,1"/></multiply>"#,
+    );
+    assert_close(
+        &row_of(&mul, "matrix33", 0),
+        &[2.0, 1.0, 3.0],
+        0.0,
+        "A·B row 0",
+    );
+    // divide is A·B⁻¹: A / A = identity.
+    let div = m(
+        r#"<divide name="m" type="matrix33"><input name="in1" type="matrix33" value="{A}"/>
+             <input name="in2" type="matrix33" value="{A}"/></divide>"#,
+    );
+    assert_close(
+        &row_of(&div, "matrix33", 2),
+        &[0.0, 0.0, 1.0],
+        0.0,
+        "A / A row 2",
+    );
+    let tr = m(
+        r#"<transpose name="m" type="matrix33"><input name="in" type="matrix33" value="{A}"/></transpose>"#,
+    );
+    assert_close(
+        &row_of(&tr, "matrix33", 0),
+        &[1.0, 0.0, 5.0],
+        0.0,
+        "transpose row 0",
+    );
+    let add = m(
+        r#"<add name="m" type="matrix33"><input name="in1" type="matrix33" value="{A}"/>
+             <input name="in2" type="float" value="1"/></add>"#,
+    );
+    assert_close(
+        &row_of(&add, "matrix33", 0),
+        &[2.0, 3.0, 4.0],
+        0.0,
+        "A + 1 row 0",
+    );
+    let sub = m(
+        r#"<subtract name="m" type="matrix33"><input name="in1" type="matrix33" value="{A}"/>
+             <input name="in2" type="matrix33" value="{A}"/></subtract>"#,
+    );
+    assert_close(&row_of(&sub, "matrix33", 1), &[0.0; 3], 0.0, "A − A row 1");
+    // A singular matrix inverts to the zero matrix (adj/det with the total division).
+    let sing = r#"<invertmatrix name="m" type="matrix33"><input name="in" type="matrix33" value="1,2,3, 2,4,6, 0,0,1"/></invertmatrix>"#;
+    assert_close(
+        &row_of(sing, "matrix33", 0),
+        &[0.0; 3],
+        0.0,
+        "singular inverse",
+    );
+    // transformmatrix is v·M (MaterialX row vectors): (1,1,1)·A = the sum of A's rows.
+    let v = eval(
+        &m(r#"<transformmatrix name="t" type="vector3"><input name="in" type="vector3" value="1,1,1"/>
+             <input name="mat" type="matrix33" value="{A}"/></transformmatrix>
+           <output name="out" type="vector3" nodename="t"/>"#),
+        [0.5, 0.5],
+    )
+    .unwrap();
+    assert_close(&v, &[6.0, 9.0, 7.0], 0.0, "vector3 · A");
+    // vector2 by a matrix33: the point (x, y, 1), translation in the last row.
+    let v = eval(
+        r#"<transformmatrix name="t" type="vector2"><input name="in" type="vector2" value="1,2"/>
+             <input name="mat" type="matrix33" value="1,0,0, 0,1,0, 5,6,1"/></transformmatrix>
+           <output name="out" type="vector2" nodename="t"/>"#,
+        [0.5, 0.5],
+    )
+    .unwrap();
+    assert_close(&v, &[6.0, 8.0], 0.0, "vector2 · M3 (a point)");
+}
+
+#[test]
+fn matrix44_atoms_match_their_formulas() {
+    // creatematrix from vector3 rows: w = 0, and 1 for the fourth (the translation) row.
+    let create = r#"<creatematrix name="m" type="matrix44" nodedef="ND_creatematrix_vector3_matrix44">
+             <input name="in1" type="vector3" value="2,0,0"/><input name="in2" type="vector3" value="0,3,0"/>
+             <input name="in3" type="vector3" value="0,0,4"/><input name="in4" type="vector3" value="10,20,30"/></creatematrix>"#;
+    let Some(v) = eval(
+        &format!(
+            r#"{create}
+               <transformmatrix name="t" type="vector3"><input name="in" type="vector3" value="1,1,1"/>
+                 <input name="mat" type="matrix44" nodename="m"/></transformmatrix>
+               <output name="out" type="vector3" nodename="t"/>"#
+        ),
+        [0.5, 0.5],
+    ) else {
+        return;
+    };
+    assert_close(&v, &[12.0, 23.0, 34.0], 0.0, "point (1,1,1) · M");
+    assert_close(
+        &row_of(create, "matrix44", 3),
+        &[10.0, 20.0, 30.0, 1.0],
+        0.0,
+        "row 3",
+    );
+    let v = eval(
+        &format!(
+            r#"{create}
+               <determinant name="d" type="float"><input name="in" type="matrix44" nodename="m"/></determinant>
+               <output name="out" type="float" nodename="d"/>"#
+        ),
+        [0.5, 0.5],
+    )
+    .unwrap();
+    assert_close(&v, &[24.0], 0.0, "determinant");
+    // vector4 · M: (0, 0, 0, 1) picks the last row; the inverse undoes the translation.
+    let v = eval(
+        &format!(
+            r#"{create}
+               <invertmatrix name="i" type="matrix44"><input name="in" type="matrix44" nodename="m"/></invertmatrix>
+               <transformmatrix name="t" type="vector4"><input name="in" type="vector4" value="10,20,30,1"/>
+                 <input name="mat" type="matrix44" nodename="i"/></transformmatrix>
+               <output name="out" type="vector4" nodename="t"/>"#
+        ),
+        [0.5, 0.5],
+    )
+    .unwrap();
+    // (thirds and quarters: exact up to rounding)
+    assert_close(&v, &[0.0, 0.0, 0.0, 1.0], 1e-6, "(10,20,30,1) · M⁻¹");
+    // A matrix output is our layout: row-major of the transpose (MaterialX columns).
+    let v = eval(
+        &format!("{create}\n<output name=\"out\" type=\"matrix44\" nodename=\"m\"/>"),
+        [0.5, 0.5],
+    )
+    .unwrap();
+    let want = [
+        2.0, 0.0, 0.0, 10.0, 0.0, 3.0, 0.0, 20.0, 0.0, 0.0, 4.0, 30.0, 0.0, 0.0, 0.0, 1.0,
+    ];
+    assert_close(&v, &want, 0.0, "matrix44 output");
+}

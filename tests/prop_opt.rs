@@ -490,12 +490,17 @@ fn literal(ty: Type, l: &Lit) -> Json {
         Type::Vec2 | Type::Vec3 | Type::Color | Type::Vec4 | Type::Color4 => {
             Json::Array((0..ty.width()).map(|k| num(v(k))).collect())
         }
-        Type::Matrix44 if l.flag => Json::Array(
-            (0..4)
-                .map(|r| Json::Array((0..4).map(|c| num(v(r * 4 + c))).collect()))
-                .collect(),
-        ),
-        Type::Matrix44 => Json::Array((0..16).map(|k| num(v(k))).collect()),
+        Type::Matrix33 | Type::Matrix44 if l.flag => {
+            let n = ty.matrix_size();
+            Json::Array(
+                (0..n)
+                    .map(|r| Json::Array((0..n).map(|c| num(v(r * n + c))).collect()))
+                    .collect(),
+            )
+        }
+        Type::Matrix33 | Type::Matrix44 => {
+            Json::Array((0..ty.width()).map(|k| num(v(k))).collect())
+        }
         Type::String => unreachable!("string literals are picked from options"),
     }
 }

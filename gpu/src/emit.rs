@@ -141,7 +141,7 @@ pub enum EmitError {
 }
 
 /// The WGSL type of an IR type: `bool`, `i32`, `f32`, `vec2<f32>`, `vec3<f32>` (vec3 and
-/// color), `array<vec4<f32>, 4>` (matrix44, rows).
+/// color), `array<vec3<f32>, 3>` (matrix33, rows), `array<vec4<f32>, 4>` (matrix44, rows).
 pub fn wgsl_type(ty: Type) -> Result<&'static str, EmitError> {
     Ok(match ty {
         Type::Bool => "bool",
@@ -150,6 +150,7 @@ pub fn wgsl_type(ty: Type) -> Result<&'static str, EmitError> {
         Type::Vec2 => "vec2<f32>",
         Type::Vec3 | Type::Color => "vec3<f32>",
         Type::Vec4 | Type::Color4 => "vec4<f32>",
+        Type::Matrix33 => "array<vec3<f32>, 3>",
         Type::Matrix44 => "array<vec4<f32>, 4>",
         Type::String => return Err(EmitError::Type(ty.name().into())),
     })
@@ -196,15 +197,42 @@ pub fn literal(c: &ConstValue) -> Result<String, EmitError> {
         ConstValue::Vec2(v) => floats_literal("vec2<f32>", *v),
         ConstValue::Vec3(v) | ConstValue::Color(v) => floats_literal("vec3<f32>", *v),
         ConstValue::Vec4(v) | ConstValue::Color4(v) => floats_literal("vec4<f32>", *v),
-        ConstValue::Matrix44(m) => {
-            let rows: Vec<String> = m
-                .chunks(4)
-                .map(|r| floats_literal("vec4<f32>", r.iter().copied()))
-                .collect();
-            format!("array<vec4<f32>, 4>({})", rows.join(", "))
+        ConstValue::Matrix33(_) | ConstValue::Matrix44(_) => {
+            matrix_literal(c.ty(), c.floats(), &|r| r)
         }
         ConstValue::String(_) => return Err(EmitError::Type(Type::String.name().into())),
     })
+}
+
+/// A matrix of type `ty` (its row-major elements `m`) as an array of row vectors, each row
+/// literal passed through `wrap`.
+fn matrix_literal(ty: Type, m: &[f64], wrap: &dyn Fn(String) -> String) -> String {
+    let k = ty.matrix_size();
+    let row = format!("vec{k}<f32>");
+    let rows: Vec<String> = m
+        .chunks(k)
+        .map(|r| wrap(floats_literal(&row, r.iter().copied())))
+        .collect();
+    format!("array<{row}, {k}>({})", rows.join(", "))
+}
+
+/// A matrix of type `ty` from the WGSL expressions of its row-major elements.
+fn matrix_of(ty: Type, elems: &[String]) -> String {
+    let k = ty.matrix_size();
+    let rows: Vec<String> = elems
+        .chunks(k)
+        .map(|r| format!("vec{k}<f32>({})", r.join(", ")))
+        .collect();
+    format!("array<vec{k}<f32>, {k}>({})", rows.join(", "))
+}
+
+/// The WGSL expressions of the row-major elements of the matrix `e` of type `ty`.
+fn matrix_elems(ty: Type, e: &str) -> Vec<String> {
+    let k = ty.matrix_size();
+    let a = atom(e);
+    (0..k * k)
+        .map(|i| format!("{a}[{}].{}", i / k, COMPONENTS[i % k]))
+        .collect()
 }
 
 /// `e` where it can take a postfix (`.x`, `[0]`) or a unary prefix: an identifier or a
@@ -314,12 +342,11 @@ pub fn op_expr(
                 ConstValue::Vec2(_) => keyed("sn_o2", &lit),
                 ConstValue::Vec3(_) | ConstValue::Color(_) => keyed("sn_o3", &lit),
                 ConstValue::Vec4(_) | ConstValue::Color4(_) => keyed("sn_o4", &lit),
+                ConstValue::Matrix33(m) => {
+                    matrix_literal(Type::Matrix33, m, &|r| keyed("sn_o3", &r))
+                }
                 ConstValue::Matrix44(m) => {
-                    let rows: Vec<String> = m
-                        .chunks(4)
-                        .map(|r| keyed("sn_o4", &floats_literal("vec4<f32>", r.iter().copied())))
-                        .collect();
-                    format!("array<vec4<f32>, 4>({})", rows.join(", "))
+                    matrix_literal(Type::Matrix44, m, &|r| keyed("sn_o4", &r))
                 }
                 ConstValue::String(_) => {
                     return Err(EmitError::Type(Type::String.name().into()));
@@ -333,16 +360,21 @@ pub fn op_expr(
         }
         Op::Select { cond, a, b } => {
             let (c, x, y) = (arg(*cond), arg(*a), arg(*b));
-            if ty == Type::Matrix44 {
+            if ty.is_matrix() {
+                let k = ty.matrix_size();
                 let (x, y) = (atom(&x), atom(&y));
-                let rows: Vec<String> = (0..4)
+                let rows: Vec<String> = (0..k)
                     .map(|r| format!("select({y}[{r}], {x}[{r}], {c})"))
                     .collect();
-                Ok(format!("array<vec4<f32>, 4>({})", rows.join(", ")))
+                Ok(format!("array<vec{k}<f32>, {k}>({})", rows.join(", ")))
             } else {
                 wgsl_type(ty)?;
                 Ok(format!("select({y}, {x}, {c})"))
             }
+        }
+        Op::Construct(args) if ty.is_matrix() && args.len() == ty.width() => {
+            let parts: Vec<String> = args.iter().map(|a| arg(*a)).collect();
+            Ok(matrix_of(ty, &parts))
         }
         Op::Construct(args) => {
             if !ty.is_vector() {
@@ -350,6 +382,20 @@ pub fn op_expr(
             }
             let parts: Vec<String> = args.iter().map(|a| arg(*a)).collect();
             Ok(format!("{}({})", wgsl_type(ty)?, parts.join(", ")))
+        }
+        Op::Extract(a, i) if program.ty(*a).is_matrix() => {
+            let t = program.ty(*a);
+            let k = t.matrix_size();
+            let i = *i as usize;
+            if i >= t.width() {
+                return Err(ill_typed("extract", t));
+            }
+            Ok(format!(
+                "{}[{}].{}",
+                atom(&arg(*a)),
+                i / k,
+                COMPONENTS[i % k]
+            ))
         }
         Op::Extract(a, i) => {
             let t = program.ty(*a);
@@ -556,12 +602,7 @@ pub fn store_columns(ty: Type, e: &str) -> Vec<String> {
         Type::Float | Type::Vec2 | Type::Vec3 | Type::Color | Type::Vec4 | Type::Color4 => {
             components(ty, e)
         }
-        Type::Matrix44 => {
-            let a = atom(e);
-            (0..16)
-                .map(|k| format!("{a}[{}].{}", k / 4, COMPONENTS[k % 4]))
-                .collect()
-        }
+        Type::Matrix33 | Type::Matrix44 => matrix_elems(ty, e),
         Type::String => vec!["0.0f".into()],
     }
 }
@@ -579,21 +620,16 @@ pub fn load_columns(ty: Type, cols: &[String]) -> String {
         Type::Vec4 | Type::Color4 => {
             format!("vec4<f32>({}, {}, {}, {})", col(0), col(1), col(2), col(3))
         }
-        Type::Matrix44 => {
-            let rows: Vec<String> = (0..4)
-                .map(|r| {
-                    let c: Vec<String> = (0..4).map(|k| col(r * 4 + k)).collect();
-                    format!("vec4<f32>({})", c.join(", "))
-                })
-                .collect();
-            format!("array<vec4<f32>, 4>({})", rows.join(", "))
+        Type::Matrix33 | Type::Matrix44 => {
+            let elems: Vec<String> = (0..ty.width()).map(col).collect();
+            matrix_of(ty, &elems)
         }
     }
 }
 
 /// How an output of type `ty` is written to `sn_out`: one expression per column (floats as
 /// they are, ints as `f32(i)`, bools as 0/1: the interpreter's output layout). A matrix
-/// output is 16 zeros and a string one zero, as the interpreter writes them.
+/// output is its elements, row-major; a string one zero, as the interpreter writes them.
 pub fn output_columns(ty: Type, e: &str) -> Vec<String> {
     match ty {
         Type::Bool => vec![format!("select(0.0f, 1.0f, {e})")],
@@ -601,17 +637,14 @@ pub fn output_columns(ty: Type, e: &str) -> Vec<String> {
         Type::Float | Type::Vec2 | Type::Vec3 | Type::Color | Type::Vec4 | Type::Color4 => {
             components(ty, e)
         }
-        Type::Matrix44 => vec!["0.0f".into(); 16],
+        Type::Matrix33 | Type::Matrix44 => matrix_elems(ty, e),
         Type::String => vec!["0.0f".into()],
     }
 }
 
-/// Columns a value of type `ty` takes (matrix44: 16; string: 1).
+/// Columns a value of type `ty` takes (matrix33: 9, matrix44: 16; string: 1).
 pub fn columns(ty: Type) -> usize {
-    match ty {
-        Type::Matrix44 => 16,
-        t => t.width().max(1),
-    }
+    ty.width().max(1)
 }
 
 #[cfg(test)]

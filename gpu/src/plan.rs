@@ -333,6 +333,7 @@ pub fn encode_const(c: &ConstValue) -> Vec<f32> {
         ConstValue::Vec2(v) => v.iter().map(|x| *x as f32).collect(),
         ConstValue::Vec3(v) | ConstValue::Color(v) => v.iter().map(|x| *x as f32).collect(),
         ConstValue::Vec4(v) | ConstValue::Color4(v) => v.iter().map(|x| *x as f32).collect(),
+        ConstValue::Matrix33(m) => m.iter().map(|x| *x as f32).collect(),
         ConstValue::Matrix44(m) => m.iter().map(|x| *x as f32).collect(),
     }
 }

@@ -578,8 +578,9 @@ fn to_val(ty: Type, cols: &[f32]) -> (Val<f32>, [f32; 16]) {
         Type::Vec2 => Val::Vec2([cols[0], cols[1]]),
         Type::Vec3 | Type::Color => Val::Vec3([cols[0], cols[1], cols[2]]),
         Type::Vec4 | Type::Color4 => Val::Vec4([cols[0], cols[1], cols[2], cols[3]]),
-        Type::Matrix44 => {
-            m.copy_from_slice(&cols[..16]);
+        Type::Matrix33 | Type::Matrix44 => {
+            let n = ty.width();
+            m[..n].copy_from_slice(&cols[..n]);
             Val::Mat(0)
         }
         Type::String => Val::Int(0),

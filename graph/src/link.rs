@@ -610,16 +610,25 @@ pub fn literal(json: &Json, ty: Type) -> Result<ConstValue, String> {
             .as_str()
             .map(|s| ConstValue::String(s.to_string()))
             .ok_or_else(|| format!("expects a string, not {json}")),
-        Type::Vec2 | Type::Vec3 | Type::Color | Type::Vec4 | Type::Color4 | Type::Matrix44 => {
+        Type::Vec2
+        | Type::Vec3
+        | Type::Color
+        | Type::Vec4
+        | Type::Color4
+        | Type::Matrix33
+        | Type::Matrix44 => {
             let n = ty.width();
+            let k = ty.matrix_size();
             let flat: Vec<&Json> = match json {
-                Json::Number(_) if ty != Type::Matrix44 => vec![json; n],
-                Json::Array(rows) if ty == Type::Matrix44 && rows.len() == 4 => {
+                Json::Number(_) if !ty.is_matrix() => vec![json; n],
+                Json::Array(rows) if ty.is_matrix() && rows.len() == k => {
                     let mut v = Vec::new();
                     for r in rows {
                         match r {
-                            Json::Array(r) if r.len() == 4 => v.extend(r.iter()),
-                            _ => return Err(format!("expects 4 rows of 4 numbers, not {json}")),
+                            Json::Array(r) if r.len() == k => v.extend(r.iter()),
+                            _ => {
+                                return Err(format!("expects {k} rows of {k} numbers, not {json}"));
+                            }
                         }
                     }
                     v

@@ -26,6 +26,8 @@ pub enum Type {
     /// Four floats: linear RGB and alpha (MaterialX `color4`). Same arithmetic as `vec4`,
     /// distinct for type checking, as `color` is from `vec3`.
     Color4,
+    /// A 3×3 matrix, row-major, vectors are columns (`M * v`): MaterialX `matrix33`.
+    Matrix33,
     /// A 4×4 matrix, row-major, points are column vectors (`M * p`).
     Matrix44,
     /// A string; uniform only (file names, enum-like options), never reaches the IR.
@@ -34,7 +36,7 @@ pub enum Type {
 
 impl Type {
     /// Every type, in a fixed order.
-    pub const ALL: [Type; 10] = [
+    pub const ALL: [Type; 11] = [
         Type::Bool,
         Type::Int,
         Type::Float,
@@ -43,6 +45,7 @@ impl Type {
         Type::Color,
         Type::Vec4,
         Type::Color4,
+        Type::Matrix33,
         Type::Matrix44,
         Type::String,
     ];
@@ -58,6 +61,7 @@ impl Type {
             Type::Color => "color",
             Type::Vec4 => "vec4",
             Type::Color4 => "color4",
+            Type::Matrix33 => "matrix33",
             Type::Matrix44 => "matrix44",
             Type::String => "string",
         }
@@ -75,6 +79,7 @@ impl Type {
             Type::Vec2 => 2,
             Type::Vec3 | Type::Color => 3,
             Type::Vec4 | Type::Color4 => 4,
+            Type::Matrix33 => 9,
             Type::Matrix44 => 16,
             Type::String => 0,
         }
@@ -86,6 +91,29 @@ impl Type {
             self,
             Type::Vec2 | Type::Vec3 | Type::Color | Type::Vec4 | Type::Color4
         )
+    }
+
+    /// True for the matrix types (`matrix33`, `matrix44`).
+    pub fn is_matrix(self) -> bool {
+        matches!(self, Type::Matrix33 | Type::Matrix44)
+    }
+
+    /// The matrix type with `n` rows and columns (3 or 4).
+    pub fn matrix(n: usize) -> Option<Type> {
+        match n {
+            3 => Some(Type::Matrix33),
+            4 => Some(Type::Matrix44),
+            _ => None,
+        }
+    }
+
+    /// Rows (and columns) of a matrix type; 0 for the others.
+    pub fn matrix_size(self) -> usize {
+        match self {
+            Type::Matrix33 => 3,
+            Type::Matrix44 => 4,
+            _ => 0,
+        }
     }
 
     /// True for `float` and the float vector types.
@@ -169,6 +197,8 @@ pub enum ConstValue {
     Vec4([f64; 4]),
     /// A linear RGBA color.
     Color4([f64; 4]),
+    /// A row-major 3×3 matrix.
+    Matrix33([f64; 9]),
     /// A row-major 4×4 matrix.
     Matrix44([f64; 16]),
     /// A string (uniform only).
@@ -187,6 +217,7 @@ impl ConstValue {
             ConstValue::Color(_) => Type::Color,
             ConstValue::Vec4(_) => Type::Vec4,
             ConstValue::Color4(_) => Type::Color4,
+            ConstValue::Matrix33(_) => Type::Matrix33,
             ConstValue::Matrix44(_) => Type::Matrix44,
             ConstValue::String(_) => Type::String,
         }
@@ -199,6 +230,7 @@ impl ConstValue {
             ConstValue::Vec2(v) => v,
             ConstValue::Vec3(v) | ConstValue::Color(v) => v,
             ConstValue::Vec4(v) | ConstValue::Color4(v) => v,
+            ConstValue::Matrix33(m) => m,
             ConstValue::Matrix44(m) => m,
             _ => &[],
         }
@@ -217,6 +249,11 @@ impl ConstValue {
             Type::Color => ConstValue::Color([v[0], v[1], v[2]]),
             Type::Vec4 => ConstValue::Vec4([v[0], v[1], v[2], v[3]]),
             Type::Color4 => ConstValue::Color4([v[0], v[1], v[2], v[3]]),
+            Type::Matrix33 => {
+                let mut m = [0.0; 9];
+                m.copy_from_slice(v);
+                ConstValue::Matrix33(m)
+            }
             Type::Matrix44 => {
                 let mut m = [0.0; 16];
                 m.copy_from_slice(v);

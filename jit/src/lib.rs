@@ -21,8 +21,9 @@
 //! bit-identical to `shadenet_graph::ops` (see [`lower`]). Only the scalar entry sees the
 //! renderer's scene (`ShadeCtx::scene`); the batch entry shades as without one.
 //!
-//! An op this back end cannot compile (today: a matrix44 value computed per fragment, which
-//! the IR allows but no node produces) makes [`JitBackend`] fall back to the interpreter for
+//! Matrices are values like vectors (9 or 16 components, row-major), constant, uniform or
+//! per fragment: every op of a valid program compiles. An op this back end cannot compile
+//! (today only one refused by [`JitOptions::refuse`], which tests use) makes [`JitBackend`] fall back to the interpreter for
 //! that material, saying once which op and why; it never panics on a valid program.
 //!
 //! It must not touch: the IR, the op semantics or the optimizer (`shadenet-graph`), the
@@ -40,7 +41,7 @@ use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::{JITBuilder, JITModule};
 use cranelift_module::{Linkage, Module, default_libcall_names};
 use lower::{Helpers, Lowerer, Mode, UniformLayout, Unsupported};
-use shadenet_graph::ir::Program;
+use shadenet_graph::ir::{Program, Value};
 use shadenet_graph::opt::{self, Specialization};
 use shadenet_graph::types::ConstValue;
 use shadenet_runtime::backend::{CompileStats, FragmentX4, LANES, Material, MaterialInfo};
@@ -81,6 +82,11 @@ pub struct JitOptions {
     pub fallback: bool,
     /// Print one line on standard error when falling back.
     pub log_fallback: bool,
+    /// Ops (by their short name, as `Op::short_name` gives it: `select`, `construct`…) to
+    /// treat as not supported: the fallback path for every valid program is otherwise
+    /// unreachable (the JIT compiles every op), so tests use this to exercise it. Empty by
+    /// default.
+    pub refuse: Vec<String>,
 }
 
 impl Default for JitOptions {
@@ -91,6 +97,7 @@ impl Default for JitOptions {
             opt: OptLevel::Auto,
             fallback: true,
             log_fallback: true,
+            refuse: Vec::new(),
         }
     }
 }
@@ -388,6 +395,7 @@ fn const_bits(c: &ConstValue) -> Vec<u32> {
         ConstValue::Vec2(v) => v.iter().map(f).collect(),
         ConstValue::Vec3(v) | ConstValue::Color(v) => v.iter().map(f).collect(),
         ConstValue::Vec4(v) | ConstValue::Color4(v) => v.iter().map(f).collect(),
+        ConstValue::Matrix33(m) => m.iter().map(f).collect(),
         ConstValue::Matrix44(m) => m.iter().map(f).collect(),
     }
 }
@@ -399,6 +407,16 @@ fn compile(
     speed: bool,
     want_clif: bool,
 ) -> Result<(JitMaterial, String), Fail> {
+    if let Some(v) = (0..program.exprs.len())
+        .map(Value::new)
+        .find(|v| options.refuse.contains(&program.op(*v).short_name()))
+    {
+        return Err(Fail::Unsupported(Unsupported {
+            value: v,
+            op: format!("{v:?} = {}", program.op(v).short_name()),
+            reason: "refused by JitOptions::refuse".into(),
+        }));
+    }
     let textures = TextureSet::load(&program.textures).map_err(Fail::Texture)?;
     let isa = isa(speed).map_err(Fail::Codegen)?;
     let cg = |e: cranelift_module::ModuleError| Fail::Codegen(format!("{e:?}"));

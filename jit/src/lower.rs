@@ -590,6 +590,7 @@ impl<'a, 'b> Lowerer<'a, 'b> {
             ConstValue::Vec4(v) | ConstValue::Color4(v) => {
                 v.iter().map(|x| self.fconst(*x as f32)).collect()
             }
+            ConstValue::Matrix33(m) => m.iter().map(|x| self.fconst(*x as f32)).collect(),
             ConstValue::Matrix44(m) => m.iter().map(|x| self.fconst(*x as f32)).collect(),
         }
     }
@@ -608,13 +609,6 @@ impl<'a, 'b> Lowerer<'a, 'b> {
     fn value(&mut self, v: Value) -> R<Vec<V>> {
         let p = self.p;
         let ty = p.expr(v).ty;
-        if ty == Some(Type::Matrix44) {
-            return Err(self.unsupported(
-                v,
-                "matrix44 values are compiled only as constants, parameters and prelude values \
-                 (uniform); this one is computed per fragment",
-            ));
-        }
         match p.op(v) {
             Op::Const(_) | Op::Param(_) | Op::Stream(_) => self.remat(v),
             Op::Transform {
@@ -777,13 +771,10 @@ impl<'a, 'b> Lowerer<'a, 'b> {
 
     // ---- regions ----
 
-    fn yield_kinds(&self, v: Value, block: &Block) -> R<Vec<(Kind, usize)>> {
+    fn yield_kinds(&self, _region: Value, block: &Block) -> R<Vec<(Kind, usize)>> {
         let mut ks = Vec::new();
         for y in &block.yields {
             let t = self.ty(*y);
-            if t == Type::Matrix44 {
-                return Err(self.unsupported(v, "a region yielding a matrix44 is not compiled"));
-            }
             ks.push((kind(t), comps(t)));
         }
         Ok(ks)
@@ -1473,7 +1464,6 @@ impl<'a, 'b> Lowerer<'a, 'b> {
             let width = ty.width().max(1);
             let mut xs: Vec<V> = Vec::new();
             match kind(ty) {
-                _ if ty == Type::Matrix44 => xs = vec![zero; width],
                 Kind::B => {
                     let x = self.get(o.value)?[0];
                     xs.push(self.convert(Type::Bool, Type::Float, x));

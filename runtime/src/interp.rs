@@ -62,8 +62,14 @@ pub struct Interpreter<F: Real> {
     program: Program,
     /// Constants converted to `F` once, by arena index.
     consts: Vec<Option<Val<F>>>,
-    /// Matrix table: constants and parameters of type matrix44.
+    /// Matrix table: constants and parameters of a matrix type, then the prelude's computed
+    /// matrices (a matrix33 fills the first 9 elements, row-major).
     mats: Vec<[F; 16]>,
+    /// For each `Construct` of a matrix (by arena index): its `Val::Mat` index. Those of the
+    /// prelude index `mats`; those of the body index past it, into [`Scratch`]'s matrices.
+    mat_index: Vec<u32>,
+    /// Matrices the body constructs per fragment.
+    body_mats: usize,
     slots: Vec<OutputSlot>,
     width: usize,
     /// For each region (by arena index): its `Proj` users as (arena index, result index).
@@ -109,6 +115,8 @@ pub struct Scratch<F> {
     /// Reusable buffers for light-loop sums (one per nesting level in use), so shading a
     /// fragment allocates nothing once the buffers exist.
     sums: Vec<Vec<Val<F>>>,
+    /// Matrices computed in this shading call (see `Interpreter::mat_index`).
+    mats: Vec<[F; 16]>,
 }
 
 impl<F> Default for Scratch<F> {
@@ -119,6 +127,7 @@ impl<F> Default for Scratch<F> {
             visibility: Vec::new(),
             visibility_at: None,
             sums: Vec::new(),
+            mats: Vec::new(),
         }
     }
 }
@@ -135,10 +144,14 @@ impl<F: Real> Interpreter<F> {
     pub fn with_textures(program: &Program, textures: TextureSet) -> Interpreter<F> {
         let mut mats: Vec<[F; 16]> = Vec::new();
         let mut mat_of = |c: &ConstValue| -> Val<F> {
-            let ConstValue::Matrix44(m) = c else {
+            if !c.ty().is_matrix() {
                 return Val::from_const(c);
-            };
-            mats.push(m.map(F::from_f64));
+            }
+            let mut m = [F::ZERO; 16];
+            for (d, x) in m.iter_mut().zip(c.floats()) {
+                *d = F::from_f64(*x);
+            }
+            mats.push(m);
             Val::Mat((mats.len() - 1) as u32)
         };
         let consts = program
@@ -150,6 +163,7 @@ impl<F: Real> Interpreter<F> {
                 _ => None,
             })
             .collect();
+        let (mat_index, prelude_mats, body_mats) = matrix_indices(program, mats.len());
         let (slots, width) = output_layout(program);
         let mut projs = vec![Vec::new(); program.exprs.len()];
         for (i, e) in program.exprs.iter().enumerate() {
@@ -173,6 +187,8 @@ impl<F: Real> Interpreter<F> {
             program: program.clone(),
             consts,
             mats,
+            mat_index,
+            body_mats,
             slots,
             width,
             textures,
@@ -184,7 +200,11 @@ impl<F: Real> Interpreter<F> {
         let ctx = ShadeCtx::new(Default::default(), &env);
         let mut scratch = Scratch::default();
         scratch.regs.resize(program.exprs.len(), Val::Int(0));
+        scratch.mats.resize(prelude_mats, [F::ZERO; 16]);
         interp.block(&program.prelude, &ctx, &mut scratch);
+        // The prelude's matrices join the table: their indices were numbered to follow it,
+        // and the body's to follow them.
+        interp.mats.append(&mut scratch.mats);
         interp.prelude = program
             .prelude
             .body
@@ -205,7 +225,8 @@ impl<F: Real> Interpreter<F> {
         &self.prelude
     }
 
-    /// The matrix table: constants and parameters of type matrix44, row-major.
+    /// The matrix table, row-major: constants and parameters of a matrix type, then the
+    /// matrices the prelude constructs (a matrix33 in the first 9 elements).
     pub fn matrices(&self) -> &[[F; 16]] {
         &self.mats
     }
@@ -232,6 +253,7 @@ impl<F: Real> Interpreter<F> {
         scratch.regs.resize(self.program.exprs.len(), Val::Int(0));
         scratch.light = None;
         scratch.visibility_at = None;
+        scratch.mats.resize(self.body_mats, [F::ZERO; 16]);
         for &(i, v) in &self.prelude {
             scratch.regs[i] = v;
         }
@@ -245,7 +267,16 @@ impl<F: Real> Interpreter<F> {
             match v {
                 Val::Bool(b) => dst[0] = if b { F::ONE } else { F::ZERO },
                 Val::Int(i) => dst[0] = F::from_i32(i),
-                Val::Mat(_) => {}
+                Val::Mat(_) => {
+                    let m = self.mat(v, scratch);
+                    for (d, x) in dst.iter_mut().zip(&m[..slot.ty.width()]) {
+                        if x.is_finite() {
+                            *d = *x;
+                        } else {
+                            out.nonfinite += 1;
+                        }
+                    }
+                }
                 v => {
                     for (d, x) in dst.iter_mut().zip(v.floats()) {
                         if x.is_finite() {
@@ -281,19 +312,38 @@ impl<F: Real> Interpreter<F> {
             Op::ComponentEnabled(k) => Val::Bool(ctx.mask & (1u32 << (*k as u32 & 31)) != 0),
             Op::Unary(op, a) => ops::unary(*op, reg(a)),
             Op::Binary(BinOp::MulPoint, m, p) => {
-                Val::Vec3(ops::mul_point(self.mat(reg(m)), reg(p).as_vec3()))
+                Val::Vec3(ops::mul_point(&self.mat(reg(m), s), reg(p).as_vec3()))
             }
             Op::Binary(BinOp::MulVector, m, p) => {
-                Val::Vec3(ops::mul_vector(self.mat(reg(m)), reg(p).as_vec3()))
+                Val::Vec3(ops::mul_vector(&self.mat(reg(m), s), reg(p).as_vec3()))
             }
             Op::Binary(op, a, b) => ops::binary(*op, reg(a), reg(b)),
             Op::Select { cond, a, b } => ops::select(reg(cond), reg(a), reg(b)),
+            Op::Construct(args) if expr.ty.is_some_and(Type::is_matrix) => {
+                let mut m = [F::ZERO; 16];
+                for (d, a) in m.iter_mut().zip(args) {
+                    *d = reg(a).as_float();
+                }
+                let i = self.mat_index[v.index()];
+                if let Some(d) = (i as usize)
+                    .checked_sub(self.mats.len())
+                    .and_then(|k| s.mats.get_mut(k))
+                {
+                    *d = m;
+                }
+                Val::Mat(i)
+            }
             Op::Construct(args) => {
                 let vals: [Val<F>; 4] =
                     std::array::from_fn(|i| args.get(i).map_or(Val::Int(0), reg));
                 ops::construct(expr.ty.unwrap_or(Type::Vec3), &vals[..args.len().min(4)])
             }
-            Op::Extract(a, i) => ops::extract(reg(a), *i),
+            Op::Extract(a, i) => match reg(a) {
+                m @ Val::Mat(_) => {
+                    Val::Float(self.mat(m, s).get(*i as usize).copied().unwrap_or(F::ZERO))
+                }
+                x => ops::extract(x, *i),
+            },
             Op::Splat(a) => ops::splat(expr.ty.unwrap_or(Type::Vec3), reg(a)),
             Op::Convert(a) => ops::convert(expr.ty.unwrap_or(Type::Float), reg(a)),
             Op::Call(i, args) => {
@@ -399,12 +449,41 @@ impl<F: Real> Interpreter<F> {
         }
     }
 
-    fn mat(&self, v: Val<F>) -> &[F; 16] {
-        match v {
-            Val::Mat(i) => &self.mats[i as usize],
-            _ => &self.mats[0],
+    /// A matrix value: from the table, or computed in this shading call (zero if `v` is no
+    /// matrix, which a valid program never gives).
+    fn mat(&self, v: Val<F>, s: &Scratch<F>) -> [F; 16] {
+        let Val::Mat(i) = v else {
+            return [F::ZERO; 16];
+        };
+        let i = i as usize;
+        match i.checked_sub(self.mats.len()) {
+            None => self.mats[i],
+            Some(k) => s.mats.get(k).copied().unwrap_or([F::ZERO; 16]),
         }
     }
+}
+
+/// Numbers the matrices a program constructs (by arena index): those in the prelude from
+/// `base`, then those in the body. Returns the numbers and how many each part has.
+fn matrix_indices(program: &Program, base: usize) -> (Vec<u32>, usize, usize) {
+    let mut in_prelude = vec![false; program.exprs.len()];
+    program.walk(&program.prelude, &mut |v| in_prelude[v.index()] = true);
+    let in_prelude = &in_prelude;
+    let constructs = |prelude: bool| {
+        program.exprs.iter().enumerate().filter(move |(i, e)| {
+            matches!(e.op, Op::Construct(_))
+                && e.ty.is_some_and(Type::is_matrix)
+                && in_prelude[*i] == prelude
+        })
+    };
+    let mut index = vec![0; program.exprs.len()];
+    let mut n = base;
+    for (i, _) in constructs(true).chain(constructs(false)) {
+        index[i] = n as u32;
+        n += 1;
+    }
+    let prelude = constructs(true).count();
+    (index, prelude, n - base - prelude)
 }
 
 /// Whether light sample number `number` (seen from `p`) reaches `p`: the scene's answer, asked

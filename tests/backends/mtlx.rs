@@ -23,7 +23,8 @@ fn library() -> Option<&'static Library> {
 }
 
 /// Streams the wired inputs read: position (object space), normal and uv, their
-/// components, and colour and 4-wide versions of them.
+/// components, colour versions of them, and per-fragment matrices made of them (MaterialX
+/// rows: position, normal, the default third row; a matrix44's fourth row the position).
 const SOURCES: &str = r#"
   <position name="sp" type="vector3" space="object" />
   <normal name="sn" type="vector3" space="object" />
@@ -35,6 +36,10 @@ const SOURCES: &str = r#"
   <combine2 name="pyx" type="vector2"><input name="in1" type="float" nodename="py" /><input name="in2" type="float" nodename="px" /></combine2>
   <convert name="spc" type="color3"><input name="in" type="vector3" nodename="sp" /></convert>
   <convert name="snc" type="color3"><input name="in" type="vector3" nodename="sn" /></convert>
+  <creatematrix name="m3a" type="matrix33" nodedef="ND_creatematrix_vector3_matrix33"><input name="in1" type="vector3" nodename="sp" /><input name="in2" type="vector3" nodename="sn" /></creatematrix>
+  <creatematrix name="m3b" type="matrix33" nodedef="ND_creatematrix_vector3_matrix33"><input name="in1" type="vector3" nodename="sn" /><input name="in3" type="vector3" nodename="sp" /></creatematrix>
+  <creatematrix name="m4a" type="matrix44" nodedef="ND_creatematrix_vector3_matrix44"><input name="in1" type="vector3" nodename="sp" /><input name="in2" type="vector3" nodename="sn" /><input name="in4" type="vector3" nodename="sp" /></creatematrix>
+  <creatematrix name="m4b" type="matrix44" nodedef="ND_creatematrix_vector3_matrix44"><input name="in1" type="vector3" nodename="sn" /><input name="in3" type="vector3" nodename="sp" /></creatematrix>
 "#;
 
 /// The source node of the `k`-th wired input of type `ty`, if that type is wired.
@@ -45,11 +50,13 @@ fn source(ty: &str, k: usize) -> Option<&'static str> {
         "vector2" => pick(&["suv", "pyx"]),
         "vector3" => pick(&["sp", "sn"]),
         "color3" => pick(&["spc", "snc"]),
+        "matrix33" => pick(&["m3a", "m3b"]),
+        "matrix44" => pick(&["m4a", "m4b"]),
         _ => None,
     }
 }
 
-/// A document with one node of `nd`, every float, vector2, vector3 and color3 input wired
+/// A document with one node of `nd`, every float, vector2, vector3, color3 and matrix input wired
 /// to a varying source (others at their defaults), and an output per node output.
 fn atom_document(nd: &NodeDefElem) -> String {
     let ty = if nd.outputs.len() > 1 {
@@ -118,9 +125,8 @@ fn every_materialx_atom() {
                   transcendentals' documented domains",
             excused: beyond_gpu_domains,
         };
-        // A back end that says it does not support an op (the JIT: varying matrix44 values,
-        // which `ifgreater_matrix44` on a varying condition makes) is listed, not compared:
-        // in a render that material falls back to the interpreter.
+        // A back end that says it does not support an op is listed, not compared (in a
+        // render that material falls back to the interpreter); none may today.
         let supports = |ut: &UnderTest| match ut.backend.compile_program(&c.program, Duration::ZERO)
         {
             Err(shadenet_runtime::BackendError::Unsupported { .. }) => {
@@ -149,15 +155,11 @@ fn every_materialx_atom() {
          (the material falls back to the interpreter): {}",
         unsupported.join(", ")
     );
-    // The one known gap: the JIT compiles matrix44 values only when uniform (DESIGN §6), so
-    // a matrix chosen per fragment by a conditional is not compiled. Anything else is a bug.
-    let unexpected: Vec<&String> = unsupported
-        .iter()
-        .filter(|u| !(u.starts_with("ND_if") && u.contains("_matrix44") && u.contains(" on jit")))
-        .collect();
+    // Every back end compiles every atom: matrices (matrix33 and matrix44, per fragment
+    // here) are values like vectors on each of them.
     assert!(
-        unexpected.is_empty(),
-        "unexpectedly unsupported: {unexpected:?}"
+        unsupported.is_empty(),
+        "unexpectedly unsupported: {unsupported:?}"
     );
 }
 

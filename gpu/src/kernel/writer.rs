@@ -112,18 +112,20 @@ fn kept_const(c: &ConstValue) -> Option<String> {
         ConstValue::Vec4(v) | ConstValue::Color4(v) => {
             keep(Type::Vec4, &format!("vec4<f32>({})", row(v)))
         }
-        ConstValue::Matrix44(m) => {
-            let rows: Vec<String> = m
-                .chunks(4)
+        ConstValue::Matrix33(_) | ConstValue::Matrix44(_) => {
+            let k = c.ty().matrix_size();
+            let rows: Vec<String> = c
+                .floats()
+                .chunks(k)
                 .map(|r| {
                     format!(
-                        "bitcast<vec4<f32>>(bitcast<vec4<u32>>(vec4<f32>({})) ^ vec4<u32>({}))",
+                        "bitcast<vec{k}<f32>>(bitcast<vec{k}<u32>>(vec{k}<f32>({})) ^ vec{k}<u32>({}))",
                         row(r),
                         emit::KEY
                     )
                 })
                 .collect();
-            format!("array<vec4<f32>, 4>({})", rows.join(", "))
+            format!("array<vec{k}<f32>, {k}>({})", rows.join(", "))
         }
         _ => return None,
     })
@@ -131,7 +133,7 @@ fn kept_const(c: &ConstValue) -> Option<String> {
 
 /// Whether WGSL's `select` takes values of this type (scalars and vectors; not arrays).
 fn selectable(ty: Type) -> bool {
-    !matches!(ty, Type::Matrix44)
+    !ty.is_matrix()
 }
 
 impl<'a> Writer<'a> {
@@ -338,8 +340,8 @@ impl Writer<'_> {
     pub(super) fn output_store(&mut self, out: &mut String, depth: usize, k: usize, e: &str) {
         let slot = &self.plan.layout.outputs[k];
         let ty = slot.ty;
-        let cols = if matches!(ty, Type::Matrix44 | Type::String) {
-            // The interpreter writes no floats for these: they stay 0.
+        let cols = if ty == Type::String {
+            // The interpreter writes no floats for it: it stays 0.
             vec!["0.0".to_string(); ty.width().max(1)]
         } else {
             emit::output_columns(ty, e)

@@ -306,9 +306,9 @@ impl Builder {
         self.push(Op::Select { cond, a, b }, Some(at))
     }
 
-    /// Builds a vector of type `ty` from floats.
+    /// Builds a vector of type `ty` from floats, or a matrix from its elements (row-major).
     pub fn construct(&mut self, ty: Type, args: &[Value]) -> Value {
-        let ok = ty.is_vector()
+        let ok = (ty.is_vector() || ty.is_matrix())
             && args.len() == ty.width()
             && args.iter().all(|a| self.ty(*a) == Type::Float);
         if !ok {
@@ -317,10 +317,10 @@ impl Builder {
         self.push(Op::Construct(args.to_vec()), Some(ty))
     }
 
-    /// Component `i` of a vector.
+    /// Component `i` of a vector; element `i` (row-major) of a matrix.
     pub fn extract(&mut self, v: Value, i: usize) -> Value {
         let t = self.ty(v);
-        if !t.is_vector() || i >= t.width() {
+        if !(t.is_vector() || t.is_matrix()) || i >= t.width() {
             self.fail(format!("no component {i} in {t}"));
         }
         self.push(Op::Extract(v, i as u8), Some(Type::Float))

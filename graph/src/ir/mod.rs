@@ -524,9 +524,10 @@ pub enum Op {
         /// Result elsewhere.
         b: Value,
     },
-    /// Merge: builds a vector of the expr's type from float scalars.
+    /// Merge: builds a vector of the expr's type from float scalars, or a matrix from its
+    /// elements in row-major order (9 for a matrix33, 16 for a matrix44).
     Construct(Vec<Value>),
-    /// Split: component `index` of a vector → float.
+    /// Split: component `index` of a vector → float; element `index` (row-major) of a matrix.
     Extract(Value, u8),
     /// A float broadcast to every component of the expr's vector type.
     Splat(Value),

@@ -1354,7 +1354,13 @@ impl Parser {
                 _ => Err(bad("expected a quoted string".into())),
             },
             Type::Float => Ok(ConstValue::Float(self.float(lit, ty)?)),
-            Type::Vec2 | Type::Vec3 | Type::Color | Type::Vec4 | Type::Color4 | Type::Matrix44 => {
+            Type::Vec2
+            | Type::Vec3
+            | Type::Color
+            | Type::Vec4
+            | Type::Color4
+            | Type::Matrix33
+            | Type::Matrix44 => {
                 let Lit::Tuple(_, items) = lit else {
                     return Err(bad(format!("expected ({} floats)", ty.width())));
                 };

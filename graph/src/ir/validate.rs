@@ -507,7 +507,7 @@ impl Validator<'_> {
                 let ts = self.operands(value, args)?;
                 match e.ty {
                     Some(t)
-                        if t.is_vector()
+                        if (t.is_vector() || t.is_matrix())
                             && ts.len() == t.width()
                             && ts.iter().all(|x| *x == Type::Float) =>
                     {
@@ -521,7 +521,7 @@ impl Validator<'_> {
             }
             Op::Extract(a, index) => {
                 let t = self.operand(value, *a)?;
-                if !t.is_vector() || *index as usize >= t.width() {
+                if !(t.is_vector() || t.is_matrix()) || *index as usize >= t.width() {
                     return Err(ill(format!("no component {index} in a {t}")));
                 }
                 Some(Type::Float)

@@ -8,12 +8,13 @@
 //! resolve nodedefs. The lowerings themselves are in [`super::atoms_lower`].
 
 use super::atoms_lower as l;
+use super::atoms_matrix as mx;
 use super::document::NodeDefElem;
 use crate::ir::Stream;
 use crate::nodes::LowerFn;
 
 /// One row: node category, the inputs the lowering reads (space-separated), the lowering,
-/// and whether its matrix44 variants are lowered too.
+/// and whether its matrix33/matrix44 variants are lowered too.
 struct Atom {
     node: &'static str,
     ports: &'static str,
@@ -45,10 +46,10 @@ const ATOMS: &[Atom] = &[
     m("constant", "value", l::constant),
     m("dot", "in", l::dot),
     // math
-    a("add", "in1 in2", l::add),
-    a("subtract", "in1 in2", l::subtract),
-    a("multiply", "in1 in2", l::multiply),
-    a("divide", "in1 in2", l::divide),
+    m("add", "in1 in2", l::add),
+    m("subtract", "in1 in2", l::subtract),
+    m("multiply", "in1 in2", l::multiply),
+    m("divide", "in1 in2", l::divide),
     a("modulo", "in1 in2", l::modulo),
     a("fract", "in", l::fract),
     a("invert", "in amount", l::invert),
@@ -88,7 +89,11 @@ const ATOMS: &[Atom] = &[
         "in fromspace tospace",
         l::transformnormal,
     ),
-    m("transformmatrix", "in mat", l::transformmatrix),
+    m("transformmatrix", "in mat", mx::transformmatrix),
+    m("transpose", "in", mx::transpose),
+    m("determinant", "in", mx::determinant),
+    m("invertmatrix", "in", mx::invertmatrix),
+    m("creatematrix", "in1 in2 in3", mx::creatematrix),
     a("rotate2d", "in amount", l::rotate2d),
     a("rotate3d", "in amount axis", l::rotate3d),
     a("mix", "fg bg mix", l::mix),
@@ -125,7 +130,7 @@ const ATOMS: &[Atom] = &[
     a("combine2", "in1 in2", l::combine),
     a("combine3", "in1 in2 in3", l::combine),
     a("combine4", "in1 in2 in3 in4", l::combine),
-    a("extract", "in index", l::extract),
+    m("extract", "in index", l::extract),
     // geometric
     a("position", "space", l::position),
     a("normal", "space", l::normal),
@@ -185,7 +190,7 @@ pub fn missing_reason(nd: &NodeDefElem) -> &'static str {
         {
             "a string output never reaches the IR (strings are uniform inputs only)"
         } else if has_matrix(nd) {
-            "matrix arithmetic other than transforms has no IR op yet"
+            "this node's matrix variants have no lowering"
         } else {
             "a port type has no IR type yet"
         }
@@ -198,9 +203,6 @@ pub fn missing_reason(nd: &NodeDefElem) -> &'static str {
             "flake2d" | "flake3d" => "no flake noise intrinsic yet",
             "hextiledimage" | "hextilednormalmap" | "heighttonormal" | "normalmap" => {
                 "needs texture derivatives or tangent frames (issue 11)"
-            }
-            "transpose" | "determinant" | "invertmatrix" | "creatematrix" => {
-                "matrix operations have no IR op yet"
             }
             _ => "no lowering in the atom table yet",
         }

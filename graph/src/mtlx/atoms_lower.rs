@@ -5,6 +5,7 @@
 //! table in [`super::atoms`] does). A float operand of a vector-typed node (`ND_add_color3FA`)
 //! is broadcast; angles are in degrees, as MaterialX writes them.
 
+use super::atoms_matrix as mx;
 use crate::ir::{BinOp, Builder, Intrinsic, Space, Stream, UnOp, Value, XformKind};
 use crate::nodes::{LowVal, NodeInputs};
 use crate::types::{ConstValue, Type};
@@ -70,20 +71,33 @@ fn input(inp: &NodeInputs) -> Value {
     inp.get("in")
 }
 
-/// `in1 + in2`.
+/// `in1 + in2` (matrices: element by element, see [`mx::elementwise`]).
 pub fn add(b: &mut Builder, inp: &NodeInputs) -> Out {
+    if mx::on_matrix(b, inp, "in1") {
+        return mx::elementwise(b, inp, BinOp::Add);
+    }
     bin(b, inp, BinOp::Add)
 }
-/// `in1 - in2`.
+/// `in1 - in2` (matrices: element by element).
 pub fn subtract(b: &mut Builder, inp: &NodeInputs) -> Out {
+    if mx::on_matrix(b, inp, "in1") {
+        return mx::elementwise(b, inp, BinOp::Sub);
+    }
     bin(b, inp, BinOp::Sub)
 }
-/// `in1 * in2`.
+/// `in1 * in2` (matrices: the matrix product, [`mx::multiply`]).
 pub fn multiply(b: &mut Builder, inp: &NodeInputs) -> Out {
+    if mx::on_matrix(b, inp, "in1") {
+        return mx::multiply(b, inp);
+    }
     bin(b, inp, BinOp::Mul)
 }
-/// `in1 / in2` (0 where `in2` is 0: the IR's total division).
+/// `in1 / in2` (0 where `in2` is 0: the IR's total division; matrices: `in1 · in2⁻¹`,
+/// [`mx::divide`]).
 pub fn divide(b: &mut Builder, inp: &NodeInputs) -> Out {
+    if mx::on_matrix(b, inp, "in1") {
+        return mx::divide(b, inp);
+    }
     bin(b, inp, BinOp::Div)
 }
 /// `in1 - in2 * floor(in1 / in2)` (GLSL `mod`; 0 where `in2` is 0).
@@ -273,14 +287,6 @@ pub fn transformvector(b: &mut Builder, inp: &NodeInputs) -> Out {
 /// A normal from `fromspace` to `tospace`.
 pub fn transformnormal(b: &mut Builder, inp: &NodeInputs) -> Out {
     transform(b, inp, XformKind::Normal)
-}
-/// `mat * (in, 1)` for the vector3 × matrix44 variant.
-pub fn transformmatrix(b: &mut Builder, inp: &NodeInputs) -> Out {
-    let (x, m) = (input(inp), inp.get("mat"));
-    if b.ty(x) != Type::Vec3 || b.ty(m) != Type::Matrix44 {
-        return Err("only vector3 by matrix44 is lowered".into());
-    }
-    one(b.binary(BinOp::MulPoint, m, x))
 }
 
 fn radians(b: &mut Builder, deg: Value) -> Value {
@@ -629,6 +635,9 @@ pub fn disjointover(b: &mut Builder, inp: &NodeInputs) -> Out {
 }
 /// Component `index` of `in` (0 for an index out of range).
 pub fn extract(b: &mut Builder, inp: &NodeInputs) -> Out {
+    if mx::on_matrix(b, inp, "in") {
+        return mx::extract(b, inp);
+    }
     let (x, i) = (input(inp), inp.get("index"));
     let w = b.ty(x).width();
     let mut r = b.float(0.0);

@@ -16,6 +16,7 @@
 
 pub mod atoms;
 pub mod atoms_lower;
+pub mod atoms_matrix;
 pub mod channels;
 pub mod coverage;
 pub mod document;

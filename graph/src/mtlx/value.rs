@@ -14,7 +14,7 @@ pub enum MxType {
     Value(Type),
     /// A closure or shader type (BSDF, EDF, surfaceshader, material…): issue 15.
     Closure,
-    /// A value type with no IR type yet (color4, vector4, matrix33, arrays…).
+    /// A value type with no IR type yet (arrays, uvmap…).
     Unsupported,
 }
 
@@ -42,6 +42,7 @@ pub fn classify(mx: &str) -> MxType {
         "vector3" => Type::Vec3,
         "color4" => Type::Color4,
         "vector4" => Type::Vec4,
+        "matrix33" => Type::Matrix33,
         "matrix44" => Type::Matrix44,
         "string" | "filename" => Type::String,
         _ if CLOSURE_TYPES.contains(&mx) => return MxType::Closure,
@@ -53,9 +54,6 @@ pub fn classify(mx: &str) -> MxType {
 /// Why a MaterialX type has no IR type, for messages.
 pub fn unsupported_reason(mx: &str) -> String {
     match mx {
-        "matrix33" => {
-            format!("type {mx} has no IR type yet (only color3/4, vector2/3/4 and matrix44 do)")
-        }
         _ if CLOSURE_TYPES.contains(&mx) => {
             format!("type {mx} is a closure: closures are not built yet (issue 15)")
         }
@@ -75,6 +73,7 @@ pub fn mx_name(t: Type) -> &'static str {
         Type::Vec3 => "vector3",
         Type::Color4 => "color4",
         Type::Vec4 => "vector4",
+        Type::Matrix33 => "matrix33",
         Type::Matrix44 => "matrix44",
         Type::String => "string",
     }
@@ -118,10 +117,11 @@ pub fn literal(text: &str, ty: Type) -> Result<Json, String> {
         Type::Vec2 | Type::Vec3 | Type::Color | Type::Vec4 | Type::Color4 => {
             json!(floats(ty.width())?)
         }
-        Type::Matrix44 => {
-            let m = floats(16)?;
-            let rows: Vec<Vec<f64>> = (0..4)
-                .map(|r| (0..4).map(|c| m[c * 4 + r]).collect())
+        Type::Matrix33 | Type::Matrix44 => {
+            let k = ty.matrix_size();
+            let m = floats(k * k)?;
+            let rows: Vec<Vec<f64>> = (0..k)
+                .map(|r| (0..k).map(|c| m[c * k + r]).collect())
                 .collect();
             json!(rows)
         }
@@ -170,7 +170,12 @@ mod tests {
         assert_eq!(classify("BSDF"), MxType::Closure);
         assert_eq!(classify("color4"), MxType::Value(Type::Color4));
         assert_eq!(classify("vector4"), MxType::Value(Type::Vec4));
-        assert_eq!(classify("matrix33"), MxType::Unsupported);
-        assert!(unsupported_reason("matrix33").contains("no IR type"));
+        assert_eq!(classify("matrix33"), MxType::Value(Type::Matrix33));
+        assert_eq!(classify("uvmap"), MxType::Unsupported);
+        // MaterialX rows (row vectors) become our columns.
+        assert_eq!(
+            literal("1,2,3, 4,5,6, 7,8,9", Type::Matrix33).unwrap(),
+            json!([[1.0, 4.0, 7.0], [2.0, 5.0, 8.0], [3.0, 6.0, 9.0]])
+        );
     }
 }

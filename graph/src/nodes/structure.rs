@@ -71,8 +71,7 @@ fn constants() -> Vec<(&'static str, Type, ConstValue, &'static str)> {
             Type::Matrix44,
             ConstValue::identity(),
             "A matrix44 constant (row-major, points are column vectors: `M·p`): `out = \
-             value`. Matrices are only ever constants or uniform parameters in the IR; feed \
-             it to a node that takes a matrix (`pointMatrixMult`).",
+             value`. Feed it to a node that takes a matrix (`pointMatrixMult`).",
         ),
     ]
 }

@@ -171,9 +171,10 @@ macro_rules! impl_real {
 impl_real!(f32, single);
 impl_real!(f64, double);
 
-/// A runtime value. Matrices are not carried in registers: a matrix-typed value is
-/// `Mat(i)`, an index into the evaluator's matrix table (matrices are only ever constant or
-/// uniform).
+/// A runtime value. Matrices are not carried in registers (they would make every register
+/// four times larger): a matrix-typed value is `Mat(i)`, an index into the evaluator's matrix
+/// tables (constants and parameters, and the matrices the program constructs: see the
+/// interpreter).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Val<F> {
     /// A bool.
@@ -202,7 +203,7 @@ impl<F: Real> Val<F> {
             Type::Vec2 => Val::Vec2([F::ZERO; 2]),
             Type::Vec3 | Type::Color => Val::Vec3([F::ZERO; 3]),
             Type::Vec4 | Type::Color4 => Val::Vec4([F::ZERO; 4]),
-            Type::Matrix44 => Val::Mat(0),
+            Type::Matrix33 | Type::Matrix44 => Val::Mat(0),
         }
     }
 
@@ -217,7 +218,7 @@ impl<F: Real> Val<F> {
             ConstValue::Vec2(v) => Val::Vec2([f(v[0]), f(v[1])]),
             ConstValue::Vec3(v) | ConstValue::Color(v) => Val::Vec3([f(v[0]), f(v[1]), f(v[2])]),
             ConstValue::Vec4(v) | ConstValue::Color4(v) => Val::Vec4(v.map(f)),
-            ConstValue::Matrix44(_) => Val::Mat(0),
+            ConstValue::Matrix33(_) | ConstValue::Matrix44(_) => Val::Mat(0),
             ConstValue::String(_) => Val::Int(0),
         }
     }

@@ -115,6 +115,7 @@ impl ConstKey {
             | ConstValue::Color(_)
             | ConstValue::Vec4(_)
             | ConstValue::Color4(_)
+            | ConstValue::Matrix33(_)
             | ConstValue::Matrix44(_) => {
                 ConstKey::Floats(c.floats().iter().map(|x| x.to_bits()).collect())
             }

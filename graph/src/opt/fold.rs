@@ -165,14 +165,31 @@ fn fold(p: &Program, op: &Op, ty: Type) -> Option<ConstValue> {
     if !all {
         return None;
     }
-    // Matrices and strings have no f32 register form: a select picks its operand as is.
-    if matches!(ty, Type::Matrix44 | Type::String) {
+    // Matrices and strings have no f32 register form: a select picks its operand as is; a
+    // matrix construct keeps its elements rounded to f32, as every back end holds them.
+    if ty.is_matrix() || ty == Type::String {
         return match (op, consts.as_slice()) {
             (Op::Select { .. }, [ConstValue::Bool(c), a, b]) => {
                 Some(if *c { (*a).clone() } else { (*b).clone() })
             }
+            (Op::Construct(_), cs) => {
+                let xs: Option<Vec<f64>> = cs
+                    .iter()
+                    .map(|c| match c {
+                        ConstValue::Float(x) => Some(*x as f32 as f64),
+                        _ => None,
+                    })
+                    .collect();
+                ConstValue::from_floats(ty, &xs?)
+            }
             _ => None,
         };
+    }
+    if let (Op::Extract(_, k), [c]) = (op, consts.as_slice())
+        && c.ty().is_matrix()
+    {
+        let x = *c.floats().get(*k as usize)?;
+        return Some(ConstValue::Float(x as f32 as f64));
     }
     let vals: Vec<Val<f32>> = consts.iter().map(|c| Val::from_const(c)).collect();
     let val = |k: usize| vals.get(k).copied();
@@ -193,7 +210,7 @@ fn fold(p: &Program, op: &Op, ty: Type) -> Option<ConstValue> {
         Op::Binary(b, ..) => {
             if consts
                 .iter()
-                .any(|c| matches!(c, ConstValue::Matrix44(_) | ConstValue::String(_)))
+                .any(|c| c.ty().is_matrix() || matches!(c, ConstValue::String(_)))
             {
                 return None;
             }
