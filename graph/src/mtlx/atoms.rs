@@ -202,7 +202,7 @@ pub fn missing_reason(nd: &NodeDefElem) -> &'static str {
             "frame" => "no frame number in the shading context yet",
             "flake2d" | "flake3d" => "no flake noise intrinsic yet",
             "hextiledimage" | "hextilednormalmap" | "heighttonormal" | "normalmap" => {
-                "needs texture derivatives or tangent frames (issue 11)"
+                "needs texture derivatives or tangent frames (issue 16)"
             }
             _ => "no lowering in the atom table yet",
         }

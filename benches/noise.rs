@@ -1,0 +1,80 @@
+//! The JIT batch entry's noise helpers (issue 23): `fbm3` of B7's network (6 octaves,
+//! lacunarity 2.1, gain 0.55) over 640×480 points, four lanes at a time — per lane through the
+//! scalar function (what the batch entry did before `ops::noise_x4`), and through
+//! `fbm3_x4` on each SIMD path the CPU has. One thread. `cargo bench --bench noise`;
+//! `cargo test --benches` runs a quick check that the paths agree instead.
+
+use criterion::{Criterion, criterion_group};
+use shadenet::graph::ops::noise;
+use shadenet::graph::ops::noise_x4::{self, Path};
+use std::hint::black_box;
+
+const W: usize = 640;
+const H: usize = 480;
+
+/// The points of a 640×480 grid on the unit plane, scaled by 3 (B7's network), as packets.
+fn packets() -> Vec<[[f32; 4]; 3]> {
+    let mut v = Vec::new();
+    for y in 0..H {
+        for x0 in (0..W).step_by(4) {
+            let x = [0, 1, 2, 3].map(|l| ((x0 + l) as f32 + 0.5) / W as f32 * 3.0 - 1.5);
+            let y = [(1.0 - (y as f32 + 0.5) / H as f32) * 3.0 - 1.5; 4];
+            v.push([x, y, [0.0; 4]]);
+        }
+    }
+    v
+}
+
+fn per_lane(ps: &[[[f32; 4]; 3]]) -> f32 {
+    let mut acc = 0.0;
+    for p in ps {
+        for ((x, y), z) in p[0].iter().zip(&p[1]).zip(&p[2]) {
+            acc += noise::fbm3::<f32>([*x, *y, *z], 6, 2.1, 0.55);
+        }
+    }
+    acc
+}
+
+fn four_lanes(path: Path, ps: &[[[f32; 4]; 3]]) -> f32 {
+    let mut acc = 0.0;
+    for p in ps {
+        let r = noise_x4::fbm3_x4_on(path, *p, [6; 4], [2.1; 4], [0.55; 4]);
+        for x in r {
+            acc += x;
+        }
+    }
+    acc
+}
+
+fn bench(c: &mut Criterion) {
+    let ps = packets();
+    let mut g = c.benchmark_group("fbm3_640x480");
+    g.sample_size(20);
+    g.bench_function("per_lane_scalar", |b| b.iter(|| black_box(per_lane(&ps))));
+    for path in [Path::Base, Path::Sse41, Path::Avx2] {
+        if path.available() {
+            g.bench_function(format!("x4_{path:?}"), |b| {
+                b.iter(|| black_box(four_lanes(path, &ps)))
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+
+fn main() {
+    if !std::env::args().any(|a| a == "--bench") {
+        let ps: Vec<_> = packets().into_iter().step_by(97).collect();
+        let want = per_lane(&ps);
+        for path in [Path::Base, Path::Sse41, Path::Avx2] {
+            if path.available() {
+                assert_eq!(four_lanes(path, &ps).to_bits(), want.to_bits(), "{path:?}");
+            }
+        }
+        println!("noise bench smoke check: ok (run `cargo bench --bench noise`)");
+        return;
+    }
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}
