@@ -51,7 +51,7 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("fbm3_640x480");
     g.sample_size(20);
     g.bench_function("per_lane_scalar", |b| b.iter(|| black_box(per_lane(&ps))));
-    for path in [Path::Base, Path::Sse41, Path::Avx2] {
+    for path in [Path::Lanes, Path::Base, Path::Sse41, Path::Avx2] {
         if path.available() {
             g.bench_function(format!("x4_{path:?}"), |b| {
                 b.iter(|| black_box(four_lanes(path, &ps)))

@@ -153,6 +153,14 @@ fn fbm3_base(p: [X4; 3], o: [i32; 4], l: X4, g: X4) -> X4 {
     fbm3_body(p, o, l, g)
 }
 
+fn noise3_lanes(p: [X4; 3]) -> X4 {
+    map(|l| super::noise::noise3::<f32>([p[0][l], p[1][l], p[2][l]]))
+}
+
+fn fbm3_lanes(p: [X4; 3], o: [i32; 4], la: X4, g: X4) -> X4 {
+    map(|l| super::noise::fbm3::<f32>([p[0][l], p[1][l], p[2][l]], o[l], la[l], g[l]))
+}
+
 #[cfg(target_arch = "x86_64")]
 mod x86 {
     use super::*;
@@ -175,10 +183,13 @@ mod x86 {
     }
 }
 
-/// Which copy runs: `SHADENET_SIMD=base|sse4.1|avx2` forces one (the tests run each the CPU
-/// has), else the widest the CPU has.
+/// Which copy runs: `SHADENET_SIMD=lanes|base|sse4.1|avx2` forces one (the tests run each
+/// the CPU has), else the widest the CPU has.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Path {
+    /// No four-lane code: the scalar function once per lane (what the batch entry did
+    /// before this module; kept to measure against).
+    Lanes,
     /// The baseline copy (x86-64: SSE2; `floor` is a call per lane).
     Base,
     /// SSE4.1 (`roundps` for `floor`).
@@ -191,7 +202,7 @@ impl Path {
     /// Whether this CPU can run the copy.
     pub fn available(self) -> bool {
         match self {
-            Path::Base => true,
+            Path::Lanes | Path::Base => true,
             #[cfg(target_arch = "x86_64")]
             Path::Sse41 => std::arch::is_x86_feature_detected!("sse4.1"),
             #[cfg(target_arch = "x86_64")]
@@ -206,6 +217,7 @@ impl Path {
         static CHOSEN: OnceLock<Path> = OnceLock::new();
         *CHOSEN.get_or_init(|| {
             let forced = match std::env::var("SHADENET_SIMD").ok().as_deref() {
+                Some("lanes") => Some(Path::Lanes),
                 Some("base") => Some(Path::Base),
                 Some("sse4.1") => Some(Path::Sse41),
                 Some("avx2") => Some(Path::Avx2),
@@ -229,6 +241,7 @@ impl Path {
             #[cfg(target_arch = "x86_64")]
             // SAFETY: as above.
             Path::Sse41 => |p| unsafe { x86::noise3_sse41(p) },
+            Path::Lanes => noise3_lanes,
             _ => noise3_base,
         }
     }
@@ -241,6 +254,7 @@ impl Path {
             #[cfg(target_arch = "x86_64")]
             // SAFETY: as above.
             Path::Sse41 => |p, o, l, g| unsafe { x86::fbm3_sse41(p, o, l, g) },
+            Path::Lanes => fbm3_lanes,
             _ => fbm3_base,
         }
     }
@@ -322,7 +336,7 @@ mod tests {
     }
 
     fn paths() -> Vec<Path> {
-        let all = [Path::Base, Path::Sse41, Path::Avx2];
+        let all = [Path::Lanes, Path::Base, Path::Sse41, Path::Avx2];
         for p in all.iter().filter(|p| !p.available()) {
             eprintln!("SKIPPED: the {p:?} copy: this CPU lacks the feature");
         }
