@@ -49,19 +49,22 @@ fn add_i(a: [i32; 4], b: [i32; 4]) -> [i32; 4] {
     [0, 1, 2, 3].map(|l| a[l].wrapping_add(b[l]))
 }
 
+/// `noise::grad` per lane, without branches: the choices are bit masks and the negations
+/// sign-bit flips (exactly IEEE negation), so the lanes vectorize and the bits are the
+/// scalar form's.
 #[inline(always)]
 fn grad(hash: [i32; 4], x: X4, y: X4, z: X4) -> X4 {
+    let pick = |c: bool, a: f32, b: f32| {
+        let m = (c as u32).wrapping_neg();
+        f32::from_bits((a.to_bits() & m) | (b.to_bits() & !m))
+    };
     map(|l| {
         let h = hash[l] & 15;
-        let u = if h < 8 { x[l] } else { y[l] };
-        let v = if h < 4 {
-            y[l]
-        } else if h == 12 || h == 14 {
-            x[l]
-        } else {
-            z[l]
-        };
-        (if h & 1 == 0 { u } else { -u }) + (if h & 2 == 0 { v } else { -v })
+        let u = pick(h < 8, x[l], y[l]);
+        let v = pick(h < 4, y[l], pick(h == 12 || h == 14, x[l], z[l]));
+        let su = f32::from_bits(u.to_bits() ^ (((h & 1) as u32) << 31));
+        let sv = f32::from_bits(v.to_bits() ^ (((h & 2) as u32) << 30));
+        su + sv
     })
 }
 
