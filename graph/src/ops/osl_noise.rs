@@ -315,9 +315,22 @@ pub const MAX_OCTAVES: i32 = 32;
 /// lacunarityⁱ)`, accumulated as the source does (`result += amplitude · noise;
 /// amplitude *= diminish; p *= lacunarity`); octaves clamped to [0, [`MAX_OCTAVES`]].
 pub fn fractal2<F: Real>(p: [F; 2], octaves: i32, lacunarity: F, diminish: F) -> F {
-    let (mut p, mut result, mut amplitude) = (p, F::ZERO, F::ONE);
+    fractal(p, octaves, lacunarity, diminish, |q| [perlin2(q)])[0]
+}
+
+/// The fractal sum of any of the noises (`W` components) of a `D`-dimensional point: the
+/// one loop [`fractal2`], [`fractal3`], [`vfractal2`] and [`vfractal3`] share.
+fn fractal<F: Real, const D: usize, const W: usize>(
+    p: [F; D],
+    octaves: i32,
+    lacunarity: F,
+    diminish: F,
+    noise: impl Fn([F; D]) -> [F; W],
+) -> [F; W] {
+    let (mut p, mut result, mut amplitude) = (p, [F::ZERO; W], F::ONE);
     for _ in 0..octaves.clamp(0, MAX_OCTAVES) {
-        result = result + amplitude * perlin2(p);
+        let n = noise(p);
+        result = std::array::from_fn(|c| result[c] + amplitude * n[c]);
         amplitude = amplitude * diminish;
         p = p.map(|c| c * lacunarity);
     }
@@ -326,37 +339,17 @@ pub fn fractal2<F: Real>(p: [F; 2], octaves: i32, lacunarity: F, diminish: F) ->
 
 /// MaterialX `mx_fractal3d_noise_float`: [`fractal2`] of [`perlin3`].
 pub fn fractal3<F: Real>(p: [F; 3], octaves: i32, lacunarity: F, diminish: F) -> F {
-    let (mut p, mut result, mut amplitude) = (p, F::ZERO, F::ONE);
-    for _ in 0..octaves.clamp(0, MAX_OCTAVES) {
-        result = result + amplitude * perlin3(p);
-        amplitude = amplitude * diminish;
-        p = p.map(|c| c * lacunarity);
-    }
-    result
+    fractal(p, octaves, lacunarity, diminish, |q| [perlin3(q)])[0]
 }
 
 /// MaterialX `mx_fractal2d_noise_vec3`: [`fractal2`] of [`vperlin2`].
 pub fn vfractal2<F: Real>(p: [F; 2], octaves: i32, lacunarity: F, diminish: F) -> [F; 3] {
-    let (mut p, mut result, mut amplitude) = (p, [F::ZERO; 3], F::ONE);
-    for _ in 0..octaves.clamp(0, MAX_OCTAVES) {
-        let n = vperlin2(p);
-        result = std::array::from_fn(|c| result[c] + amplitude * n[c]);
-        amplitude = amplitude * diminish;
-        p = p.map(|c| c * lacunarity);
-    }
-    result
+    fractal(p, octaves, lacunarity, diminish, vperlin2)
 }
 
 /// MaterialX `mx_fractal3d_noise_vec3`: [`fractal3`] of [`vperlin3`].
 pub fn vfractal3<F: Real>(p: [F; 3], octaves: i32, lacunarity: F, diminish: F) -> [F; 3] {
-    let (mut p, mut result, mut amplitude) = (p, [F::ZERO; 3], F::ONE);
-    for _ in 0..octaves.clamp(0, MAX_OCTAVES) {
-        let n = vperlin3(p);
-        result = std::array::from_fn(|c| result[c] + amplitude * n[c]);
-        amplitude = amplitude * diminish;
-        p = p.map(|c| c * lacunarity);
-    }
-    result
+    fractal(p, octaves, lacunarity, diminish, vperlin3)
 }
 
 // ---- MaterialX Worley noise ----
