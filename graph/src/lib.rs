@@ -7,6 +7,7 @@
 //! ([`ops`]). It must not touch rendering, back ends or the shading context: the runtime, the
 //! JIT and the GPU back end depend on this crate, never the reverse (DESIGN §2).
 
+pub mod closure;
 pub mod ir;
 pub mod link;
 pub mod lower;
