@@ -299,11 +299,11 @@ fn errors_name_the_place() {
         e.contains("no nodedef of `add` matches") && e.contains("in1: string"),
         "{e}"
     );
-    let e = err(r#"<standard_surface name="ss" type="surfaceshader"/>
-        <surfacematerial name="M" type="material"><input name="surfaceshader" type="surfaceshader" nodename="ss"/></surfacematerial>"#)
+    let e = err(r#"<volume name="v" type="volumeshader"/>
+        <volumematerial name="M" type="material"><input name="volumeshader" type="volumeshader" nodename="v"/></volumematerial>"#)
     .unwrap();
     assert!(
-        e.contains("node `ss` is of type surfaceshader") && e.contains("issue 15"),
+        e.contains("node `M`: ND_volumematerial is not supported: no volumes yet"),
         "{e}"
     );
 }

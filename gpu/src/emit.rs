@@ -152,7 +152,7 @@ pub fn wgsl_type(ty: Type) -> Result<&'static str, EmitError> {
         Type::Vec4 | Type::Color4 => "vec4<f32>",
         Type::Matrix33 => "array<vec3<f32>, 3>",
         Type::Matrix44 => "array<vec4<f32>, 4>",
-        Type::String => return Err(EmitError::Type(ty.name().into())),
+        Type::String | Type::Closure(_) => return Err(EmitError::Type(ty.name().into())),
     })
 }
 
@@ -603,7 +603,7 @@ pub fn store_columns(ty: Type, e: &str) -> Vec<String> {
             components(ty, e)
         }
         Type::Matrix33 | Type::Matrix44 => matrix_elems(ty, e),
-        Type::String => vec!["0.0f".into()],
+        Type::String | Type::Closure(_) => vec!["0.0f".into()],
     }
 }
 
@@ -614,7 +614,7 @@ pub fn load_columns(ty: Type, cols: &[String]) -> String {
     match ty {
         Type::Bool => format!("({} != 0.0f)", col(0)),
         Type::Int => format!("bitcast<i32>({})", col(0)),
-        Type::Float | Type::String => col(0),
+        Type::Float | Type::String | Type::Closure(_) => col(0),
         Type::Vec2 => format!("vec2<f32>({}, {})", col(0), col(1)),
         Type::Vec3 | Type::Color => format!("vec3<f32>({}, {}, {})", col(0), col(1), col(2)),
         Type::Vec4 | Type::Color4 => {
@@ -638,7 +638,7 @@ pub fn output_columns(ty: Type, e: &str) -> Vec<String> {
             components(ty, e)
         }
         Type::Matrix33 | Type::Matrix44 => matrix_elems(ty, e),
-        Type::String => vec!["0.0f".into()],
+        Type::String | Type::Closure(_) => vec!["0.0f".into()],
     }
 }
 

@@ -22,7 +22,7 @@ pub use link::{LinkError, LinkErrors, Linked, link};
 pub use lower::{CompileError, Compiled, compile_json, lower};
 pub use network::Network;
 pub use nodes::NodeLibrary;
-pub use types::{ConstValue, Type};
+pub use types::{ClosureKind, ConstValue, Type};
 
 /// An error and its causes, outermost first, joined by `": "`: how the CLI prints an error,
 /// for code that must put a whole error into a message (each level's `Display` says its own

@@ -606,6 +606,10 @@ pub fn literal(json: &Json, ty: Type) -> Result<ConstValue, String> {
             Ok(ConstValue::Int(x as i32))
         }
         Type::Float => num(json).map(ConstValue::Float),
+        Type::Closure(k) => Err(format!(
+            "is a {} (a closure): connect a closure node; closures have no literal values",
+            k.name()
+        )),
         Type::String => json
             .as_str()
             .map(|s| ConstValue::String(s.to_string()))

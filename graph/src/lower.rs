@@ -35,6 +35,9 @@ pub fn default_input(b: &mut Builder, def: &NodeDef, port: usize, generic: Type)
     let p = &def.inputs[port];
     match (&p.default, &p.ty) {
         (PortDefault::EmptyArray, _) => InputVal::Array(Vec::new()),
+        (PortDefault::EmptyClosure, _) => {
+            InputVal::Value(LowVal::closure(b, crate::closure::Closure::default()))
+        }
         (PortDefault::Stream(s), _) => InputVal::Value(LowVal::plain(b.stream(*s))),
         (PortDefault::Value(ConstValue::String(s)), _) => InputVal::Str(s.clone()),
         (PortDefault::Value(c), PortType::Generic) => {
@@ -227,6 +230,11 @@ fn single_value(v: InputVal, port: &str) -> Result<LowVal, String> {
 /// Declares a material output: one program output per component part when the value has
 /// parts, else a single untagged output.
 pub fn declare_output(b: &mut Builder, name: &str, v: &LowVal) {
+    if let Some(c) = &v.closure {
+        // A closure output (a material, shader or BSDF) shades: its radiance, by component.
+        let lit = crate::closure::shade::surface(b, c);
+        return declare_output(b, name, &lit);
+    }
     if v.parts.is_empty() {
         b.output(name, None, v.value);
     } else {

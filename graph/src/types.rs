@@ -32,6 +32,70 @@ pub enum Type {
     Matrix44,
     /// A string; uniform only (file names, enum-like options), never reaches the IR.
     String,
+    /// A closure or shader (MaterialX `BSDF`, `EDF`, `surfaceshader`, `material`, …): a
+    /// compile-time lobe list (DESIGN §12, [`crate::closure`]), never an IR value.
+    Closure(ClosureKind),
+}
+
+/// The closure and shader types (MaterialX's names).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum ClosureKind {
+    /// `BSDF`: scattering lobes.
+    Bsdf,
+    /// `EDF`: emission.
+    Edf,
+    /// `VDF`: volume scattering (not built: no volumes yet).
+    Vdf,
+    /// `surfaceshader`: a BSDF, an EDF and an opacity.
+    SurfaceShader,
+    /// `volumeshader` (not built).
+    VolumeShader,
+    /// `displacementshader` (not built).
+    DisplacementShader,
+    /// `lightshader` (not built).
+    LightShader,
+    /// `material`: a surface shader bound for rendering.
+    Material,
+}
+
+impl ClosureKind {
+    /// Every closure kind.
+    pub const ALL: [ClosureKind; 8] = [
+        ClosureKind::Bsdf,
+        ClosureKind::Edf,
+        ClosureKind::Vdf,
+        ClosureKind::SurfaceShader,
+        ClosureKind::VolumeShader,
+        ClosureKind::DisplacementShader,
+        ClosureKind::LightShader,
+        ClosureKind::Material,
+    ];
+
+    /// Whether values of this kind are built (BSDF, EDF, surfaceshader, material); the others
+    /// (volumes, displacement, light shaders) are refused with a reason.
+    pub fn is_built(self) -> bool {
+        matches!(
+            self,
+            ClosureKind::Bsdf
+                | ClosureKind::Edf
+                | ClosureKind::SurfaceShader
+                | ClosureKind::Material
+        )
+    }
+
+    /// The MaterialX type name (`BSDF`, `surfaceshader`, …).
+    pub fn name(self) -> &'static str {
+        match self {
+            ClosureKind::Bsdf => "BSDF",
+            ClosureKind::Edf => "EDF",
+            ClosureKind::Vdf => "VDF",
+            ClosureKind::SurfaceShader => "surfaceshader",
+            ClosureKind::VolumeShader => "volumeshader",
+            ClosureKind::DisplacementShader => "displacementshader",
+            ClosureKind::LightShader => "lightshader",
+            ClosureKind::Material => "material",
+        }
+    }
 }
 
 impl Type {
@@ -64,12 +128,23 @@ impl Type {
             Type::Matrix33 => "matrix33",
             Type::Matrix44 => "matrix44",
             Type::String => "string",
+            Type::Closure(k) => k.name(),
         }
     }
 
-    /// Parses a type name as written by [`Type::name`].
+    /// Parses a type name as written by [`Type::name`] (value types and closure types).
     pub fn from_name(s: &str) -> Option<Type> {
-        Type::ALL.into_iter().find(|t| t.name() == s)
+        Type::ALL.into_iter().find(|t| t.name() == s).or_else(|| {
+            ClosureKind::ALL
+                .into_iter()
+                .find(|k| k.name() == s)
+                .map(Type::Closure)
+        })
+    }
+
+    /// True for the closure and shader types.
+    pub fn is_closure(self) -> bool {
+        matches!(self, Type::Closure(_))
     }
 
     /// Number of scalar components (floats, ints or bools); 0 for strings.
@@ -81,7 +156,7 @@ impl Type {
             Type::Vec4 | Type::Color4 => 4,
             Type::Matrix33 => 9,
             Type::Matrix44 => 16,
-            Type::String => 0,
+            Type::String | Type::Closure(_) => 0,
         }
     }
 
@@ -263,12 +338,16 @@ impl ConstValue {
         })
     }
 
-    /// The zero of a type (false, 0, black, the zero matrix, the empty string).
+    /// The zero of a type (false, 0, black, the zero matrix, the empty string). Closures
+    /// have no constant (an unset closure input is the empty lobe list, which the lowering
+    /// gives): the float 0 stands in, so a caller that does not special-case them cannot
+    /// panic.
     pub fn zero(ty: Type) -> ConstValue {
         match ty {
             Type::Bool => ConstValue::Bool(false),
             Type::Int => ConstValue::Int(0),
             Type::String => ConstValue::String(String::new()),
+            Type::Closure(_) => ConstValue::Float(0.0),
             _ => ConstValue::from_floats(ty, &vec![0.0; ty.width()]).expect("float type"),
         }
     }

@@ -10,9 +10,9 @@
 //! |cos θi|` over that density, so every lobe's light is counted whichever lobe drew the
 //! direction (one-sample MIS over lobes with the balance heuristic).
 
-use super::math::{div_pdf, f, lt, luminance, one_minus, pos, scale, vec3};
+use super::math::{div_pdf, f, f as f_, lt, luminance, one_minus, pos, scale, vec3};
 use super::{Eval, Lobe, Sample};
-use crate::ir::{Builder, Value};
+use crate::ir::{BinOp, Builder, Value};
 use crate::types::Type;
 
 /// A BSDF and EDF as lists: the scattering lobes and the emitted radiance.
@@ -22,6 +22,9 @@ pub struct Closure {
     pub lobes: Vec<Lobe>,
     /// Emitted radiance towards the viewer (color; an EDF), `None` for none.
     pub emission: Option<Value>,
+    /// Cutout opacity (float, a `surface`'s `opacity`); `None` is opaque. Where it is below
+    /// 1 the rest of the light passes straight through the surface.
+    pub opacity: Option<Value>,
 }
 
 impl Closure {
@@ -29,15 +32,15 @@ impl Closure {
     pub fn lobe(lobe: Lobe) -> Closure {
         Closure {
             lobes: vec![lobe],
-            emission: None,
+            ..Closure::default()
         }
     }
 
     /// A closure that only emits `radiance` (color).
     pub fn emitter(radiance: Value) -> Closure {
         Closure {
-            lobes: Vec::new(),
             emission: Some(radiance),
+            ..Closure::default()
         }
     }
 
@@ -53,10 +56,15 @@ impl Closure {
             })
             .collect();
         let emission = self.emission.map(|e| b.mul(e, k));
-        Closure { lobes, emission }
+        Closure {
+            lobes,
+            emission,
+            opacity: self.opacity,
+        }
     }
 
-    /// `a + c`: both lists, emissions summed.
+    /// `a + c`: both lists, emissions summed; the opacity of whichever has one (the
+    /// product where both do).
     pub fn add(b: &mut Builder, a: &Closure, c: &Closure) -> Closure {
         let mut lobes = a.lobes.clone();
         lobes.extend(c.lobes.iter().cloned());
@@ -64,7 +72,15 @@ impl Closure {
             (Some(x), Some(y)) => Some(b.add(x, y)),
             (x, y) => x.or(y),
         };
-        Closure { lobes, emission }
+        let opacity = match (a.opacity, c.opacity) {
+            (Some(x), Some(y)) => Some(b.mul(x, y)),
+            (x, y) => x.or(y),
+        };
+        Closure {
+            lobes,
+            emission,
+            opacity,
+        }
     }
 
     /// MaterialX `mix(fg, bg, t)`: `fg · t + bg · (1 − t)` (`t` a float).
@@ -169,28 +185,77 @@ impl Closure {
 }
 
 impl Lobe {
-    /// `eval` for world directions (converted to the lobe's frame).
-    pub fn eval(&self, b: &mut Builder, wo: Value, wi: Value) -> Eval {
-        let lo = self.frame.to_local(b, wo);
-        let li = self.frame.to_local(b, wi);
-        self.kind.eval(b, lo, li)
+    /// `f()` where the lobe's weight is not zero (any channel), else `zero`: a lobe whose
+    /// weight folds to 0 is dead code for the partial evaluator's dead-branch pass, and one
+    /// whose weight is 0 at run time costs a branch.
+    fn guarded(
+        &self,
+        b: &mut Builder,
+        f: impl FnOnce(&mut Builder) -> Vec<Value>,
+        zero: impl FnOnce(&mut Builder) -> Vec<Value>,
+    ) -> Vec<Value> {
+        let (r, g, bl) = (
+            b.extract(self.weight, 0),
+            b.extract(self.weight, 1),
+            b.extract(self.weight, 2),
+        );
+        let z = f_(b, 0.0);
+        let nr = b.binary(BinOp::Ne, r, z);
+        let ng = b.binary(BinOp::Ne, g, z);
+        let nb = b.binary(BinOp::Ne, bl, z);
+        let any = b.binary(BinOp::Or, nr, ng);
+        let any = b.binary(BinOp::Or, any, nb);
+        b.if_(any, f, zero)
     }
 
-    /// `sample` with a world-space result.
+    /// `eval` for world directions (converted to the lobe's frame), unweighted.
+    pub fn eval(&self, b: &mut Builder, wo: Value, wi: Value) -> Eval {
+        let r = self.guarded(
+            b,
+            |b| {
+                let lo = self.frame.to_local(b, wo);
+                let li = self.frame.to_local(b, wi);
+                let e = self.kind.eval(b, lo, li);
+                vec![e.value, e.pdf]
+            },
+            |b| vec![b.zero(Type::Color), b.float(0.0)],
+        );
+        Eval {
+            value: r[0],
+            pdf: r[1],
+        }
+    }
+
+    /// `sample` with a world-space result, unweighted.
     pub fn sample_world(&self, b: &mut Builder, wo: Value, u: Value) -> Sample {
-        let lo = self.frame.to_local(b, wo);
-        let s = self.kind.sample(b, lo, u);
+        let r = self.guarded(
+            b,
+            |b| {
+                let lo = self.frame.to_local(b, wo);
+                let s = self.kind.sample(b, lo, u);
+                vec![self.frame.to_world(b, s.wi), s.weight, s.pdf]
+            },
+            |b| vec![b.zero(Type::Vec3), b.zero(Type::Color), b.float(0.0)],
+        );
         Sample {
-            wi: self.frame.to_world(b, s.wi),
-            ..s
+            wi: r[0],
+            weight: r[1],
+            pdf: r[2],
         }
     }
 
     /// `weight · albedo(wo)` (color) for a world `wo`.
     pub fn albedo(&self, b: &mut Builder, wo: Value) -> Value {
-        let lo = self.frame.to_local(b, wo);
-        let a = self.kind.albedo(b, lo);
-        b.mul(self.weight, a)
+        let r = self.guarded(
+            b,
+            |b| {
+                let lo = self.frame.to_local(b, wo);
+                let a = self.kind.albedo(b, lo);
+                vec![b.mul(self.weight, a)]
+            },
+            |b| vec![b.zero(Type::Color)],
+        );
+        r[0]
     }
 }
 

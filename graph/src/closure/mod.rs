@@ -26,6 +26,7 @@ pub mod frame;
 pub mod list;
 pub mod math;
 pub mod oren_nayar;
+pub mod shade;
 
 pub use frame::Frame;
 pub use list::Closure;

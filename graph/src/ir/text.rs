@@ -1353,6 +1353,7 @@ impl Parser {
                 Some(Tok::Str(s)) => Ok(ConstValue::String(s)),
                 _ => Err(bad("expected a quoted string".into())),
             },
+            Type::Closure(_) => Err(bad("closures have no constants in the IR".into())),
             Type::Float => Ok(ConstValue::Float(self.float(lit, ty)?)),
             Type::Vec2
             | Type::Vec3

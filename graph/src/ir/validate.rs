@@ -637,6 +637,12 @@ impl Validator<'_> {
                 }
             }
         };
+        if let Some(t @ Type::Closure(_)) = e.ty {
+            return Err(ValidationError::IllTyped {
+                value,
+                reason: format!("a {t} is a compile-time lobe list, never an IR value"),
+            });
+        }
         if e.ty != inferred {
             return Err(ValidationError::WrongType {
                 value,

@@ -9,6 +9,7 @@
 
 use super::atoms_lower as l;
 use super::atoms_matrix as mx;
+use super::atoms_pbr as pbr;
 use super::document::NodeDefElem;
 use crate::ir::Stream;
 use crate::nodes::LowerFn;
@@ -161,7 +162,23 @@ const ATOMS: &[Atom] = &[
     a("worleynoise3d", "position jitter style", l::worleynoise3d),
     // texture
     a("image", "file default texcoord", l::image),
+    // pbrlib values
+    a(
+        "roughness_anisotropy",
+        "roughness anisotropy",
+        pbr::roughness_anisotropy,
+    ),
+    a("roughness_dual", "roughness", pbr::roughness_dual),
+    a("artistic_ior", "reflectivity edge_color", pbr::artistic_ior),
+    a("blackbody", "temperature", pbr::blackbody),
 ];
+
+/// Whether a nodedef makes a closure (its first output is a closure or shader type).
+fn is_closure_def(nd: &NodeDefElem) -> bool {
+    nd.outputs
+        .first()
+        .is_some_and(|o| super::value::CLOSURE_TYPES.contains(&o.ty.as_str()))
+}
 
 fn has_matrix(nd: &NodeDefElem) -> bool {
     nd.inputs
@@ -174,6 +191,9 @@ fn has_matrix(nd: &NodeDefElem) -> bool {
 /// nodedef has every input the lowering reads (a document may declare its own nodedef of a
 /// known node with other inputs: it is not an atom then).
 pub fn lowering(nd: &NodeDefElem) -> Option<LowerFn> {
+    if is_closure_def(nd) {
+        return super::atoms_closure::lowering(&nd.node);
+    }
     let row = ATOMS.iter().find(|r| r.node == nd.node)?;
     let has = |p: &str| nd.inputs.iter().any(|i| i.name == p);
     let ports_ok = row.ports.split_whitespace().all(has);
@@ -182,6 +202,9 @@ pub fn lowering(nd: &NodeDefElem) -> Option<LowerFn> {
 
 /// Why a nodedef with neither a nodegraph nor a lowering is unsupported (for coverage).
 pub fn missing_reason(nd: &NodeDefElem) -> &'static str {
+    if is_closure_def(nd) {
+        return super::atoms_closure::missing_reason(&nd.node);
+    }
     if ATOMS.iter().any(|r| r.node == nd.node) {
         if nd
             .outputs

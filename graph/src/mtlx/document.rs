@@ -85,6 +85,8 @@ pub struct NodeDefElem {
     pub inputs: Vec<Input>,
     /// Its outputs (name, type).
     pub outputs: Vec<Output>,
+    /// The nodedef it `inherit`s inputs and outputs from (resolved by the library).
+    pub inherit: Option<String>,
     /// Position.
     pub pos: Pos,
 }
@@ -117,6 +119,9 @@ pub struct Document {
     pub outputs: Vec<Output>,
     /// Looks.
     pub looks: Vec<Look>,
+    /// `<implementation nodedef=… nodegraph=…>`: nodedefs implemented by a nodegraph named
+    /// elsewhere (nodedef, nodegraph).
+    pub implementations: Vec<(String, String)>,
 }
 
 impl Document {
@@ -279,6 +284,7 @@ impl Ctx<'_> {
             group: n.attribute("nodegroup").unwrap_or("").to_string(),
             inputs: Vec::new(),
             outputs: Vec::new(),
+            inherit: n.attribute("inherit").map(str::to_string),
             pos: self.pos(n),
         };
         for c in n.children().filter(Node::is_element) {
@@ -377,6 +383,7 @@ pub fn parse(file: &str, text: &str) -> Result<Document, MtlxError> {
         nodes: Vec::new(),
         outputs: Vec::new(),
         looks: Vec::new(),
+        implementations: Vec::new(),
     };
     for c in root.children().filter(Node::is_element) {
         match c.tag_name().name() {
@@ -396,6 +403,11 @@ pub fn parse(file: &str, text: &str) -> Result<Document, MtlxError> {
                     })
                     .collect(),
             }),
+            "implementation" => {
+                if let (Some(nd), Some(ng)) = (c.attribute("nodedef"), c.attribute("nodegraph")) {
+                    d.implementations.push((nd.to_string(), ng.to_string()));
+                }
+            }
             t if NOT_NODES.contains(&t) => {}
             _ => d.nodes.push(ctx.node(c, &scope)?),
         }

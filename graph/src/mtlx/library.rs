@@ -48,6 +48,8 @@ impl Library {
             graphs: HashMap::new(),
             atoms: NodeLibrary::new(),
         };
+        let mut by_graph: HashMap<String, Graph> = HashMap::new();
+        let mut implementations = Vec::new();
         for (group, doc) in docs {
             for d in doc.nodedefs {
                 if lib.by_name.contains_key(&d.name) {
@@ -61,10 +63,19 @@ impl Library {
             }
             for g in doc.graphs {
                 if let Some(nd) = g.nodedef.clone() {
-                    lib.graphs.entry(nd).or_insert(g);
+                    lib.graphs.entry(nd).or_insert_with(|| g.clone());
                 }
+                by_graph.entry(g.name.clone()).or_insert(g);
+            }
+            implementations.extend(doc.implementations);
+        }
+        // `<implementation nodedef=… nodegraph=…>` binds a nodegraph declared by name.
+        for (nd, ng) in implementations {
+            if let Some(g) = by_graph.get(&ng) {
+                lib.graphs.entry(nd).or_insert_with(|| g.clone());
             }
         }
+        lib.inherit();
         for i in 0..lib.defs.len() {
             if lib.graphs.contains_key(&lib.defs[i].name) {
                 continue;
@@ -74,6 +85,36 @@ impl Library {
             }
         }
         lib
+    }
+
+    /// Gives each nodedef that `inherit`s the inputs and outputs of its parent chain that it
+    /// does not declare itself (its own declarations win; a missing parent or a cycle ends
+    /// the chain).
+    fn inherit(&mut self) {
+        for i in 0..self.defs.len() {
+            let mut seen = vec![self.defs[i].name.clone()];
+            let mut parent = self.defs[i].inherit.clone();
+            while let Some(p) = parent.take() {
+                if seen.contains(&p) {
+                    break;
+                }
+                let Some(&j) = self.by_name.get(&p) else {
+                    break;
+                };
+                let (inputs, outputs) = (self.defs[j].inputs.clone(), self.defs[j].outputs.clone());
+                let d = &mut self.defs[i];
+                for inp in inputs {
+                    if !d.inputs.iter().any(|x| x.name == inp.name) {
+                        d.inputs.push(inp);
+                    }
+                }
+                if d.outputs.is_empty() {
+                    d.outputs = outputs;
+                }
+                seen.push(p);
+                parent = self.defs[j].inherit.clone();
+            }
+        }
     }
 
     /// Every nodedef, in library order, with its library folder.
@@ -131,10 +172,14 @@ fn atom_def(nd: &NodeDefElem) -> Option<NodeDef> {
     let lower = atoms::lowering(nd)?;
     let mut inputs = Vec::new();
     for i in &nd.inputs {
-        let MxType::Value(ty) = classify(&i.ty) else {
-            return None;
+        let ty = match classify(&i.ty) {
+            MxType::Value(ty) => ty,
+            // A displacement or volume shader input: not built, not a port.
+            MxType::Closure => continue,
+            MxType::Unsupported => return None,
         };
         let default = match (&i.value, i.defaultgeomprop.as_deref()) {
+            _ if ty.is_closure() => PortDefault::EmptyClosure,
             (_, Some(g)) => PortDefault::Stream(atoms::geomprop_stream(g)?),
             (Some(v), None) => {
                 let json = super::value::literal(v, ty).ok()?;

@@ -15,8 +15,10 @@
 #![allow(clippy::result_large_err)]
 
 pub mod atoms;
+pub mod atoms_closure;
 pub mod atoms_lower;
 pub mod atoms_matrix;
+pub mod atoms_pbr;
 pub mod channels;
 pub mod coverage;
 pub mod document;

@@ -13,7 +13,7 @@ use super::document::{Document, Graph, Input, NodeDefElem, NodeElem};
 use super::error::{MtlxError, Pos};
 use super::library::{Impl, Library};
 use super::resolve::Defs;
-use super::value::{CLOSURE_TYPES, MxType, classify, literal, unsupported_reason};
+use super::value::{MxType, classify, literal, unsupported_reason};
 use crate::network::{CompoundInput, CompoundSpec, Network, NodeSpec};
 use serde_json::{Map, Value as Json};
 use std::collections::{HashMap, HashSet};
@@ -59,6 +59,9 @@ impl<'a> Tr<'a> {
         for p in nd.outputs.iter().chain(&nd.inputs) {
             match classify(&p.ty) {
                 MxType::Value(_) => {}
+                // An input of a closure kind not built yet (a material's displacement
+                // shader) is ignored, never connected (see `scope`).
+                MxType::Closure if nd.inputs.iter().any(|i| std::ptr::eq(i, p)) => {}
                 MxType::Closure => {
                     return Err(MtlxError::Closure {
                         at: node.pos.clone(),
@@ -173,11 +176,11 @@ impl<'a> Tr<'a> {
         all: &'a [NodeElem],
         iface: Option<&Iface>,
     ) -> Result<(Vec<NodeSpec>, HashMap<&'a str, &'a NodeDefElem>), MtlxError> {
-        // Closure-typed nodes of the document (materials, shaders) are left out: they are
-        // reported only when selected.
+        // Top-level nodes of closure kinds not built yet (volume, displacement and light
+        // shaders) are left out: they are reported only when selected.
         let nodes: Vec<&'a NodeElem> = all
             .iter()
-            .filter(|n| iface.is_some() || !CLOSURE_TYPES.contains(&n.ty.as_str()))
+            .filter(|n| iface.is_some() || classify(&n.ty) != MxType::Closure)
             .collect();
         let mut types = HashMap::new();
         for &n in &nodes {
@@ -211,6 +214,10 @@ impl<'a> Tr<'a> {
                         ),
                     ));
                 };
+                if classify(&di.ty) == MxType::Closure {
+                    // A displacement or volume shader input: not built, ignored (DESIGN §12).
+                    continue;
+                }
                 let v = self.input_value(&n.name, i, &di.ty, iface, &types, &mut out)?;
                 if let Some(v) = v {
                     spec.inputs.insert(i.name.clone(), v);
@@ -441,11 +448,12 @@ fn geomprops(spec: &mut NodeSpec, nd: &NodeDefElem, out: &mut Vec<NodeSpec>) {
     }
 }
 
-/// The error for selecting a material: materials are closures (issue 15).
-fn material_error(doc: &Document, name: &str) -> MtlxError {
+/// The output that shades material `name`: the material node's `out`, named after it; an
+/// error listing the document's materials when there is none of that name.
+fn material_output(doc: &Document, name: &str) -> Result<Map<String, Json>, MtlxError> {
     let Some(m) = doc.materials().find(|m| m.name == name) else {
         let names: Vec<&str> = doc.materials().map(|m| m.name.as_str()).collect();
-        return MtlxError::Select {
+        return Err(MtlxError::Select {
             file: doc.file.clone(),
             msg: format!(
                 "no material `{name}` (materials: {})",
@@ -455,34 +463,23 @@ fn material_error(doc: &Document, name: &str) -> MtlxError {
                     names.join(", ")
                 }
             ),
-        };
+        });
     };
-    // Name the shader the material binds, where there is one.
-    let shader = m
-        .inputs
-        .iter()
-        .find_map(|i| i.nodename.as_ref())
-        .and_then(|n| doc.nodes.iter().find(|x| &x.name == n));
-    match shader {
-        Some(s) => MtlxError::Closure {
-            at: s.pos.clone(),
-            node: s.name.clone(),
-            ty: s.ty.clone(),
-        },
-        None => MtlxError::Closure {
+    if classify(&m.ty) == MxType::Closure {
+        return Err(MtlxError::Closure {
             at: m.pos.clone(),
             node: m.name.clone(),
             ty: m.ty.clone(),
-        },
+        });
     }
+    let mut out = Map::new();
+    out.insert(m.name.clone(), Json::String(format!("{}.out", m.name)));
+    Ok(out)
 }
 
 /// Translates a document into a network for the selection; the compounds it needs are
 /// included, the atoms are [`Library::atoms`].
 pub fn to_network(doc: &Document, lib: &Library, sel: &Selection) -> Result<Network, MtlxError> {
-    if let Some(m) = &sel.material {
-        return Err(material_error(doc, m));
-    }
     let mut tr = Tr {
         defs: Defs { lib, doc },
         compounds: Vec::new(),
@@ -516,7 +513,10 @@ pub fn to_network(doc: &Document, lib: &Library, sel: &Selection) -> Result<Netw
         });
     }
     let (top_nodes, types) = tr.scope(&doc.nodes, None)?;
-    let outputs = select_outputs(&tr, doc, sel, &types, &mut nodes)?;
+    let outputs = match &sel.material {
+        Some(m) => material_output(doc, m)?,
+        None => select_outputs(&tr, doc, sel, &types, &mut nodes)?,
+    };
     nodes.extend(top_nodes);
     tr.helpers(&nodes)?;
     Ok(Network {
@@ -577,7 +577,7 @@ fn select_outputs(
                     .next()
                     .map(|m| m.name.clone())
                     .unwrap_or_default();
-                return Err(material_error(doc, &m));
+                return material_output(doc, &m);
             }
             None => "nothing to shade: the document has no <output> and no nodegraph output".into(),
         };

@@ -12,7 +12,9 @@ use serde_json::{Value as Json, json};
 pub enum MxType {
     /// A value type we shade.
     Value(Type),
-    /// A closure or shader type (BSDF, EDF, surfaceshader, material…): issue 15.
+    /// A closure or shader type not built yet (VDF, volumeshader, displacementshader,
+    /// lightshader); the built ones (BSDF, EDF, surfaceshader, material) are values of
+    /// [`Type::Closure`].
     Closure,
     /// A value type with no IR type yet (arrays, uvmap…).
     Unsupported,
@@ -45,7 +47,12 @@ pub fn classify(mx: &str) -> MxType {
         "matrix33" => Type::Matrix33,
         "matrix44" => Type::Matrix44,
         "string" | "filename" => Type::String,
-        _ if CLOSURE_TYPES.contains(&mx) => return MxType::Closure,
+        _ if CLOSURE_TYPES.contains(&mx) => {
+            return match Type::from_name(mx) {
+                Some(t @ Type::Closure(k)) if k.is_built() => MxType::Value(t),
+                _ => MxType::Closure,
+            };
+        }
         _ => return MxType::Unsupported,
     };
     MxType::Value(t)
@@ -55,7 +62,9 @@ pub fn classify(mx: &str) -> MxType {
 pub fn unsupported_reason(mx: &str) -> String {
     match mx {
         _ if CLOSURE_TYPES.contains(&mx) => {
-            format!("type {mx} is a closure: closures are not built yet (issue 15)")
+            format!(
+                "type {mx} is a closure kind that is not built yet (no volumes, displacement or light shaders)"
+            )
         }
         _ => format!("type {mx} is not supported"),
     }
@@ -76,6 +85,7 @@ pub fn mx_name(t: Type) -> &'static str {
         Type::Matrix33 => "matrix33",
         Type::Matrix44 => "matrix44",
         Type::String => "string",
+        Type::Closure(k) => k.name(),
     }
 }
 
@@ -103,6 +113,12 @@ pub fn literal(text: &str, ty: Type) -> Result<Json, String> {
             .collect()
     };
     Ok(match ty {
+        Type::Closure(k) => {
+            return Err(format!(
+                "`{text}`: a {} input takes a connection, not a value",
+                k.name()
+            ));
+        }
         Type::String => Json::String(text.to_string()),
         Type::Bool => match t {
             "true" => Json::Bool(true),
@@ -167,7 +183,17 @@ mod tests {
     #[test]
     fn type_classes() {
         assert_eq!(classify("color3"), MxType::Value(Type::Color));
-        assert_eq!(classify("BSDF"), MxType::Closure);
+        use crate::types::ClosureKind;
+        assert_eq!(
+            classify("BSDF"),
+            MxType::Value(Type::Closure(ClosureKind::Bsdf))
+        );
+        assert_eq!(
+            classify("material"),
+            MxType::Value(Type::Closure(ClosureKind::Material))
+        );
+        assert_eq!(classify("VDF"), MxType::Closure);
+        assert_eq!(classify("displacementshader"), MxType::Closure);
         assert_eq!(classify("color4"), MxType::Value(Type::Color4));
         assert_eq!(classify("vector4"), MxType::Value(Type::Vec4));
         assert_eq!(classify("matrix33"), MxType::Value(Type::Matrix33));

@@ -561,7 +561,7 @@ fn mix_parts(b: &mut Builder, x: &LowVal, y: &LowVal, w: Value) -> LowVal {
             (k, v)
         })
         .collect();
-    LowVal { value, parts }
+    LowVal::with_parts(value, parts)
 }
 
 fn lower_mix(b: &mut Builder, n: &NodeInputs) -> Result<Vec<LowVal>, String> {

@@ -26,10 +26,12 @@ pub mod structure;
 pub mod surface;
 pub mod utility;
 
+use crate::closure::Closure;
 use crate::ir::{Builder, Space, Stream, Value};
 use crate::types::{ConstValue, Type};
 use std::collections::HashMap;
 use std::fmt::Write as _;
+use std::sync::Arc;
 
 /// The type of an input port.
 #[derive(Clone, Debug, PartialEq)]
@@ -53,6 +55,8 @@ pub enum PortDefault {
     Stream(Stream),
     /// An empty array.
     EmptyArray,
+    /// The empty closure (black, no emission): what an unset closure input gets.
+    EmptyClosure,
 }
 
 /// One input port.
@@ -82,22 +86,47 @@ pub struct OutDef {
 }
 
 /// A lowered value: the total and, for shaded colors, its per-component parts (component
-/// index, value); the total equals the sum of the parts when there are any.
+/// index, value); the total equals the sum of the parts when there are any. A closure-typed
+/// value (`BSDF`, `EDF`, `surfaceshader`, `material`) is its lobe list in `closure`; its
+/// `value` is then a placeholder float 0 that nothing reads.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LowVal {
     /// The value.
     pub value: Value,
     /// Per-component contributions.
     pub parts: Vec<(u8, Value)>,
+    /// The lobe list of a closure-typed value.
+    pub closure: Option<Arc<Closure>>,
 }
 
 impl LowVal {
     /// A value without component parts.
     pub fn plain(value: Value) -> LowVal {
+        LowVal::with_parts(value, Vec::new())
+    }
+
+    /// A value with per-component parts.
+    pub fn with_parts(value: Value, parts: Vec<(u8, Value)>) -> LowVal {
         LowVal {
             value,
-            parts: Vec::new(),
+            parts,
+            closure: None,
         }
+    }
+
+    /// A closure-typed value.
+    pub fn closure(b: &mut Builder, closure: Closure) -> LowVal {
+        LowVal {
+            value: b.float(0.0),
+            parts: Vec::new(),
+            closure: Some(Arc::new(closure)),
+        }
+    }
+
+    /// The lobe list of a closure-typed value; the empty closure for anything else (an
+    /// unset closure input).
+    pub fn as_closure(&self) -> Closure {
+        self.closure.as_deref().cloned().unwrap_or_default()
     }
 }
 
@@ -718,6 +747,7 @@ impl NodeLibrary {
                             PortDefault::Value(v) => format!("`{v}`"),
                             PortDefault::Stream(st) => format!("stream `{}`", st.name()),
                             PortDefault::EmptyArray => "`[]`".to_string(),
+                            PortDefault::EmptyClosure => "none (black)".to_string(),
                         };
                         let mut doc = p.doc.to_string();
                         if !p.options.is_empty() {
@@ -775,7 +805,7 @@ pub mod lowering {
             });
         }
         let value = total.unwrap_or_else(|| b.zero(ty));
-        LowVal { value, parts }
+        LowVal::with_parts(value, parts)
     }
 
     /// Applies `f` to the total and to each part (for ops linear in this input).
@@ -786,7 +816,7 @@ pub mod lowering {
     ) -> LowVal {
         let value = f(b, v.value);
         let parts = v.parts.iter().map(|(k, p)| (*k, f(b, *p))).collect();
-        LowVal { value, parts }
+        LowVal::with_parts(value, parts)
     }
 
     /// `a + b` with parts: the parts of both, summed per component.
@@ -805,6 +835,6 @@ pub mod lowering {
                 parts.push((*k, *p));
             }
         }
-        LowVal { value, parts }
+        LowVal::with_parts(value, parts)
     }
 }

@@ -198,7 +198,7 @@ impl<F: Real> Val<F> {
     pub fn zero(ty: Type) -> Val<F> {
         match ty {
             Type::Bool => Val::Bool(false),
-            Type::Int | Type::String => Val::Int(0),
+            Type::Int | Type::String | Type::Closure(_) => Val::Int(0),
             Type::Float => Val::Float(F::ZERO),
             Type::Vec2 => Val::Vec2([F::ZERO; 2]),
             Type::Vec3 | Type::Color => Val::Vec3([F::ZERO; 3]),
