@@ -487,6 +487,7 @@ fn hard_fragments() -> Vec<Fragment> {
                 ray_type: INTS[j % INTS.len()],
                 ray_depth: INTS[i % INTS.len()],
                 seed: (i * n + j) as u32,
+                rand: [h[i], h[j], k(14), k(15)],
             });
         }
     }
@@ -551,7 +552,7 @@ fn inputs(ty: Type) -> Option<(&'static str, &'static str)> {
         Type::Color4 => ("%pc4", "%nc4"),
         Type::Int => ("%k", "%m"),
         Type::Bool => ("%q", "%r"),
-        Type::Matrix33 | Type::Matrix44 | Type::String => return None,
+        Type::Matrix33 | Type::Matrix44 | Type::String | Type::Closure(_) => return None,
     })
 }
 

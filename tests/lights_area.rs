@@ -79,7 +79,7 @@ fn samples_are_deterministic_in_the_seed_and_differ_between_seeds() {
 struct Wall(bool);
 
 impl shadenet_runtime::SceneServices for Wall {
-    fn trace(&self, _: [f32; 3], _: [f32; 3], _: i32, _: i32) -> [f32; 3] {
+    fn trace(&self, _: [f32; 3], _: [f32; 3], _: i32, _: i32, _: f32) -> [f32; 3] {
         [0.0; 3]
     }
     fn occluded(&self, _: [f32; 3], _: [f32; 3]) -> bool {

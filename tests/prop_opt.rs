@@ -501,7 +501,9 @@ fn literal(ty: Type, l: &Lit) -> Json {
         Type::Matrix33 | Type::Matrix44 => {
             Json::Array((0..ty.width()).map(|k| num(v(k))).collect())
         }
-        Type::String => unreachable!("string literals are picked from options"),
+        Type::String | Type::Closure(_) => {
+            unreachable!("string literals are picked from options; closures are never generated")
+        }
     }
 }
 
@@ -807,6 +809,7 @@ fn fragment(f: &FragChoice, ray_types: u32) -> Fragment {
         seed: (f.p[0].to_bits() ^ f.uv[1].to_bits()) as u32,
         ray_type: nth_bit(ray_types, f.ray),
         ray_depth: f.depth,
+        rand: [f.uv[0] as f32, f.uv[1] as f32, f.time as f32, 0.5],
     }
 }
 

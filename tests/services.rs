@@ -53,7 +53,14 @@ impl Fake {
 }
 
 impl SceneServices for Fake {
-    fn trace(&self, origin: [f32; 3], dir: [f32; 3], ray_type: i32, depth: i32) -> [f32; 3] {
+    fn trace(
+        &self,
+        origin: [f32; 3],
+        dir: [f32; 3],
+        ray_type: i32,
+        depth: i32,
+        _: f32,
+    ) -> [f32; 3] {
         self.traces
             .lock()
             .unwrap()

@@ -40,8 +40,8 @@ pub const U_OBJECT: usize = 40;
 pub const U_OBJECT_INV: usize = 56;
 /// First uniform slot after the fixed ones: prelude values, then parameters.
 pub const U_VALUES: usize = 72;
-/// Columns of one light sample in `sn_light`: L (3), Cl (3), visible (1).
-pub const LIGHT_COLUMNS: usize = 7;
+/// Columns of one light sample in `sn_light`: L (3), Cl (3), visible (1), pdf (1).
+pub const LIGHT_COLUMNS: usize = 8;
 /// Storage buffers a kernel may bind at most (uni, frag, out, tmp, light, texels, tex info).
 pub const MAX_BINDINGS: u32 = 7;
 
@@ -354,6 +354,7 @@ pub(crate) fn is_remat(p: &Program, prelude: &HashMap<usize, usize>, v: Value) -
                 | Op::LightL
                 | Op::LightCl
                 | Op::LightVisible
+                | Op::LightPdf
         )
 }
 

@@ -650,7 +650,7 @@ struct Tagged {
 }
 
 impl SceneServices for Tagged {
-    fn trace(&self, _: [f32; 3], _: [f32; 3], _: i32, _: i32) -> [f32; 3] {
+    fn trace(&self, _: [f32; 3], _: [f32; 3], _: i32, _: i32, _: f32) -> [f32; 3] {
         [self.tag, 0.5, 0.25]
     }
     fn occluded(&self, _: [f32; 3], _: [f32; 3]) -> bool {

@@ -331,7 +331,8 @@ fn texture(ctx: &CallCtx, imm: u32, a: &[f32], o: &mut [f32]) {
 /// Light sample number `imm` of the whole light list (lights in order, each contributing
 /// `lights::sample_count` samples), seen from `a[0..3]` with the fragment's seed in
 /// `a[3]`'s bits: `out[0..3]` = L, `out[3..6]` = Cl, `out[6]` = 1.0 if it gives a sample,
-/// else 0.0, `out[7..10]` = the sample's `to` point (for `sn_visible`).
+/// else 0.0, `out[7..10]` = the sample's `to` point (for `sn_visible`), `out[10]` = its
+/// density (`light.pdf`).
 fn light(ctx: &CallCtx, imm: u32, a: &[f32], o: &mut [f32]) {
     // SAFETY: the caller's environment outlives the call.
     let env = unsafe { &*ctx.env };
@@ -351,19 +352,20 @@ fn light(ctx: &CallCtx, imm: u32, a: &[f32], o: &mut [f32]) {
             o[3..6].copy_from_slice(&s.cl);
             o[6] = 1.0;
             o[7..10].copy_from_slice(&s.to);
+            o[10] = s.pdf;
         }
         None => o[6] = 0.0,
     }
 }
 
 /// `trace`: the direction in `a[0..3]`, the fragment's `P` in `a[3..6]`, its ray depth in
-/// `a[6]`'s bits, the ray type in `imm`; `out[0..3]` = the radiance
-/// (`runtime::interp::trace_radiance`: black without a scene).
+/// `a[6]`'s bits, the BSDF sample's density in `a[7]` (0 for none), the ray type in `imm`;
+/// `out[0..3]` = the radiance (`runtime::interp::trace_radiance`: black without a scene).
 fn trace(ctx: &CallCtx, imm: u32, a: &[f32], o: &mut [f32]) {
     let dir = [a[0], a[1], a[2]];
     let p = [a[3], a[4], a[5]];
     let depth = a[6].to_bits() as i32;
-    let c = interp::trace_radiance(ctx.scene(), p, dir, imm as i32, depth);
+    let c = interp::trace_radiance(ctx.scene(), p, dir, imm as i32, depth, a[7]);
     o.copy_from_slice(&c);
 }
 /// `occlusion`: `n` in `a[0..3]`, the sample count in `a[3]`'s bits, the maximum distance
@@ -549,8 +551,8 @@ mem_helpers! {
     mx_worley3_v2: 6 -> 2,
     mx_worley3_v3: 6 -> 3,
     texture: 2 -> 4,
-    light: 4 -> 10,
-    trace: 7 -> 3,
+    light: 4 -> 11,
+    trace: 8 -> 3,
     occlusion: 9 -> 1,
     visible: 6 -> 1,
     ambient: 0 -> 3,

@@ -225,9 +225,9 @@ pub struct Lowerer<'a, 'b> {
     scratch: Option<StackSlot>,
     mats: Option<StackSlot>,
     ambient: Option<StackSlot>,
-    /// Current light samples (innermost last): L and Cl components and visibility (1.0 or
-    /// 0.0).
-    lights: Vec<(Vec<V>, Vec<V>, V)>,
+    /// Current light samples (innermost last): L and Cl components, visibility (1.0 or
+    /// 0.0) and the sample's density (`light.pdf`).
+    lights: Vec<(Vec<V>, Vec<V>, V, V)>,
     /// Batch: lanes active in the current arm (`None`: all).
     active: Option<V>,
     /// Loads of immutable memory (fragment, uniforms, environment) already emitted, per
@@ -696,8 +696,12 @@ impl<'a, 'b> Lowerer<'a, 'b> {
                 let t = self.call_mem("sn_texture", imm, &xs, 4);
                 Ok(if *alpha { vec![t[3]] } else { t[..3].to_vec() })
             }
+            Op::LightPdf => match self.lights.last() {
+                Some((_, _, _, pdf)) => Ok(vec![*pdf]),
+                None => Ok(vec![self.fconst(0.0)]),
+            },
             Op::LightL | Op::LightCl => match self.lights.last() {
-                Some((l, cl, _)) => Ok(if matches!(p.op(v), Op::LightL) {
+                Some((l, cl, _, _)) => Ok(if matches!(p.op(v), Op::LightL) {
                     l.clone()
                 } else {
                     cl.clone()
@@ -705,7 +709,7 @@ impl<'a, 'b> Lowerer<'a, 'b> {
                 None => Ok(vec![self.fconst(0.0); 3]),
             },
             Op::LightVisible => match self.lights.last() {
-                Some((_, _, vis)) => Ok(vec![*vis]),
+                Some((_, _, vis, _)) => Ok(vec![*vis]),
                 None => Ok(vec![self.fconst(1.0)]),
             },
             Op::Ambient => {
@@ -746,10 +750,15 @@ impl<'a, 'b> Lowerer<'a, 'b> {
                 self.regions.insert(v.index(), res);
                 Ok(Vec::new())
             }
-            Op::Trace { dir, ray_type } => {
+            Op::Trace { dir, ray_type, pdf } => {
                 let mut args = self.get(*dir)?;
                 args.extend(self.stream(Stream::P));
                 args.extend(self.stream(Stream::RayDepth));
+                let pdf = match pdf {
+                    Some(p) => self.get(*p)?[0],
+                    None => self.fconst(0.0),
+                };
+                args.push(pdf);
                 let imm = self.b.ins().iconst(I32, *ray_type as i64);
                 Ok(self.call_mem("sn_trace", imm, &args, 3))
             }
@@ -934,7 +943,7 @@ impl<'a, 'b> Lowerer<'a, 'b> {
         let seed = self.seed();
         let mut args = pt.clone();
         args.push(seed);
-        let out = self.call_mem("sn_light", i, &args, 10);
+        let out = self.call_mem("sn_light", i, &args, 11);
         // Whether the light gives a sample is the same for every lane: read lane 0.
         let flag = if self.batch() {
             self.b.ins().extractlane(out[6], 0)
@@ -961,7 +970,7 @@ impl<'a, 'b> Lowerer<'a, 'b> {
             self.fconst(1.0)
         };
         self.lights
-            .push((out[0..3].to_vec(), out[3..6].to_vec(), vis));
+            .push((out[0..3].to_vec(), out[3..6].to_vec(), vis, out[10]));
         self.push_scope();
         self.block(body)?;
         let ys = self.yields(body)?;
@@ -1542,5 +1551,6 @@ fn stream_field(s: Stream) -> ((i32, i32), i32) {
         Stream::Time => f!(time, 1),
         Stream::RayType => f!(ray_type, 1),
         Stream::RayDepth => f!(ray_depth, 1),
+        Stream::Rand => f!(rand, 4),
     }
 }

@@ -63,6 +63,8 @@ pub struct FragmentX4 {
     pub ray_depth: [i32; LANES],
     /// Sampler seed.
     pub seed: [u32; LANES],
+    /// The sampler's four uniform numbers (the `rand` stream), per component.
+    pub rand: [[f32; LANES]; 4],
 }
 
 impl FragmentX4 {
@@ -98,6 +100,9 @@ impl FragmentX4 {
         self.ray_type[lane] = f.ray_type;
         self.ray_depth[lane] = f.ray_depth;
         self.seed[lane] = f.seed;
+        for c in 0..4 {
+            self.rand[c][lane] = f.rand[c];
+        }
     }
 
     /// The fragment in lane `lane`.
@@ -117,6 +122,7 @@ impl FragmentX4 {
             ray_type: self.ray_type[lane],
             ray_depth: self.ray_depth[lane],
             seed: self.seed[lane],
+            rand: std::array::from_fn(|c| self.rand[c][lane]),
         }
     }
 }

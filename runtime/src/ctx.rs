@@ -40,6 +40,9 @@ pub struct Fragment {
     /// Seed of this fragment's random numbers (area-light and environment samples): the
     /// renderer derives it from pixel and sample index, so images do not depend on threads.
     pub seed: u32,
+    /// Four uniform numbers in [0, 1) from the renderer's sampler (the `rand` stream): what
+    /// a closure's BSDF sample draws its direction, lobe and Russian roulette from.
+    pub rand: [f32; 4],
 }
 
 /// A rigid or affine transform with its inverse, row-major 4×4.
@@ -196,7 +199,18 @@ pub trait SceneServices: Send + Sync {
     /// Radiance arriving at `origin` from direction `dir` (unit): the renderer traces the ray
     /// and shades what it hits as a ray of type `ray_type` (`RAY_*`) at depth `depth`; black
     /// past its depth limits or when the ray escapes to an environment without light.
-    fn trace(&self, origin: [f32; 3], dir: [f32; 3], ray_type: i32, depth: i32) -> [f32; 3];
+    /// `bsdf_pdf > 0`: the direction was drawn by BSDF sampling with that solid-angle
+    /// density, and light sources the ray reaches directly (area lights, the environment)
+    /// count with the power-heuristic weight against the light loop's samples of them (which
+    /// the shader weights the other way); `0`: they count in full.
+    fn trace(
+        &self,
+        origin: [f32; 3],
+        dir: [f32; 3],
+        ray_type: i32,
+        depth: i32,
+        bsdf_pdf: f32,
+    ) -> [f32; 3];
     /// Whether anything blocks the segment from `from` to `to` (shadow rays; a distant
     /// light's `to` is far along its direction).
     fn occluded(&self, from: [f32; 3], to: [f32; 3]) -> bool;

@@ -404,6 +404,7 @@ impl<F: Real> Interpreter<F> {
             Op::LightL => Val::Vec3(s.light.map_or([F::ZERO; 3], |l| l.0.l)),
             Op::LightCl => Val::Vec3(s.light.map_or([F::ZERO; 3], |l| l.0.cl)),
             Op::LightVisible => Val::Float(s.light.map_or(F::ONE, |l| l.1)),
+            Op::LightPdf => Val::Float(s.light.map_or(F::ZERO, |l| l.0.pdf)),
             Op::Ambient => Val::Vec3(lights::ambient(&ctx.env.lights)),
             Op::Proj(..) => s.regs[v.index()],
             Op::Texture { texture, uv, alpha } => {
@@ -419,7 +420,10 @@ impl<F: Real> Interpreter<F> {
                     Val::Vec3([t[0], t[1], t[2]])
                 }
             }
-            Op::Trace { dir, ray_type } => Val::Vec3(trace(ctx, reg(dir).as_vec3(), *ray_type)),
+            Op::Trace { dir, ray_type, pdf } => {
+                let pdf = pdf.map_or(F::ZERO, |p| reg(&p).as_float());
+                Val::Vec3(trace(ctx, reg(dir).as_vec3(), *ray_type, pdf))
+            }
             Op::Occlusion {
                 n,
                 samples,
@@ -523,8 +527,16 @@ pub fn sample_visible<F: Real>(scene: Option<&dyn SceneServices>, p: [F; 3], to:
 
 /// The `trace` op: radiance along `normalize(dir)` from the fragment's `P` (black without a
 /// scene, or for a zero or non-finite direction).
-pub fn trace<F: Real>(ctx: &ShadeCtx, dir: [F; 3], ray_type: i32) -> [F; 3] {
-    trace_radiance(ctx.scene, ctx.frag.p, dir, ray_type, ctx.frag.ray_depth)
+/// `pdf` is the BSDF sample's density (0 for none; a negative or NaN one counts as 0).
+pub fn trace<F: Real>(ctx: &ShadeCtx, dir: [F; 3], ray_type: i32, pdf: F) -> [F; 3] {
+    trace_radiance(
+        ctx.scene,
+        ctx.frag.p,
+        dir,
+        ray_type,
+        ctx.frag.ray_depth,
+        pdf,
+    )
 }
 
 /// [`trace`] from its parts: the scene, the fragment's `p` and `ray_depth` (the ray goes out
@@ -535,6 +547,7 @@ pub fn trace_radiance<F: Real>(
     dir: [F; 3],
     ray_type: i32,
     ray_depth: i32,
+    pdf: F,
 ) -> [F; 3] {
     let Some(scene) = scene else {
         return [F::ZERO; 3];
@@ -544,7 +557,9 @@ pub fn trace_radiance<F: Real>(
         return [F::ZERO; 3];
     }
     let depth = ray_depth.wrapping_add(1);
-    let c = scene.trace(p, d, ray_type, depth);
+    let pdf = pdf.to_f64() as f32;
+    let pdf = if pdf > 0.0 { pdf } else { 0.0 };
+    let c = scene.trace(p, d, ray_type, depth, pdf);
     c.map(|x| F::from_f64(x as f64))
 }
 
@@ -605,6 +620,7 @@ fn stream<F: Real>(st: Stream, ctx: &ShadeCtx) -> Val<F> {
         Stream::Time => Val::Float(F::from_f64(f.time as f64)),
         Stream::RayType => Val::Int(f.ray_type),
         Stream::RayDepth => Val::Int(f.ray_depth),
+        Stream::Rand => Val::Vec4(f.rand.map(|x| F::from_f64(x as f64))),
     }
 }
 

@@ -62,6 +62,9 @@ pub struct Sample<F> {
     /// The point on the light (far along `l` for distant and environment lights): the
     /// sample counts only if nothing blocks the segment to it.
     pub to: [F; 3],
+    /// The density per solid angle of `l` under this light's sampling times its sample
+    /// count (the `light.pdf` op; [`light_pdf`] for a direction); 0 for delta lights.
+    pub pdf: F,
 }
 
 /// Distance used as "infinitely far" for shadow rays towards distant and environment lights.
@@ -123,6 +126,7 @@ pub fn sample<F: Real>(
                 l,
                 cl: power,
                 to: along(l),
+                pdf: F::ZERO,
             })
         }
         LightKind::Point { position } => {
@@ -131,6 +135,7 @@ pub fn sample<F: Real>(
                 l,
                 cl: power.map(|c| c * inv_r2),
                 to: v3(*position),
+                pdf: F::ZERO,
             })
         }
         LightKind::Quad {
@@ -149,14 +154,15 @@ pub fn sample<F: Real>(
             let (l, inv_r2) = towards(q, p);
             // Radiance L_e seen through the sample: E = L_e · cosθ_light · A / r² / N.
             let cos_light = ops::max(-ops::dot(&l, &n), F::ZERO);
-            let w = ops::div(
-                cos_light * area * inv_r2,
-                F::from_f64((*samples).max(1) as f64),
-            );
+            let n_s = F::from_f64((*samples).max(1) as f64);
+            let w = ops::div(cos_light * area * inv_r2, n_s);
+            // Solid-angle density of the uniform area sample, r² / (cos θ_light · A), times
+            // the sample count: 1/w (0 where the sample sees the light edge-on or from behind).
             Some(Sample {
                 l,
                 cl: power.map(|c| c * w),
                 to: q,
+                pdf: ops::div(F::ONE, w),
             })
         }
         LightKind::Environment { samples } => {
@@ -171,6 +177,7 @@ pub fn sample<F: Real>(
                 l,
                 cl: power.map(|c| c * w),
                 to: along(l),
+                pdf: ops::div(F::ONE, w),
             })
         }
         LightKind::Spot {
@@ -202,8 +209,40 @@ pub fn sample<F: Real>(
                 l,
                 cl: power.map(|c| c * k),
                 to: v3(*position),
+                pdf: F::ZERO,
             })
         }
+    }
+}
+
+/// The light loop's density of direction `l` (unit) from `p` towards a point `q` on light
+/// `light`, times its sample count: what [`Sample::pdf`] is for a sample in that direction,
+/// for the renderer to weight a BSDF-sampled ray that reaches the light (power heuristic).
+/// Quads: `N r² / (cos θ_light · A)` at the hit point `q` (0 from behind); environments:
+/// `N / (4π)`; 0 for delta and ambient lights.
+pub fn light_pdf(light: &Light, p: [f64; 3], l: [f64; 3], q: [f64; 3]) -> f64 {
+    match &light.desc.kind {
+        LightKind::Quad {
+            edge_u,
+            edge_v,
+            samples,
+            ..
+        } => {
+            let n = ops::cross(*edge_u, *edge_v);
+            let area = ops::length(&n);
+            let n = ops::normalize(n);
+            let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+            let r2 = ops::dot(&d, &d);
+            let cos = -ops::dot(&l, &n);
+            if cos <= 0.0 || area <= 0.0 {
+                return 0.0;
+            }
+            (*samples).max(1) as f64 * r2 / (cos * area)
+        }
+        LightKind::Environment { samples } => {
+            (*samples).max(1) as f64 / (4.0 * std::f64::consts::PI)
+        }
+        _ => 0.0,
     }
 }
 

@@ -136,13 +136,19 @@ fn bits(v: [f32; 3]) -> [u32; 3] {
 }
 
 impl SceneServices for HashScene {
-    fn trace(&self, origin: [f32; 3], dir: [f32; 3], ray_type: i32, depth: i32) -> [f32; 3] {
-        let h = self.hash(
-            bits(origin)
-                .into_iter()
-                .chain(bits(dir))
-                .chain([ray_type as u32, depth as u32]),
-        );
+    fn trace(
+        &self,
+        origin: [f32; 3],
+        dir: [f32; 3],
+        ray_type: i32,
+        depth: i32,
+        bsdf_pdf: f32,
+    ) -> [f32; 3] {
+        let h = self.hash(bits(origin).into_iter().chain(bits(dir)).chain([
+            ray_type as u32,
+            depth as u32,
+            bsdf_pdf.to_bits(),
+        ]));
         [2.0 * unit(h, 0), 2.0 * unit(h, 1), 2.0 * unit(h, 2)]
     }
 
@@ -173,13 +179,14 @@ mod tests {
     #[test]
     fn the_hash_scene_answers_every_bit_and_counts() {
         let s = HashScene::default();
-        let a = s.trace([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], 0, 0);
-        assert_ne!(a, s.trace([-0.0, 0.0, 0.0], [0.0, 0.0, 1.0], 0, 0));
-        assert_eq!(a, s.trace([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], 0, 0));
+        let a = s.trace([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], 0, 0, 0.0);
+        assert_ne!(a, s.trace([-0.0, 0.0, 0.0], [0.0, 0.0, 1.0], 0, 0, 0.0));
+        assert_ne!(a, s.trace([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], 0, 0, 0.5));
+        assert_eq!(a, s.trace([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], 0, 0, 0.0));
         let occ: Vec<f32> = (0..64)
             .map(|k| s.occlusion([k as f32, 0.0, 0.0], [0.0; 3], 4, 1.0, 0))
             .collect();
         assert!(occ.iter().any(|x| x.is_nan()) && occ.iter().any(|x| *x > 1.0));
-        assert_eq!(s.calls(), 67);
+        assert_eq!(s.calls(), 68);
     }
 }

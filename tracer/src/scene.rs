@@ -623,6 +623,8 @@ pub struct Emitter {
     pub edge_v: DVec3,
     /// Radiance.
     pub radiance: [f64; 3],
+    /// Its light's index in [`Scene::lights`] (for the light loop's density of it).
+    pub light: usize,
 }
 
 /// A loaded scene: everything but compiled materials.
@@ -1107,6 +1109,7 @@ fn resolve_lights(cx: &Ctx, specs: &[LightSpec]) -> Result<Lights, SceneError> {
                 edge_u: DVec3::from_array(edge_u),
                 edge_v: DVec3::from_array(edge_v),
                 radiance: lights[i].power,
+                light: i,
             });
         }
     }

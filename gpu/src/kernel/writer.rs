@@ -251,8 +251,10 @@ impl Writer<'_> {
             Op::LightL if self.in_loop => "sn_L".into(),
             Op::LightCl if self.in_loop => "sn_Cl".into(),
             Op::LightVisible if self.in_loop => "sn_vis".into(),
+            Op::LightPdf if self.in_loop => "sn_lpdf".into(),
             Op::LightL | Op::LightCl => "vec3<f32>()".into(),
             Op::LightVisible => "f32(1.0)".into(),
+            Op::LightPdf => "f32(0.0)".into(),
             _ => {
                 if !self.locals.contains(&v) {
                     self.loads.insert(v);
@@ -442,6 +444,7 @@ impl Writer<'_> {
                     ),
                 );
                 line(out, d, &format!("let sn_vis = {};", light(6)));
+                line(out, d, &format!("let sn_lpdf = {};", light(7)));
                 self.in_loop = true;
                 let r2 = self.structured(out, d, body);
                 self.in_loop = false;

@@ -103,6 +103,7 @@ pub(super) fn stream_columns(s: Stream, f: &Fragment) -> Vec<f32> {
         Stream::Time => vec![f.time],
         Stream::RayType => vec![f32::from_bits(f.ray_type as u32)],
         Stream::RayDepth => vec![f32::from_bits(f.ray_depth as u32)],
+        Stream::Rand => f.rand.to_vec(),
     }
 }
 

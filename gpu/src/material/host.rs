@@ -126,6 +126,7 @@ pub(super) fn light_samples(
                     d[..3].copy_from_slice(&s.l);
                     d[3..6].copy_from_slice(&s.cl);
                     d[6] = if vis { 1.0 } else { 0.0 };
+                    d[7] = s.pdf;
                     j += 1;
                 }
             }
@@ -194,7 +195,7 @@ impl GpuMaterial {
         };
         match &step.kind {
             HostKind::Trace(v) => {
-                let Op::Trace { dir, ray_type } = p.op(*v) else {
+                let Op::Trace { dir, ray_type, pdf } = p.op(*v) else {
                     return Err(GpuError::Runtime("host step: not a trace".into()));
                 };
                 let mut aos = vec![[0.0f32; 3]; n];
@@ -207,6 +208,7 @@ impl GpuMaterial {
                             hv.vec3(*dir, i),
                             *ray_type,
                             f.ray_depth,
+                            pdf.map_or(0.0, |q| hv.float(q, i)),
                         );
                     }
                 });

@@ -431,8 +431,15 @@ struct ChunkServices<'a> {
 }
 
 impl SceneServices for ChunkServices<'_> {
-    fn trace(&self, origin: [f32; 3], dir: [f32; 3], ray_type: i32, depth: i32) -> [f32; 3] {
-        self.inner.trace(origin, dir, ray_type, depth)
+    fn trace(
+        &self,
+        origin: [f32; 3],
+        dir: [f32; 3],
+        ray_type: i32,
+        depth: i32,
+        bsdf_pdf: f32,
+    ) -> [f32; 3] {
+        self.inner.trace(origin, dir, ray_type, depth, bsdf_pdf)
     }
 
     fn occluded(&self, from: [f32; 3], to: [f32; 3]) -> bool {

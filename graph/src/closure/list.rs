@@ -155,9 +155,16 @@ impl Closure {
     /// A direction drawn from the closure with uniform numbers `u` (vec3), world space.
     /// `pdf = 0` (and weight 0) where the closure reflects nothing.
     pub fn sample(&self, b: &mut Builder, wo: Value, u: Value) -> Sample {
+        self.sample_classified(b, wo, u).0
+    }
+
+    /// [`Closure::sample`] and whether the lobe that drew the direction is diffuse (bool;
+    /// [`super::LobeKind::is_diffuse`]): the renderer's ray type for the continuation.
+    pub fn sample_classified(&self, b: &mut Builder, wo: Value, u: Value) -> (Sample, Value) {
         let probs = self.selection(b, wo);
         let (u1, u2, u3) = (b.extract(u, 0), b.extract(u, 1), b.extract(u, 2));
         let mut wi = b.zero(Type::Vec3);
+        let mut diffuse = b.boolean(false);
         let mut lo = f(b, 0.0);
         for (l, p) in self.lobes.iter().zip(&probs) {
             let hi = b.add(lo, *p);
@@ -172,15 +179,18 @@ impl Closure {
             let below = lt(b, u3, hi);
             let inside = b.binary(crate::ir::BinOp::And, ge, below);
             wi = b.select(inside, s.wi, wi);
+            let d = b.boolean(l.kind.is_diffuse());
+            diffuse = b.select(inside, d, diffuse);
             lo = hi;
         }
         let e = self.eval_with(b, &probs, wo, wi);
         let weight = div_pdf(b, e.value, e.pdf);
-        Sample {
+        let s = Sample {
             wi,
             weight,
             pdf: e.pdf,
-        }
+        };
+        (s, diffuse)
     }
 }
 

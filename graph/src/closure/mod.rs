@@ -117,6 +117,14 @@ pub struct Sample {
 }
 
 impl LobeKind {
+    /// Whether the lobe scatters diffusely (its sampled rays are `diffuse` rays, with the
+    /// diffuse depth limit); glossy and specular lobes' are reflection or refraction rays.
+    pub fn is_diffuse(&self) -> bool {
+        match self {
+            LobeKind::OrenNayar { .. } => true,
+        }
+    }
+
     /// The lobe's `eval` in its local frame (`wo`, `wi` unit vec3).
     pub fn eval(&self, b: &mut Builder, wo: Value, wi: Value) -> Eval {
         match self {

@@ -419,7 +419,30 @@ impl Builder {
         if !is_traceable_ray_type(ray_type) {
             self.fail(format!("trace cannot trace rays of type {ray_type}"));
         }
-        self.push(Op::Trace { dir, ray_type }, Some(Type::Color))
+        self.push(
+            Op::Trace {
+                dir,
+                ray_type,
+                pdf: None,
+            },
+            Some(Type::Color),
+        )
+    }
+
+    /// Like [`Builder::trace`], for a direction drawn by BSDF sampling with density `pdf`
+    /// (float): the renderer weights light sources the ray hits against its light samples.
+    pub fn trace_sampled(&mut self, dir: Value, ray_type: i32, pdf: Value) -> Value {
+        let v = self.trace(dir, ray_type);
+        if let Op::Trace { pdf: p, .. } = &mut self.program.exprs[v.index()].op {
+            *p = Some(pdf);
+        }
+        v
+    }
+
+    /// Inside an illuminance body: the light loop's density of the current sample
+    /// ([`Op::LightPdf`]).
+    pub fn light_pdf(&mut self) -> Value {
+        self.push(Op::LightPdf, Some(Type::Float))
     }
 
     /// Ambient occlusion at the shaded point around `n` (vec3) with `samples` (int) rays

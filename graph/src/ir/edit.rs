@@ -18,6 +18,7 @@ impl Op {
             | Op::LightL
             | Op::LightCl
             | Op::LightVisible
+            | Op::LightPdf
             | Op::Ambient => Vec::new(),
             Op::Transform { arg, .. } => vec![arg],
             Op::Unary(_, a) | Op::Extract(a, _) | Op::Splat(a) | Op::Convert(a) => vec![a],
@@ -28,7 +29,11 @@ impl Op {
             Op::Illuminance { p, .. } => vec![p],
             Op::Proj(r, _) => vec![r],
             Op::Texture { uv, .. } => vec![uv],
-            Op::Trace { dir, .. } => vec![dir],
+            Op::Trace { dir, pdf, .. } => {
+                let mut v = vec![dir];
+                v.extend(pdf.as_mut());
+                v
+            }
             Op::Occlusion {
                 n,
                 samples,

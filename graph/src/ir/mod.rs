@@ -150,6 +150,12 @@ pub enum Stream {
     RayType,
     /// The ray depth: 0 for camera rays (int).
     RayDepth,
+    /// Four uniform numbers in [0, 1) from the renderer's sampler for this shading point
+    /// (vec4): a closure's BSDF sample takes its direction from `x, y`, its lobe from `z`
+    /// and its Russian roulette from `w`. The tracer draws them from its Owen-scrambled
+    /// Sobol sequence (dimensions per bounce), so images do not depend on threads; other
+    /// callers give what their fragments hold (zeros by default).
+    Rand,
 }
 
 /// Ray type codes carried by [`Stream::RayType`].
@@ -193,7 +199,7 @@ pub fn is_traceable_ray_type(ray_type: i32) -> bool {
 
 impl Stream {
     /// Every stream, in a fixed order.
-    pub const ALL: [Stream; 12] = [
+    pub const ALL: [Stream; 13] = [
         Stream::P,
         Stream::N,
         Stream::Ng,
@@ -206,6 +212,7 @@ impl Stream {
         Stream::Time,
         Stream::RayType,
         Stream::RayDepth,
+        Stream::Rand,
     ];
 
     /// The stream's name in network files and the IR text.
@@ -223,6 +230,7 @@ impl Stream {
             Stream::Time => "time",
             Stream::RayType => "raytype",
             Stream::RayDepth => "raydepth",
+            Stream::Rand => "rand",
         }
     }
 
@@ -243,6 +251,7 @@ impl Stream {
             Stream::Uv => Type::Vec2,
             Stream::Time => Type::Float,
             Stream::RayType | Stream::RayDepth => Type::Int,
+            Stream::Rand => Type::Vec4,
             _ => Type::Vec3,
         }
     }
@@ -567,6 +576,11 @@ pub enum Op {
     /// same for blocked and visible samples: a shader multiplies its lit terms by this value
     /// (and may sum `1 − visible` terms to see what the shadows remove).
     LightVisible,
+    /// Inside an illuminance body: the density per solid angle with which the light loop
+    /// draws the current sample's direction, times the number of samples it draws from that
+    /// light (float): the light's term of a multiple-importance-sampling weight. 0 for lights
+    /// with a delta distribution (point, spot, distant), which no BSDF sample can hit.
+    LightPdf,
     /// Sum of the ambient lights' colors (color): light without direction.
     Ambient,
     /// Result `index` of a region (`If` or `Illuminance`).
@@ -594,6 +608,11 @@ pub enum Op {
         /// The ray type code: [`RAY_REFLECTION`], [`RAY_REFRACTION`] or [`RAY_DIFFUSE`] (see
         /// [`is_traceable_ray_type`]).
         ray_type: i32,
+        /// For a direction drawn by BSDF sampling: its solid-angle density (float), with
+        /// which the renderer weights light sources the ray hits against the light loop's
+        /// samples of them (power heuristic). `None`: the ray sees light sources at full
+        /// weight (a mirror direction, or a light the loop does not sample).
+        pdf: Option<Value>,
     },
     /// Ambient occlusion at the fragment's `P` around normal `n` (float in [0, 1]; 1 = fully
     /// open): the fraction of `samples` cosine-weighted directions the scene finds unblocked
@@ -633,6 +652,7 @@ impl Op {
             Op::LightL => "light.L".into(),
             Op::LightCl => "light.Cl".into(),
             Op::LightVisible => "light.visible".into(),
+            Op::LightPdf => "light.pdf".into(),
             Op::Trace { .. } => "trace".into(),
             Op::Occlusion { .. } => "occlusion".into(),
             Op::Ambient => "ambient".into(),
@@ -651,6 +671,7 @@ impl Op {
             | Op::LightL
             | Op::LightCl
             | Op::LightVisible
+            | Op::LightPdf
             | Op::Ambient => {}
             Op::Transform { arg, .. } => f(*arg),
             Op::Unary(_, a) | Op::Extract(a, _) | Op::Splat(a) | Op::Convert(a) => f(*a),
@@ -668,7 +689,12 @@ impl Op {
             Op::Illuminance { p, .. } => f(*p),
             Op::Proj(r, _) => f(*r),
             Op::Texture { uv, .. } => f(*uv),
-            Op::Trace { dir, .. } => f(*dir),
+            Op::Trace { dir, pdf, .. } => {
+                f(*dir);
+                if let Some(p) = pdf {
+                    f(*p)
+                }
+            }
             Op::Occlusion {
                 n,
                 samples,
@@ -858,6 +884,7 @@ fn rate_block(program: &Program, block: &Block, rates: &mut [Rate]) {
             | Op::LightL
             | Op::LightCl
             | Op::LightVisible
+            | Op::LightPdf
             | Op::Ambient
             | Op::Trace { .. }
             | Op::Occlusion { .. } => Rate::Varying,

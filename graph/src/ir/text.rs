@@ -93,10 +93,10 @@
 //! | `call noise3 %a, …` | [`Op::Call`] ([`Intrinsic::name`]) |
 //! | `if %c { … } else { … }` | [`Op::If`] |
 //! | `illuminance %p { … }` | [`Op::Illuminance`] |
-//! | `light.L`, `light.Cl`, `light.visible`, `ambient` | [`Op::LightL`], [`Op::LightCl`], [`Op::LightVisible`], [`Op::Ambient`] |
+//! | `light.L`, `light.Cl`, `light.visible`, `light.pdf`, `ambient` | [`Op::LightL`], [`Op::LightCl`], [`Op::LightVisible`], [`Op::LightPdf`], [`Op::Ambient`] |
 //! | `proj %r, 0` | [`Op::Proj`] |
 //! | `texture #0 %uv`, `texture.alpha #0 %uv` | [`Op::Texture`] (index into the texture table) |
-//! | `trace reflection %d` | [`Op::Trace`] (the ray type by name, [`super::ray_type_name`], or `#K` for any other code `K`) |
+//! | `trace reflection %d` or `trace reflection %d, %pdf` | [`Op::Trace`] (the ray type by name, [`super::ray_type_name`], or `#K` for any other code `K`; the optional second operand is the BSDF sample's density) |
 //! | `occlusion %n, %samples, %maxdist` | [`Op::Occlusion`] |
 //!
 //! A region's blocks hold value lines and end with `yield %a, %b, …` (left out when the
@@ -356,6 +356,7 @@ impl<W: fmt::Write> Printer<'_, W> {
             Op::LightL => "light.L".to_string(),
             Op::LightCl => "light.Cl".to_string(),
             Op::LightVisible => "light.visible".to_string(),
+            Op::LightPdf => "light.pdf".to_string(),
             Op::Ambient => "ambient".to_string(),
             Op::Proj(r, i) => format!("proj {}, {i}", self.val(*r)),
             Op::Texture { texture, uv, alpha } => format!(
@@ -363,12 +364,15 @@ impl<W: fmt::Write> Printer<'_, W> {
                 if *alpha { "texture.alpha" } else { "texture" },
                 self.val(*uv)
             ),
-            Op::Trace { dir, ray_type } => {
+            Op::Trace { dir, ray_type, pdf } => {
                 let ty = match ray_type_name(*ray_type) {
                     Some(name) => name.to_string(),
                     None => format!("#{ray_type}"),
                 };
-                format!("trace {ty} {}", self.val(*dir))
+                match pdf {
+                    Some(p) => format!("trace {ty} {}", self.vals(&[*dir, *p])),
+                    None => format!("trace {ty} {}", self.val(*dir)),
+                }
             }
             Op::Occlusion {
                 n,
@@ -1234,13 +1238,17 @@ impl Parser {
             "light.L" => Op::LightL,
             "light.Cl" => Op::LightCl,
             "light.visible" => Op::LightVisible,
+            "light.pdf" => Op::LightPdf,
             "ambient" => Op::Ambient,
             "trace" => {
                 let ray_type = self.ray_type()?;
-                Op::Trace {
-                    dir: self.operand()?,
-                    ray_type,
-                }
+                let dir = self.operand()?;
+                let pdf = if self.eat_punct(',') {
+                    Some(self.operand()?)
+                } else {
+                    None
+                };
+                Op::Trace { dir, ray_type, pdf }
             }
             "occlusion" => {
                 let [n, samples, max_distance] = self.operands()?;
@@ -1443,6 +1451,7 @@ mod tests {
             | Op::LightL
             | Op::LightCl
             | Op::LightVisible
+            | Op::LightPdf
             | Op::Ambient => op.clone(),
             Op::Transform {
                 kind,
@@ -1482,9 +1491,10 @@ mod tests {
                 uv: m(*uv),
                 alpha: *alpha,
             },
-            Op::Trace { dir, ray_type } => Op::Trace {
+            Op::Trace { dir, ray_type, pdf } => Op::Trace {
                 dir: m(*dir),
                 ray_type: *ray_type,
+                pdf: pdf.map(m),
             },
             Op::Occlusion {
                 n,
@@ -1999,7 +2009,8 @@ program \"m\" { components diffuse ; the components
             p.exprs[3].op,
             Op::Trace {
                 dir: Value::new(1),
-                ray_type: RAY_REFRACTION
+                ray_type: RAY_REFRACTION,
+                pdf: None,
             }
         );
         assert_eq!(

@@ -281,7 +281,7 @@ pub fn validate(p: &Program) -> Result<(), ValidationError> {
         let reason = match &p.exprs[value.index()].op {
             Op::Stream(_) | Op::Transform { .. } => Some("it reads the fragment"),
             Op::ComponentEnabled(_) => Some("it reads the component mask"),
-            Op::LightL | Op::LightCl | Op::LightVisible | Op::Ambient => {
+            Op::LightL | Op::LightCl | Op::LightVisible | Op::LightPdf | Op::Ambient => {
                 Some("it reads the lights")
             }
             Op::Trace { .. } | Op::Occlusion { .. } => Some("it asks the scene for rays"),
@@ -576,7 +576,7 @@ impl Validator<'_> {
                 self.region_types.insert(value, bt);
                 None
             }
-            Op::LightL | Op::LightCl | Op::LightVisible => {
+            Op::LightL | Op::LightCl | Op::LightVisible | Op::LightPdf => {
                 if self.illuminance_depth == 0 {
                     return Err(ValidationError::LightOutsideIlluminance { value });
                 }
@@ -586,10 +586,16 @@ impl Validator<'_> {
                     _ => Type::Float,
                 })
             }
-            Op::Trace { dir, ray_type } => {
+            Op::Trace { dir, ray_type, pdf } => {
                 let t = self.operand(value, *dir)?;
                 if t != Type::Vec3 {
                     return Err(ill(format!("trace direction is a {t}, not a vec3")));
+                }
+                if let Some(p) = pdf {
+                    let t = self.operand(value, *p)?;
+                    if t != Type::Float {
+                        return Err(ill(format!("trace pdf is a {t}, not a float")));
+                    }
                 }
                 if !is_traceable_ray_type(*ray_type) {
                     return Err(ValidationError::RayType {
@@ -1298,7 +1304,15 @@ mod tests {
         let p = &mut b.p;
         let samples = push(p, Op::Const(ConstValue::Int(16)), Some(Type::Int));
         for ray_type in [RAY_REFLECTION, RAY_REFRACTION, RAY_DIFFUSE] {
-            push(p, Op::Trace { dir: pos, ray_type }, Some(Type::Color));
+            push(
+                p,
+                Op::Trace {
+                    dir: pos,
+                    ray_type,
+                    pdf: None,
+                },
+                Some(Type::Color),
+            );
         }
         let occlusion = Op::Occlusion {
             n: pos,
@@ -1325,6 +1339,7 @@ mod tests {
             Op::Trace {
                 dir: b.pos,
                 ray_type: RAY_REFLECTION,
+                pdf: None,
             },
             Some(Type::Float),
         );
@@ -1365,6 +1380,7 @@ mod tests {
             |b| Op::Trace {
                 dir: b.c,
                 ray_type: RAY_REFLECTION,
+                pdf: None,
             },
             Type::Color,
             "trace direction is a color, not a vec3",
@@ -1372,7 +1388,12 @@ mod tests {
         for ray_type in [RAY_CAMERA, RAY_SHADOW, 0, 12, -4] {
             let mut b = base();
             let dir = b.pos;
-            let v = push(&mut b.p, Op::Trace { dir, ray_type }, Some(Type::Color));
+            let op = Op::Trace {
+                dir,
+                ray_type,
+                pdf: None,
+            };
+            let v = push(&mut b.p, op, Some(Type::Color));
             assert_eq!(err(&b.p), ValidationError::RayType { value: v, ray_type });
         }
         ill_typed(

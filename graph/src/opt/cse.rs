@@ -87,7 +87,8 @@ enum Key {
     /// `light.Cl` of the innermost enclosing illuminance region.
     LightCl(Option<Value>),
     LightVisible(Option<Value>),
-    Trace(Value, i32),
+    LightPdf(Option<Value>),
+    Trace(Value, i32, Option<Value>),
     Occlusion(Value, Value, Value),
     Ambient,
     Proj(Value, u8),
@@ -225,9 +226,10 @@ impl Numbering<'_> {
             Op::LightL => Key::LightL(self.light),
             Op::LightCl => Key::LightCl(self.light),
             Op::LightVisible => Key::LightVisible(self.light),
+            Op::LightPdf => Key::LightPdf(self.light),
             // Scene services are pure functions of their arguments (SceneServices' contract),
             // and the shaded point and seed are the fragment's: equal calls give equal results.
-            Op::Trace { dir, ray_type } => Key::Trace(r(dir), *ray_type),
+            Op::Trace { dir, ray_type, pdf } => Key::Trace(r(dir), *ray_type, pdf.as_ref().map(r)),
             Op::Occlusion {
                 n,
                 samples,

@@ -111,6 +111,7 @@ fn allowed(op: &Op) -> bool {
         | Op::LightL
         | Op::LightCl
         | Op::LightVisible
+        | Op::LightPdf
         | Op::Ambient
         | Op::Texture { .. }
         | Op::Trace { .. }

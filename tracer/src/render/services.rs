@@ -90,17 +90,33 @@ impl HitServices<'_> {
 }
 
 impl SceneServices for HitServices<'_> {
-    fn trace(&self, origin: [f32; 3], dir: [f32; 3], ray_type: i32, depth: i32) -> [f32; 3] {
+    fn trace(
+        &self,
+        origin: [f32; 3],
+        dir: [f32; 3],
+        ray_type: i32,
+        depth: i32,
+        bsdf_pdf: f32,
+    ) -> [f32; 3] {
         let Some(ray) = RayMatch::from_code(ray_type) else {
             return [0.0; 3];
         };
         let depth = depth.max(0) as u32;
-        if ray == RayMatch::Camera || depth > self.r.depth_limit(ray) {
+        if ray == RayMatch::Camera {
             return [0.0; 3];
         }
         let d = Vec3::from(dir).normalize_or_zero();
         let o = Vec3::from(origin);
         if d == Vec3::ZERO || !o.is_finite() {
+            return [0.0; 3];
+        }
+        if depth > self.r.depth_limit(ray) {
+            // Past the depth limit a BSDF-sampled ray still brings its MIS share of the
+            // light sources it reaches (the light loop weighted its own share down), but
+            // shades no surface; any other ray is black.
+            if bsdf_pdf > 0.0 {
+                return self.r.lights_only(self.start(o, d), d, bsdf_pdf);
+            }
             return [0.0; 3];
         }
         let state = RayState {
@@ -114,6 +130,7 @@ impl SceneServices for HitServices<'_> {
                 d.x.to_bits() ^ d.y.to_bits().rotate_left(11) ^ d.z.to_bits().rotate_left(22),
             ),
             diffs: self.child_diffs(ray, d),
+            bsdf_pdf,
         };
         self.r.radiance(&state, self.stats)
     }
@@ -205,8 +222,16 @@ impl<'a> BatchServices<'a> {
 }
 
 impl SceneServices for BatchServices<'_> {
-    fn trace(&self, origin: [f32; 3], dir: [f32; 3], ray_type: i32, depth: i32) -> [f32; 3] {
-        self.detached(origin).trace(origin, dir, ray_type, depth)
+    fn trace(
+        &self,
+        origin: [f32; 3],
+        dir: [f32; 3],
+        ray_type: i32,
+        depth: i32,
+        bsdf_pdf: f32,
+    ) -> [f32; 3] {
+        self.detached(origin)
+            .trace(origin, dir, ray_type, depth, bsdf_pdf)
     }
 
     fn occluded(&self, from: [f32; 3], to: [f32; 3]) -> bool {

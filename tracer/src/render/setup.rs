@@ -79,6 +79,9 @@ pub struct Renderer {
     pub(super) warnings: Vec<String>,
     pub(super) stats: RenderStats,
     pub(super) mode: ShadingMode,
+    /// The light loop's density of any direction towards the environment (its lights'
+    /// `lights::light_pdf`, uniform over the sphere): the MIS weight of BSDF rays that miss.
+    pub(super) environment_pdf: f32,
 }
 
 impl std::fmt::Debug for Renderer {
@@ -146,7 +149,21 @@ impl Renderer {
         let camera = Camera::new(&scene.camera);
         let sampler = PixelSampler::new(scene.settings.filter);
         let envs = shade_envs(&scene);
+        let environment_pdf = scene
+            .lights
+            .iter()
+            .map(|l| {
+                let l = shadenet_runtime::lights::Light::from_desc(l);
+                match l.desc.kind {
+                    shadenet_graph::nodes::LightKind::Environment { .. } => {
+                        shadenet_runtime::lights::light_pdf(&l, [0.0; 3], [0.0, 0.0, 1.0], [0.0; 3])
+                    }
+                    _ => 0.0,
+                }
+            })
+            .sum::<f64>() as f32;
         Ok(Renderer {
+            environment_pdf,
             scene,
             camera,
             sampler,

@@ -4,9 +4,10 @@
 
 use super::compile::{Action, Specialized};
 use super::film::override_channels;
+use super::sampler::rand4;
 use super::setup::Renderer;
 use super::stats::{Stage, TileStats};
-use super::trace::{Found, Prepared, RayState};
+use super::trace::{Found, Prepared, RayState, mis_weight};
 use crate::passes::{OverrideKind, RayMatch};
 use shadenet_runtime::{Fragment, ShadeCtx, ShadeOut};
 use std::sync::atomic::Ordering;
@@ -54,6 +55,7 @@ impl Renderer {
             ray_type: ray.ray.code(),
             ray_depth: ray.depth as i32,
             seed: ray.seed,
+            rand: rand4(ray.seed),
             ..Fragment::default()
         };
         if sp.uv_tangents {
@@ -112,12 +114,32 @@ impl Renderer {
 
     /// Radiance along a secondary ray: the total of what it hits, shaded with the action
     /// its ray type and depth select.
+    /// What a BSDF-sampled ray of density `bsdf_pdf` from `o` along `d` sees of the light
+    /// sources alone (MIS-weighted): an area light or the environment; black where a
+    /// surface is in the way.
+    pub(super) fn lights_only(&self, o: glam::Vec3, d: glam::Vec3, bsdf_pdf: f32) -> [f32; 3] {
+        match self.intersect(o, d) {
+            Found::Miss => {
+                let w = mis_weight(bsdf_pdf, self.environment_pdf);
+                self.scene.background.map(|x| x as f32 * w)
+            }
+            Found::Emitter(r, pdf) => r.map(|x| x * mis_weight(bsdf_pdf, pdf)),
+            Found::Surface(_) => [0.0; 3],
+        }
+    }
+
     pub(super) fn radiance(&self, ray: &RayState, stats: &TileStats) -> [f32; 3] {
         let n = stats.secondary_rays.fetch_add(1, Ordering::Relaxed);
         let found = stats.sampled(Stage::SecondaryTrace, n, || self.intersect(ray.o, ray.d));
         let hit = match found {
-            Found::Miss => return self.scene.background.map(|x| x as f32),
-            Found::Emitter(r) => return r,
+            Found::Miss => {
+                let w = mis_weight(ray.bsdf_pdf, self.environment_pdf);
+                return self.scene.background.map(|x| x as f32 * w);
+            }
+            Found::Emitter(r, pdf) => {
+                let w = mis_weight(ray.bsdf_pdf, pdf);
+                return r.map(|x| x * w);
+            }
             Found::Surface(h) => h,
         };
         let action = self.action(ray.ray, ray.depth);

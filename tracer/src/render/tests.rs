@@ -390,6 +390,7 @@ scale = 0.4
                 depth: 0,
                 seed: hash3(x, y, 0),
                 diffs: None,
+                bsdf_pdf: 0.0,
             };
             let Found::Surface(hit) = r.intersect(cam.o, cam.d) else {
                 assert_eq!(occ.at(i, 0), 0.0, "a miss has no occlusion");

@@ -15,8 +15,25 @@ use std::sync::atomic::Ordering;
 
 pub(super) enum Found {
     Miss,
-    Emitter([f32; 3]),
+    /// A visible area light: its radiance and the light loop's density of the direction
+    /// that reached it (`lights::light_pdf`).
+    Emitter([f32; 3], f32),
     Surface(Hit),
+}
+
+/// The power heuristic's weight of a BSDF sample of density `bsdf_pdf` against the light
+/// loop's density `light_pdf` of the same direction: `b² / (b² + l²)`; 1 where the ray was
+/// not BSDF-sampled (`bsdf_pdf = 0`) or the light is not sampled (`light_pdf = 0`).
+pub(super) fn mis_weight(bsdf_pdf: f32, light_pdf: f32) -> f32 {
+    if bsdf_pdf <= 0.0 || light_pdf.is_nan() || light_pdf <= 0.0 {
+        return 1.0;
+    }
+    let (b, l) = (bsdf_pdf as f64, light_pdf as f64);
+    let (b2, l2) = (b * b, l * l);
+    if !b2.is_finite() {
+        return 1.0;
+    }
+    (b2 / (b2 + l2)) as f32
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -35,6 +52,9 @@ pub(super) struct RayState {
     pub(super) depth: u32,
     pub(super) seed: u32,
     pub(super) diffs: Option<RayDiffs>,
+    /// The density with which a closure's BSDF sampling drew this ray (0 for camera rays
+    /// and rays not drawn that way): light sources it reaches are MIS-weighted with it.
+    pub(super) bsdf_pdf: f32,
 }
 
 pub(super) struct Prepared {
@@ -92,7 +112,7 @@ impl Renderer {
                 }
                 return None;
             }
-            Found::Emitter(rad) => {
+            Found::Emitter(rad, _) => {
                 for c in 0..3 {
                     sample[em + c] += rad[c];
                 }
@@ -111,17 +131,26 @@ impl Renderer {
     pub(super) fn intersect(&self, o: Vec3, d: Vec3) -> Found {
         let hit = self.accel.closest(o, d, f32::INFINITY);
         let tmax = hit.map_or(f32::INFINITY, |h| h.t);
-        let mut best: Option<(f32, [f32; 3])> = None;
+        let mut best: Option<(f32, &crate::scene::Emitter)> = None;
         for e in &self.scene.emitters {
             if let Some(t) = hit_emitter(e, o, d)
                 && t < tmax
                 && best.is_none_or(|b| t < b.0)
             {
-                best = Some((t, e.radiance.map(|x| x as f32)));
+                best = Some((t, e));
             }
         }
         match (best, hit) {
-            (Some((_, r)), _) => Found::Emitter(r),
+            (Some((t, e)), _) => {
+                let q = o + d * t;
+                let pdf = shadenet_runtime::lights::light_pdf(
+                    &shadenet_runtime::lights::Light::from_desc(&self.scene.lights[e.light]),
+                    o.as_dvec3().to_array(),
+                    d.as_dvec3().to_array(),
+                    q.as_dvec3().to_array(),
+                );
+                Found::Emitter(e.radiance.map(|x| x as f32), pdf as f32)
+            }
             (None, Some(h)) => Found::Surface(h),
             (None, None) => Found::Miss,
         }
