@@ -22,11 +22,15 @@
 //! This module owns the lobe data types, the frame and the dispatch; it must not know about
 //! MaterialX nodes (the atoms in `crate::mtlx` build lobes) or the light loop.
 
+pub mod burley;
 pub mod frame;
 pub mod list;
 pub mod math;
 pub mod oren_nayar;
 pub mod shade;
+pub mod sheen;
+pub mod subsurface;
+pub mod translucent;
 
 pub use frame::Frame;
 pub use list::Closure;
@@ -79,6 +83,38 @@ pub enum LobeKind {
         /// Whether to add the energy lost to single scattering back.
         energy_compensation: bool,
     },
+    /// `burley_diffuse_bsdf`: Burley's diffuse reflection of `color` (color) with `roughness`
+    /// (float). See [`burley`].
+    Burley {
+        /// Albedo (color).
+        color: Value,
+        /// Roughness (float).
+        roughness: Value,
+    },
+    /// `translucent_bsdf`: Lambertian transmission of `color` (color) to the side opposite
+    /// the viewer. See [`translucent`].
+    Translucent {
+        /// Transmittance (color).
+        color: Value,
+    },
+    /// `sheen_bsdf` in mode `conty_kulla`: the Imageworks sheen of `color` (color) and
+    /// `roughness` (float). See [`sheen`].
+    Sheen {
+        /// Sheen color (color).
+        color: Value,
+        /// Roughness (float).
+        roughness: Value,
+    },
+    /// `subsurface_bsdf`, approximated by Lambertian reflection of `color` until volumes
+    /// exist (`radius` and `anisotropy` are ignored). See [`subsurface`].
+    Subsurface {
+        /// Albedo (color).
+        color: Value,
+        /// Mean free path (color); unused by the approximation.
+        radius: Value,
+        /// Phase-function anisotropy (float); unused by the approximation.
+        anisotropy: Value,
+    },
 }
 
 /// One lobe of a closure: its kind and parameters, the color weight the closure gives it,
@@ -121,7 +157,11 @@ impl LobeKind {
     /// diffuse depth limit); glossy and specular lobes' are reflection or refraction rays.
     pub fn is_diffuse(&self) -> bool {
         match self {
-            LobeKind::OrenNayar { .. } => true,
+            LobeKind::OrenNayar { .. }
+            | LobeKind::Burley { .. }
+            | LobeKind::Translucent { .. }
+            | LobeKind::Sheen { .. }
+            | LobeKind::Subsurface { .. } => true,
         }
     }
 
@@ -133,6 +173,10 @@ impl LobeKind {
                 roughness,
                 energy_compensation,
             } => oren_nayar::eval(b, *color, *roughness, *energy_compensation, wo, wi),
+            LobeKind::Burley { color, roughness } => burley::eval(b, *color, *roughness, wo, wi),
+            LobeKind::Translucent { color } => translucent::eval(b, *color, wo, wi),
+            LobeKind::Sheen { color, roughness } => sheen::eval(b, *color, *roughness, wo, wi),
+            LobeKind::Subsurface { color, .. } => subsurface::eval(b, *color, wo, wi),
         }
     }
 
@@ -144,6 +188,10 @@ impl LobeKind {
                 roughness,
                 energy_compensation,
             } => oren_nayar::sample(b, *color, *roughness, *energy_compensation, wo, u),
+            LobeKind::Burley { color, roughness } => burley::sample(b, *color, *roughness, wo, u),
+            LobeKind::Translucent { color } => translucent::sample(b, *color, wo, u),
+            LobeKind::Sheen { color, roughness } => sheen::sample(b, *color, *roughness, wo, u),
+            LobeKind::Subsurface { color, .. } => subsurface::sample(b, *color, wo, u),
         }
     }
 
@@ -155,6 +203,10 @@ impl LobeKind {
                 roughness,
                 energy_compensation,
             } => oren_nayar::albedo(b, *color, *roughness, *energy_compensation, wo),
+            LobeKind::Burley { color, roughness } => burley::albedo(b, *color, *roughness, wo),
+            LobeKind::Translucent { color } => translucent::albedo(b, *color, wo),
+            LobeKind::Sheen { color, roughness } => sheen::albedo(b, *color, *roughness, wo),
+            LobeKind::Subsurface { color, .. } => subsurface::albedo(b, *color, wo),
         }
     }
 }

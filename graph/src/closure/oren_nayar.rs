@@ -8,8 +8,11 @@
 //!   `E(c) = (1 − 0.4297σ − 0.7632cσ + 1.4385σ²) / (1 − 0.6076σ − 0.4993cσ + 2.0315σ²)`,
 //!   clamped to [0, 1], times `color`.
 //! - `energy_compensation` (Fujii's energy-preserving model as OpenPBR uses it):
-//!   `f = color/π · A_F (1 + σ s/max(c, l)) + f_ms`, `A_F = 1/(1 + (1/2 − 2/(3π))σ)`, where
-//!   `s/max(c, l)` keeps its sign, and the multiple-scattering lobe
+//!   `f = color/π · A_F (1 + σ s/t) + f_ms`, `A_F = 1/(1 + (1/2 − 2/(3π))σ)`, where
+//!   `t = max(c, l)` for `s > 0` and `t = 1` otherwise (Fujii's definition, which his
+//!   exact albedo `E_F` integrates: dividing a negative `s` too loses up to 20 % of a white
+//!   lobe's light at grazing views, as the lobe suite's furnace showed), and the
+//!   multiple-scattering lobe
 //!   `f_ms = ρ_ms/π · (1 − E_F(c))(1 − E_F(l)) / (1 − Ē_F)` with `ρ_ms = color² Ē_F / (1 −
 //!   color (1 − Ē_F))`, `E_F` Fujii's exact directional albedo and `Ē_F = A_F(1 + (2/3 −
 //!   28/(15π))σ)` its average; the directional albedo is `mix(ρ_ms, color, E_F(c))`, so a
@@ -87,6 +90,10 @@ fn value(
         let k = b.mul(r, l_pi);
         return scale(b, color, k);
     }
+    // Fujii: s/max(c, l) for s > 0, s itself otherwise.
+    let zero = f(b, 0.0);
+    let s_pos = b.binary(BinOp::Gt, s, zero);
+    let t = b.select(s_pos, t, s);
     let a = fujii_a(b, sigma);
     let st = b.mul(sigma, t);
     let one = f(b, 1.0);

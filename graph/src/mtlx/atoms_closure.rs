@@ -16,6 +16,10 @@ type Out = Result<Vec<LowVal>, String>;
 /// The closure atoms: node category → lowering (for nodedefs whose output is a closure).
 const CLOSURE_ATOMS: &[(&str, LowerFn)] = &[
     ("oren_nayar_diffuse_bsdf", oren_nayar),
+    ("burley_diffuse_bsdf", burley),
+    ("translucent_bsdf", translucent),
+    ("sheen_bsdf", sheen),
+    ("subsurface_bsdf", subsurface),
     ("uniform_edf", uniform_edf),
     ("surface", surface),
     ("surfacematerial", surfacematerial),
@@ -112,6 +116,45 @@ fn oren_nayar(b: &mut Builder, inp: &NodeInputs) -> Out {
         color: inp.get("color"),
         roughness: inp.get("roughness"),
         energy_compensation: ec,
+    };
+    lobe(b, inp, kind, "diffuse")
+}
+
+fn burley(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let kind = LobeKind::Burley {
+        color: inp.get("color"),
+        roughness: inp.get("roughness"),
+    };
+    lobe(b, inp, kind, "diffuse")
+}
+
+fn translucent(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let kind = LobeKind::Translucent {
+        color: inp.get("color"),
+    };
+    lobe(b, inp, kind, "transmission")
+}
+
+fn sheen(b: &mut Builder, inp: &NodeInputs) -> Out {
+    if inp.def.input("mode").is_some() && inp.string("mode") != "conty_kulla" {
+        return Err(format!(
+            "sheen mode `{}` is not built yet (only conty_kulla)",
+            inp.string("mode")
+        ));
+    }
+    let kind = LobeKind::Sheen {
+        color: inp.get("color"),
+        roughness: inp.get("roughness"),
+    };
+    lobe(b, inp, kind, "sheen")
+}
+
+/// `subsurface_bsdf`: a Lambertian approximation until volumes exist (see the lobe).
+fn subsurface(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let kind = LobeKind::Subsurface {
+        color: inp.get("color"),
+        radius: inp.get("radius"),
+        anisotropy: inp.get("anisotropy"),
     };
     lobe(b, inp, kind, "diffuse")
 }
