@@ -5,7 +5,6 @@
 //! Needs the MaterialX libraries (fails under `CI` without them, skips otherwise).
 
 mod common;
-use common::shadenet;
 
 use shadenet::render::{RenderOptions, setup};
 use shadenet::tracer::Film;

@@ -66,6 +66,7 @@ fn fragments(count: usize) -> Vec<Fragment> {
                 ray_type: [1, 4, 8, 16][k % 4],
                 ray_depth: (k % 3) as i32,
                 seed: 7919 * k as u32,
+                rand: [t, 1.0 - t, (t * 7.0).fract(), (t * 13.0).fract()],
             }
         })
         .collect()

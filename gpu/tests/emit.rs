@@ -583,7 +583,7 @@ fn to_val(ty: Type, cols: &[f32]) -> (Val<f32>, [f32; 16]) {
             m[..n].copy_from_slice(&cols[..n]);
             Val::Mat(0)
         }
-        Type::String => Val::Int(0),
+        Type::String | Type::Closure(_) => Val::Int(0),
     };
     (v, m)
 }

@@ -132,14 +132,14 @@ fn trace_shades_the_hit_and_respects_depth_limits() {
     let r = Renderer::new(scene(&text), vec![lambert(rho)], &InterpBackend).unwrap();
     let stats = TileStats::default();
     let s = services(&r, &stats, Vec3::new(0.0, 0.0, 1.0), Vec3::Z);
-    let got = s.trace([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], RAY_REFLECTION, 1);
+    let got = s.trace([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], RAY_REFLECTION, 1, 0.0);
     // Point light at distance 2 straight above, plus the environment's uniform sample
     // from some direction: check the point-light part by removing the environment.
     let text2 =
         format!("{PLANE}\n[[lights]]\ntype = \"point\"\nposition = [0, 0, 2]\nintensity = 4\n");
     let r2 = Renderer::new(scene(&text2), vec![lambert(rho)], &InterpBackend).unwrap();
     let s2 = services(&r2, &stats, Vec3::new(0.0, 0.0, 1.0), Vec3::Z);
-    let direct = s2.trace([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], RAY_REFLECTION, 1);
+    let direct = s2.trace([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], RAY_REFLECTION, 1, 0.0);
     for c in 0..3 {
         let want = rho[c] / std::f64::consts::PI * 4.0 / 4.0;
         assert!(
@@ -150,16 +150,16 @@ fn trace_shades_the_hit_and_respects_depth_limits() {
     }
     // Past the limit (4 by default): black.
     assert_eq!(
-        s2.trace([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], RAY_REFLECTION, 5),
+        s2.trace([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], RAY_REFLECTION, 5, 0.0),
         [0.0; 3]
     );
     assert_eq!(
-        s2.trace([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], RAY_SHADOW, 1),
+        s2.trace([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], RAY_SHADOW, 1, 0.0),
         [0.0; 3]
     );
     // A miss sees the environment.
     assert_eq!(
-        s.trace([0.0, 0.0, 1.0], [0.0, 0.0, 1.0], RAY_REFLECTION, 1),
+        s.trace([0.0, 0.0, 1.0], [0.0, 0.0, 1.0], RAY_REFLECTION, 1, 0.0),
         [0.25; 3]
     );
     assert!(stats.shading_calls.load(Ordering::Relaxed) >= 2);
@@ -541,7 +541,7 @@ fn rays_are_counted_per_kind_and_stages_timed() {
     // shadow ray.
     let stats = TileStats::default();
     let s = services(&r, &stats, Vec3::new(0.0, 1.0, 0.0), -Vec3::Y);
-    s.trace([0.0, 1.0, 0.0], [0.0, -1.0, 0.0], RAY_REFLECTION, 1);
+    s.trace([0.0, 1.0, 0.0], [0.0, -1.0, 0.0], RAY_REFLECTION, 1, 0.0);
     let mut total = RenderStats::default();
     stats.add_to(&mut total);
     assert_eq!(
