@@ -173,13 +173,13 @@ impl Lobe {
     pub fn eval(&self, b: &mut Builder, wo: Value, wi: Value) -> Eval {
         let lo = self.frame.to_local(b, wo);
         let li = self.frame.to_local(b, wi);
-        self.kind.eval(b, lo, li)
+        self.kind.eval_sided(b, self.frame.inside, lo, li)
     }
 
     /// `sample` with a world-space result.
     pub fn sample_world(&self, b: &mut Builder, wo: Value, u: Value) -> Sample {
         let lo = self.frame.to_local(b, wo);
-        let s = self.kind.sample(b, lo, u);
+        let s = self.kind.sample_sided(b, self.frame.inside, lo, u);
         Sample {
             wi: self.frame.to_world(b, s.wi),
             ..s
@@ -189,7 +189,7 @@ impl Lobe {
     /// `weight · albedo(wo)` (color) for a world `wo`.
     pub fn albedo(&self, b: &mut Builder, wo: Value) -> Value {
         let lo = self.frame.to_local(b, wo);
-        let a = self.kind.albedo(b, lo);
+        let a = self.kind.albedo_sided(b, self.frame.inside, lo);
         b.mul(self.weight, a)
     }
 }
