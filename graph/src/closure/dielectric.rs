@@ -13,9 +13,12 @@
 //!
 //! Albedo: `R` uses MaterialX's fit `tint (F0 A + B)`, `F0 = ((etap − 1)/(etap + 1))²`
 //! (Schlick's split of the exact Fresnel, as MaterialX does); `T` and `RT` give `tint`, the
-//! energy through the interface when nothing is absorbed (what `layer` needs: a
-//! transmissive top passes the rest on), ignoring the few percent that single-scattering
-//! GGX loses at high roughness and, for `T`, the reflected share.
+//! energy (flux) the interface passes on when nothing is absorbed, ignoring the few
+//! percent that single-scattering GGX loses at high roughness and, for `T`, the reflected
+//! share. Note this is not `∫ f |cos θi|` for `T`/`RT`: the transmitted radiance carries
+//! the `1/etap²` factor, so the sample weights of `RT` average `F̄ + (1 − F̄)/etap²`, not
+//! `tint` (the lobe picker only needs a relative size; `layer` over a transmitting top is
+//! not meaningful anyway).
 //!
 //! Thin film (`thinfilm_thickness`, `thinfilm_ior`) is not modelled: the lobe takes no
 //! [`super::ThinFilm`] and the MaterialX atom must report a film as unsupported or ignore a
