@@ -433,3 +433,37 @@ fn albedo_matches_monte_carlo() {
         "worst |MC − albedo|: isotropic reflection lobes {worst:.4}, dielectric RT {worst_rt:.4}"
     );
 }
+
+/// (a) Transmission obeys the radiance form of reciprocity: seen from outside (`etap = η`)
+/// and with the roles swapped from inside (`wo' = −wi`, `wi' = −wo`, `etap = 1/η`),
+/// `η² f(wo, wi) == f(wo', wi')` (pbrt-v4's `1/etap²` scaling; `f = value/|cos θi|`).
+#[test]
+fn transmission_is_reciprocal_up_to_eta_squared() {
+    let neg = |w: [f64; 3]| [-w[0], -w[1], -w[2]];
+    let pairs = [
+        (dir(10.0, 0.0), neg(dir(30.0, 160.0))),
+        (dir(60.0, 30.0), neg(dir(30.0, 50.0))),
+        (dir(35.0, 90.0), neg(dir(25.0, 110.0))),
+    ];
+    for rough in [[0.3, 0.3], [0.1, 0.6]] {
+        for mode in [ScatterMode::T, ScatterMode::RT] {
+            let spec = diel(1.5, rough, mode);
+            let out: Vec<Job> = pairs.iter().map(|(o, i)| Job::Eval(*o, *i)).collect();
+            let inn: Vec<Job> = pairs
+                .iter()
+                .map(|(o, i)| Job::Eval(neg(*i), neg(*o)))
+                .collect();
+            let a = run(spec, false, &out);
+            let b = run(spec, true, &inn);
+            for (k, (wo, wi)) in pairs.iter().enumerate() {
+                let (va, vb) = (a.get(&format!("{k}.v")), b.get(&format!("{k}.v")));
+                for c in 0..3 {
+                    let fa = 2.25 * va[c] / wi[2].abs();
+                    let fb = vb[c] / wo[2].abs();
+                    assert!(fa > 0.0, "{spec:?} {k}");
+                    assert!(close(fa, fb, 1e-9), "{spec:?} {k} ch {c}: {fa} vs {fb}");
+                }
+            }
+        }
+    }
+}
