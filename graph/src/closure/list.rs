@@ -225,7 +225,7 @@ impl Lobe {
             |b| {
                 let lo = self.frame.to_local(b, wo);
                 let li = self.frame.to_local(b, wi);
-                let e = self.kind.eval(b, lo, li);
+                let e = self.kind.eval_sided(b, self.frame.inside, lo, li);
                 vec![e.value, e.pdf]
             },
             |b| vec![b.zero(Type::Color), b.float(0.0)],
@@ -242,7 +242,7 @@ impl Lobe {
             b,
             |b| {
                 let lo = self.frame.to_local(b, wo);
-                let s = self.kind.sample(b, lo, u);
+                let s = self.kind.sample_sided(b, self.frame.inside, lo, u);
                 vec![self.frame.to_world(b, s.wi), s.weight, s.pdf]
             },
             |b| vec![b.zero(Type::Vec3), b.zero(Type::Color), b.float(0.0)],
@@ -260,7 +260,7 @@ impl Lobe {
             b,
             |b| {
                 let lo = self.frame.to_local(b, wo);
-                let a = self.kind.albedo(b, lo);
+                let a = self.kind.albedo_sided(b, self.frame.inside, lo);
                 vec![b.mul(self.weight, a)]
             },
             |b| vec![b.zero(Type::Color)],

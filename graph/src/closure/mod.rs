@@ -23,10 +23,14 @@
 //! MaterialX nodes (the atoms in `crate::mtlx` build lobes) or the light loop.
 
 pub mod burley;
+pub mod conductor;
+pub mod dielectric;
 pub mod frame;
+pub mod ggx;
 pub mod list;
 pub mod math;
 pub mod oren_nayar;
+pub mod schlick;
 pub mod shade;
 pub mod sheen;
 pub mod subsurface;
@@ -115,6 +119,44 @@ pub enum LobeKind {
         /// Phase-function anisotropy (float); unused by the approximation.
         anisotropy: Value,
     },
+    /// `dielectric_bsdf`: a rough GGX dielectric interface. See [`dielectric`]. Thin film is
+    /// not modelled.
+    Dielectric {
+        /// Tint (color).
+        tint: Value,
+        /// Index of refraction (float).
+        ior: Value,
+        /// Roughness `(αx, αy)` (vec2), clamped to [`ggx::ALPHA_MIN`, 1].
+        roughness: Value,
+        /// Reflection, transmission or both.
+        scatter_mode: ScatterMode,
+    },
+    /// `conductor_bsdf`: a rough GGX metal with the exact complex Fresnel. See
+    /// [`conductor`]. Thin film is not modelled.
+    Conductor {
+        /// Index of refraction `n` (color).
+        ior: Value,
+        /// Extinction `k` (color).
+        extinction: Value,
+        /// Roughness `(αx, αy)` (vec2).
+        roughness: Value,
+    },
+    /// `generalized_schlick_bsdf`: a rough GGX interface with the F82-tinted generalized
+    /// Schlick Fresnel. See [`schlick`]. Thin film is not modelled.
+    GeneralizedSchlick {
+        /// Reflectance at normal incidence (color).
+        color0: Value,
+        /// Reflectance tint at 82° (color).
+        color82: Value,
+        /// Reflectance at grazing incidence (color).
+        color90: Value,
+        /// Schlick exponent (float).
+        exponent: Value,
+        /// Roughness `(αx, αy)` (vec2).
+        roughness: Value,
+        /// Reflection, transmission or both.
+        scatter_mode: ScatterMode,
+    },
 }
 
 /// One lobe of a closure: its kind and parameters, the color weight the closure gives it,
@@ -162,51 +204,178 @@ impl LobeKind {
             | LobeKind::Translucent { .. }
             | LobeKind::Sheen { .. }
             | LobeKind::Subsurface { .. } => true,
+            LobeKind::Dielectric { .. }
+            | LobeKind::Conductor { .. }
+            | LobeKind::GeneralizedSchlick { .. } => false,
         }
     }
 
-    /// The lobe's `eval` in its local frame (`wo`, `wi` unit vec3).
+    /// The lobe's `eval` in its local frame (`wo`, `wi` unit vec3), the viewer outside.
     pub fn eval(&self, b: &mut Builder, wo: Value, wi: Value) -> Eval {
-        match self {
-            LobeKind::OrenNayar {
-                color,
-                roughness,
-                energy_compensation,
-            } => oren_nayar::eval(b, *color, *roughness, *energy_compensation, wo, wi),
-            LobeKind::Burley { color, roughness } => burley::eval(b, *color, *roughness, wo, wi),
-            LobeKind::Translucent { color } => translucent::eval(b, *color, wo, wi),
-            LobeKind::Sheen { color, roughness } => sheen::eval(b, *color, *roughness, wo, wi),
-            LobeKind::Subsurface { color, .. } => subsurface::eval(b, *color, wo, wi),
-        }
+        let outside = b.boolean(false);
+        self.eval_sided(b, outside, wo, wi)
     }
 
-    /// The lobe's `sample` in its local frame (`u` a vec3 of uniform numbers).
+    /// The lobe's `sample` in its local frame (`u` a vec3 of uniform numbers), the viewer
+    /// outside.
     pub fn sample(&self, b: &mut Builder, wo: Value, u: Value) -> Sample {
-        match self {
-            LobeKind::OrenNayar {
-                color,
+        let outside = b.boolean(false);
+        self.sample_sided(b, outside, wo, u)
+    }
+
+    /// The lobe's directional albedo for `wo` (local frame), a color, the viewer outside.
+    pub fn albedo(&self, b: &mut Builder, wo: Value) -> Value {
+        let outside = b.boolean(false);
+        self.albedo_sided(b, outside, wo)
+    }
+
+    /// [`LobeKind::eval`] with `inside` (bool, [`Frame::inside`]) saying whether the viewer
+    /// is inside (transmitting lobes swap their indices).
+    pub fn eval_sided(&self, b: &mut Builder, inside: Value, wo: Value, wi: Value) -> Eval {
+        self.resolve(inside).eval(b, wo, wi)
+    }
+
+    /// [`LobeKind::sample`] with `inside` as in [`LobeKind::eval_sided`].
+    pub fn sample_sided(&self, b: &mut Builder, inside: Value, wo: Value, u: Value) -> Sample {
+        self.resolve(inside).sample(b, wo, u)
+    }
+
+    /// [`LobeKind::albedo`] with `inside` as in [`LobeKind::eval_sided`].
+    pub fn albedo_sided(&self, b: &mut Builder, inside: Value, wo: Value) -> Value {
+        self.resolve(inside).albedo(b, wo)
+    }
+
+    /// The kind's parameters with the viewer's side where the lobe needs it.
+    fn resolve(&self, inside: Value) -> Resolved {
+        match *self {
+            LobeKind::OrenNayar { .. }
+            | LobeKind::Burley { .. }
+            | LobeKind::Translucent { .. }
+            | LobeKind::Sheen { .. }
+            | LobeKind::Subsurface { .. } => Resolved::Diffuse(self.clone()),
+            LobeKind::Dielectric {
+                tint,
+                ior,
                 roughness,
-                energy_compensation,
-            } => oren_nayar::sample(b, *color, *roughness, *energy_compensation, wo, u),
-            LobeKind::Burley { color, roughness } => burley::sample(b, *color, *roughness, wo, u),
-            LobeKind::Translucent { color } => translucent::sample(b, *color, wo, u),
-            LobeKind::Sheen { color, roughness } => sheen::sample(b, *color, *roughness, wo, u),
-            LobeKind::Subsurface { color, .. } => subsurface::sample(b, *color, wo, u),
+                scatter_mode,
+            } => Resolved::Dielectric(dielectric::Dielectric {
+                tint,
+                ior,
+                roughness,
+                mode: scatter_mode,
+                inside,
+            }),
+            LobeKind::Conductor {
+                ior,
+                extinction,
+                roughness,
+            } => Resolved::Conductor(conductor::Conductor {
+                ior,
+                extinction,
+                roughness,
+            }),
+            LobeKind::GeneralizedSchlick {
+                color0,
+                color82,
+                color90,
+                exponent,
+                roughness,
+                scatter_mode,
+            } => Resolved::Schlick(schlick::Schlick {
+                color0,
+                color82,
+                color90,
+                exponent,
+                roughness,
+                mode: scatter_mode,
+                inside,
+            }),
+        }
+    }
+}
+
+/// A lobe kind's parameters ready to emit, the viewer's side included.
+enum Resolved {
+    /// A lobe that does not depend on the viewer's side (the diffuse family).
+    Diffuse(LobeKind),
+    Dielectric(dielectric::Dielectric),
+    Conductor(conductor::Conductor),
+    Schlick(schlick::Schlick),
+}
+
+impl Resolved {
+    fn eval(&self, b: &mut Builder, wo: Value, wi: Value) -> Eval {
+        match self {
+            Resolved::Diffuse(k) => diffuse_eval(b, k, wo, wi),
+            Resolved::Dielectric(l) => l.eval(b, wo, wi),
+            Resolved::Conductor(l) => l.eval(b, wo, wi),
+            Resolved::Schlick(l) => l.eval(b, wo, wi),
         }
     }
 
-    /// The lobe's directional albedo for `wo` (local frame), a color.
-    pub fn albedo(&self, b: &mut Builder, wo: Value) -> Value {
+    fn sample(&self, b: &mut Builder, wo: Value, u: Value) -> Sample {
         match self {
-            LobeKind::OrenNayar {
-                color,
-                roughness,
-                energy_compensation,
-            } => oren_nayar::albedo(b, *color, *roughness, *energy_compensation, wo),
-            LobeKind::Burley { color, roughness } => burley::albedo(b, *color, *roughness, wo),
-            LobeKind::Translucent { color } => translucent::albedo(b, *color, wo),
-            LobeKind::Sheen { color, roughness } => sheen::albedo(b, *color, *roughness, wo),
-            LobeKind::Subsurface { color, .. } => subsurface::albedo(b, *color, wo),
+            Resolved::Diffuse(k) => diffuse_sample(b, k, wo, u),
+            Resolved::Dielectric(l) => l.sample(b, wo, u),
+            Resolved::Conductor(l) => l.sample(b, wo, u),
+            Resolved::Schlick(l) => l.sample(b, wo, u),
         }
+    }
+
+    fn albedo(&self, b: &mut Builder, wo: Value) -> Value {
+        match self {
+            Resolved::Diffuse(k) => diffuse_albedo(b, k, wo),
+            Resolved::Dielectric(l) => l.albedo(b, wo),
+            Resolved::Conductor(l) => l.albedo(b, wo),
+            Resolved::Schlick(l) => l.albedo(b, wo),
+        }
+    }
+}
+
+/// `eval` of a side-independent (diffuse-family) lobe.
+fn diffuse_eval(b: &mut Builder, k: &LobeKind, wo: Value, wi: Value) -> Eval {
+    match *k {
+        LobeKind::OrenNayar {
+            color,
+            roughness,
+            energy_compensation,
+        } => oren_nayar::eval(b, color, roughness, energy_compensation, wo, wi),
+        LobeKind::Burley { color, roughness } => burley::eval(b, color, roughness, wo, wi),
+        LobeKind::Translucent { color } => translucent::eval(b, color, wo, wi),
+        LobeKind::Sheen { color, roughness } => sheen::eval(b, color, roughness, wo, wi),
+        LobeKind::Subsurface { color, .. } => subsurface::eval(b, color, wo, wi),
+        _ => unreachable!("resolve() sends only the diffuse family here"),
+    }
+}
+
+/// `sample` of a side-independent (diffuse-family) lobe.
+fn diffuse_sample(b: &mut Builder, k: &LobeKind, wo: Value, u: Value) -> Sample {
+    match *k {
+        LobeKind::OrenNayar {
+            color,
+            roughness,
+            energy_compensation,
+        } => oren_nayar::sample(b, color, roughness, energy_compensation, wo, u),
+        LobeKind::Burley { color, roughness } => burley::sample(b, color, roughness, wo, u),
+        LobeKind::Translucent { color } => translucent::sample(b, color, wo, u),
+        LobeKind::Sheen { color, roughness } => sheen::sample(b, color, roughness, wo, u),
+        LobeKind::Subsurface { color, .. } => subsurface::sample(b, color, wo, u),
+        _ => unreachable!("resolve() sends only the diffuse family here"),
+    }
+}
+
+/// `albedo` of a side-independent (diffuse-family) lobe.
+fn diffuse_albedo(b: &mut Builder, k: &LobeKind, wo: Value) -> Value {
+    match *k {
+        LobeKind::OrenNayar {
+            color,
+            roughness,
+            energy_compensation,
+        } => oren_nayar::albedo(b, color, roughness, energy_compensation, wo),
+        LobeKind::Burley { color, roughness } => burley::albedo(b, color, roughness, wo),
+        LobeKind::Translucent { color } => translucent::albedo(b, color, wo),
+        LobeKind::Sheen { color, roughness } => sheen::albedo(b, color, roughness, wo),
+        LobeKind::Subsurface { color, .. } => subsurface::albedo(b, color, wo),
+        _ => unreachable!("resolve() sends only the diffuse family here"),
     }
 }

@@ -6,7 +6,7 @@
 //! This module owns which pbrlib node makes which lobe and how its inputs map onto the
 //! lobe's parameters; it must not hold lobe formulas (the lobe files do) nor the light loop.
 
-use crate::closure::{Closure, Frame, Lobe, LobeKind};
+use crate::closure::{Closure, Frame, Lobe, LobeKind, ScatterMode};
 use crate::ir::{Builder, Stream, UnOp, Value};
 use crate::nodes::{LowVal, LowerFn, NodeInputs};
 use crate::types::Type;
@@ -20,7 +20,11 @@ const CLOSURE_ATOMS: &[(&str, LowerFn)] = &[
     ("translucent_bsdf", translucent),
     ("sheen_bsdf", sheen),
     ("subsurface_bsdf", subsurface),
+    ("dielectric_bsdf", dielectric),
+    ("conductor_bsdf", conductor),
+    ("generalized_schlick_bsdf", generalized_schlick),
     ("uniform_edf", uniform_edf),
+    ("generalized_schlick_edf", schlick_edf),
     ("surface", surface),
     ("surfacematerial", surfacematerial),
     ("mix", mix),
@@ -46,8 +50,8 @@ pub fn missing_reason(node: &str) -> &'static str {
         "displacement" => "no displacement yet",
         "light" => "light shaders are not built: lights come from the scene",
         "chiang_hair_bsdf" => "no hair BSDF yet",
-        "conical_edf" | "measured_edf" | "generalized_schlick_edf" => {
-            "only uniform_edf emission is built"
+        "conical_edf" | "measured_edf" => {
+            "only uniform_edf and generalized_schlick_edf emission are built"
         }
         _ => "no lowering in the closure atom table yet",
     }
@@ -157,6 +161,131 @@ fn subsurface(b: &mut Builder, inp: &NodeInputs) -> Out {
         anisotropy: inp.get("anisotropy"),
     };
     lobe(b, inp, kind, "diffuse")
+}
+
+/// A float input's value where it is a compile-time constant (a literal or a default).
+fn const_float(b: &Builder, inp: &NodeInputs, port: &str) -> Option<f64> {
+    use crate::ir::Op;
+    use crate::types::ConstValue;
+    let v = inp.get(port);
+    let p = b.program();
+    match &p.exprs[v.index()].op {
+        Op::Const(ConstValue::Float(x)) => Some(*x),
+        Op::Param(i) => match &p.params[*i as usize].default {
+            ConstValue::Float(x) => Some(*x),
+            _ => None,
+        },
+        _ => None,
+    }
+}
+
+/// Refuses what the GGX lobes do not model yet: a thin film of non-zero (or unknown)
+/// thickness, retroreflection and a distribution other than GGX.
+fn specular_options(b: &Builder, inp: &NodeInputs) -> Result<(), String> {
+    if inp.def.input("thinfilm_thickness").is_some() {
+        match const_float(b, inp, "thinfilm_thickness") {
+            Some(t) if t == 0.0 => {}
+            Some(t) => {
+                return Err(format!(
+                    "thin film (thinfilm_thickness = {t} nm) is not built yet; set it to 0"
+                ));
+            }
+            None => {
+                return Err(
+                    "a connected thinfilm_thickness is not built yet (thin film); leave it at 0"
+                        .into(),
+                );
+            }
+        }
+    }
+    if inp.def.input("retroreflective").is_some()
+        && const_bool(b, inp, "retroreflective").unwrap_or(true)
+    {
+        return Err("retroreflective lobes are not built yet".into());
+    }
+    if inp.def.input("distribution").is_some() && inp.string("distribution") != "ggx" {
+        return Err(format!(
+            "microfacet distribution `{}` is not built (only ggx)",
+            inp.string("distribution")
+        ));
+    }
+    Ok(())
+}
+
+/// The `scatter_mode` input (`R` where the nodedef has none).
+fn scatter_mode(inp: &NodeInputs) -> Result<ScatterMode, String> {
+    if inp.def.input("scatter_mode").is_none() {
+        return Ok(ScatterMode::R);
+    }
+    let s = inp.string("scatter_mode");
+    ScatterMode::from_name(s).ok_or_else(|| format!("scatter_mode `{s}` is not one of R, T, RT"))
+}
+
+/// The component of a specular interface: `specular` for reflection, `transmission` for
+/// lobes that transmit.
+fn specular_component(mode: ScatterMode) -> &'static str {
+    match mode {
+        ScatterMode::R => "specular",
+        ScatterMode::T | ScatterMode::RT => "transmission",
+    }
+}
+
+fn dielectric(b: &mut Builder, inp: &NodeInputs) -> Out {
+    specular_options(b, inp)?;
+    let mode = scatter_mode(inp)?;
+    let kind = LobeKind::Dielectric {
+        tint: inp.get("tint"),
+        ior: inp.get("ior"),
+        roughness: inp.get("roughness"),
+        scatter_mode: mode,
+    };
+    lobe(b, inp, kind, specular_component(mode))
+}
+
+fn conductor(b: &mut Builder, inp: &NodeInputs) -> Out {
+    specular_options(b, inp)?;
+    let kind = LobeKind::Conductor {
+        ior: inp.get("ior"),
+        extinction: inp.get("extinction"),
+        roughness: inp.get("roughness"),
+    };
+    lobe(b, inp, kind, "specular")
+}
+
+fn generalized_schlick(b: &mut Builder, inp: &NodeInputs) -> Out {
+    specular_options(b, inp)?;
+    let mode = scatter_mode(inp)?;
+    let kind = LobeKind::GeneralizedSchlick {
+        color0: inp.get("color0"),
+        color82: inp.get("color82"),
+        color90: inp.get("color90"),
+        exponent: inp.get("exponent"),
+        roughness: inp.get("roughness"),
+        scatter_mode: mode,
+    };
+    lobe(b, inp, kind, specular_component(mode))
+}
+
+/// `generalized_schlick_edf`: the base EDF's radiance times `mix(color0, color90, (1 −
+/// cos θ)^exponent)`, `cos θ = clamp(|N·V|, ε, 1)` (the shading normal turned to the viewer).
+fn schlick_edf(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let base = closure_in(inp, "base");
+    let n = b.stream(Stream::N);
+    let n = b.normalize(n);
+    let wo = view_dir(b);
+    let c = b.dot(n, wo);
+    let c = b.unary(UnOp::Abs, c);
+    let (eps, one) = (b.float(1e-8), b.float(1.0));
+    let c = b.clamp(c, eps, one);
+    let x = b.sub(one, c);
+    let k = b.binary(crate::ir::BinOp::Pow, x, inp.get("exponent"));
+    let f = b.mix(inp.get("color0"), inp.get("color90"), k);
+    let c = base.scaled(b, f);
+    one_closure(b, c)
+}
+
+fn one_closure(b: &mut Builder, c: Closure) -> Out {
+    one(LowVal::closure(b, c))
 }
 
 fn uniform_edf(b: &mut Builder, inp: &NodeInputs) -> Out {
