@@ -222,14 +222,15 @@ fn a_constant_mix_weight_specializes_the_other_lobe_away() {
             .op_count()
     };
     let (half, one) = (ops(0.5).unwrap(), ops(1.0).unwrap());
-    // The second lobe shares the frame (CSE) but not its roughness terms; folding may merge
-    // a constant or two.
+    // The second lobe shares the frame (CSE) but not its roughness terms. With weight 0 its
+    // evaluations and samples fold away; what stays is a handful of additions of zeros to
+    // the lobe-selection sums (`x + 0` and `0 · x` do not fold: −0 and NaN).
     assert!(
-        half > single + 20,
-        "a real mix keeps both lobes: {half} vs {single}"
+        half > one + 20,
+        "a real mix keeps both lobes: {half} vs {one}"
     );
     assert!(
-        one.abs_diff(single) <= 2,
+        one >= single && one <= single + 12,
         "mix = 1 leaves the one lobe: {one} vs {single} ops"
     );
 }

@@ -99,7 +99,7 @@ fn direct(
         let vis = b.light_visible();
         let lp = b.light_pdf();
         let bp = closure.eval(b, wo, l).pdf;
-        let w = power_heuristic(b, lp, bp);
+        let w = light_weight(b, lp, bp);
         let k = b.mul(vis, w);
         let lit = scale(b, cl, k);
         groups
@@ -125,17 +125,20 @@ fn direct(
     })
 }
 
-/// `a² / (a² + c²)` for the estimator of density `a` against one of density `c`; 1 where
-/// `c = 0` (the other cannot draw the direction).
-fn power_heuristic(b: &mut Builder, a: Value, c: Value) -> Value {
-    let a2 = b.mul(a, a);
+/// The power heuristic's weight of a light sample of density `l` against BSDF sampling of
+/// density `c`: `l² / (l² + c²)`; 1 for a delta light (`l = 0`, which no BSDF sample can
+/// reach) and where the BSDF cannot draw the direction (`c = 0`).
+fn light_weight(b: &mut Builder, l: Value, c: Value) -> Value {
+    let l2 = b.mul(l, l);
     let c2 = b.mul(c, c);
-    let s = b.add(a2, c2);
-    let w = b.div(a2, s);
+    let s = b.add(l2, c2);
+    let w = b.div(l2, s);
     let zero = f(b, 0.0);
+    let delta = b.binary(BinOp::Le, l, zero);
     let none = b.binary(BinOp::Le, c, zero);
+    let full = b.binary(BinOp::Or, delta, none);
     let one = f(b, 1.0);
-    b.select(none, one, w)
+    b.select(full, one, w)
 }
 
 /// The BSDF-sampled continuation: per component, the lobes' share of the light along one
