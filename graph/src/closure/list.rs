@@ -47,12 +47,19 @@ impl Closure {
     /// Every lobe weight and the emission multiplied by `k` (a float or a color).
     pub fn scaled(&self, b: &mut Builder, k: Value) -> Closure {
         let k = b.splat_to(Type::Color, k);
+        // A weight that is 0 stays exactly 0 whatever `k` is (0 · NaN would not fold), so
+        // a lobe whose weight folds to 0 is still deleted after scaling.
         let lobes = self
             .lobes
             .iter()
-            .map(|l| Lobe {
-                weight: b.mul(l.weight, k),
-                ..l.clone()
+            .map(|l| {
+                let live = l.nonzero(b);
+                let w = b.mul(l.weight, k);
+                let zero = b.zero(Type::Color);
+                Lobe {
+                    weight: b.select(live, w, zero),
+                    ..l.clone()
+                }
             })
             .collect();
         let emission = self.emission.map(|e| b.mul(e, k));
@@ -204,6 +211,12 @@ impl Lobe {
         f: impl FnOnce(&mut Builder) -> Vec<Value>,
         zero: impl FnOnce(&mut Builder) -> Vec<Value>,
     ) -> Vec<Value> {
+        let any = self.nonzero(b);
+        b.if_(any, f, zero)
+    }
+
+    /// Whether any channel of the weight is non-zero (bool; NaN counts as non-zero).
+    pub fn nonzero(&self, b: &mut Builder) -> Value {
         let (r, g, bl) = (
             b.extract(self.weight, 0),
             b.extract(self.weight, 1),
@@ -214,8 +227,7 @@ impl Lobe {
         let ng = b.binary(BinOp::Ne, g, z);
         let nb = b.binary(BinOp::Ne, bl, z);
         let any = b.binary(BinOp::Or, nr, ng);
-        let any = b.binary(BinOp::Or, any, nb);
-        b.if_(any, f, zero)
+        b.binary(BinOp::Or, any, nb)
     }
 
     /// `eval` for world directions (converted to the lobe's frame), unweighted.

@@ -78,7 +78,15 @@ fn frame(b: &mut Builder, inp: &NodeInputs) -> Frame {
         b.zero(Type::Vec3)
     };
     let wo = view_dir(b);
-    Frame::new(b, n, t, wo)
+    let mut f = Frame::new(b, n, t, wo);
+    // The renderer's `N` already faces the viewer; which side of the material the viewer
+    // is on comes from the geometric normal, which points out of closed meshes (as for the
+    // Maya surfaces' refraction).
+    let ng = b.stream(Stream::Ng);
+    let d = b.dot(ng, wo);
+    let zero = b.float(0.0);
+    f.inside = b.binary(crate::ir::BinOp::Lt, d, zero);
+    f
 }
 
 /// A one-lobe closure weighted by the node's `weight` input.
