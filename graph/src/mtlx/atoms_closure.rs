@@ -31,6 +31,7 @@ const CLOSURE_ATOMS: &[(&str, LowerFn)] = &[
     ("add", add),
     ("multiply", multiply),
     ("layer", layer),
+    ("dot", dot),
 ];
 
 /// The lowering of a closure-typed atom nodedef (its node category), if there is one.
@@ -344,6 +345,12 @@ fn multiply(b: &mut Builder, inp: &NodeInputs) -> Out {
     let x = closure_in(inp, "in1");
     let k = inp.get("in2");
     let c = x.scaled(b, k);
+    one(LowVal::closure(b, c))
+}
+
+/// `dot` of a closure: its input, unchanged.
+fn dot(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let c = closure_in(inp, "in");
     one(LowVal::closure(b, c))
 }
 
