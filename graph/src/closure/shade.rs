@@ -155,7 +155,7 @@ fn continuation(
     for o in &on {
         any = b.binary(BinOp::Or, any, *o);
     }
-    let r = b.if_(
+    b.if_(
         any,
         |b| {
             let rand = b.stream(Stream::Rand);
@@ -196,8 +196,7 @@ fn continuation(
                 .collect()
         },
         |b| comps.iter().map(|_| b.zero(Type::Color)).collect(),
-    );
-    r
+    )
 }
 
 /// The probability of continuing a path: 1 before [`ROULETTE_DEPTH`], then the largest

@@ -193,7 +193,7 @@ fn const_float(b: &Builder, inp: &NodeInputs, port: &str) -> Option<f64> {
 fn specular_options(b: &Builder, inp: &NodeInputs) -> Result<(), String> {
     if inp.def.input("thinfilm_thickness").is_some() {
         match const_float(b, inp, "thinfilm_thickness") {
-            Some(t) if t == 0.0 => {}
+            Some(0.0) => {}
             Some(t) => {
                 return Err(format!(
                     "thin film (thinfilm_thickness = {t} nm) is not built yet; set it to 0"

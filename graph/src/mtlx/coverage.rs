@@ -53,7 +53,8 @@ fn status(lib: &Library, nd: &super::document::NodeDefElem) -> Status {
     for p in nd.outputs.iter().chain(&nd.inputs) {
         // Inputs of closure kinds not built yet (a material's displacement shader) are
         // ignored, as the translator ignores them.
-        let ignored = classify(&p.ty) == MxType::Closure && nd.inputs.iter().any(|i| std::ptr::eq(i, p));
+        let ignored =
+            classify(&p.ty) == MxType::Closure && nd.inputs.iter().any(|i| std::ptr::eq(i, p));
         if !ignored && classify(&p.ty) != MxType::Value(classify_value(&p.ty)) {
             return Status::Unsupported(unsupported_reason(&p.ty));
         }

@@ -190,9 +190,9 @@ mod tests {
     fn sobol_by_bytes_is_the_matrix_product() {
         for i in [0u32, 1, 2, 3, 255, 256, 0xdead_beef, u32::MAX, 0x8000_0001] {
             let mut y = 0u32;
-            for bit in 0..32 {
+            for (bit, col) in SOBOL1.iter().enumerate() {
                 if i >> bit & 1 != 0 {
-                    y ^= SOBOL1[bit];
+                    y ^= col;
                 }
             }
             assert_eq!(sobol2(i), (i.reverse_bits(), y), "index {i:#x}");
