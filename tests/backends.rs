@@ -1773,27 +1773,41 @@ mod mtlx;
 /// The GGX lobes (DESIGN §12, issue 15) as whole programs on every back end against the
 /// interpreter: `eval`, `sample` and `albedo` of a rough `RT` dielectric (viewer inside and
 /// outside), a gold conductor and a `T` generalized Schlick, directions and random numbers
-/// taken from the hard fragments' streams.
+/// taken from the hard fragments' streams; each also under a thin film.
 #[test]
 fn ggx_lobes_on_every_backend() {
-    use shadenet_graph::closure::{LobeKind, ScatterMode};
+    use shadenet_graph::closure::{LobeKind, ScatterMode, ThinFilm};
     use shadenet_graph::ir::{Builder, Stream};
     let frags = hard_fragments();
     let env = env();
-    for (name, which) in [("dielectric RT", 0), ("conductor", 1), ("schlick T", 2)] {
+    let cases = [
+        ("dielectric RT", 0, None),
+        ("conductor", 1, None),
+        ("schlick T", 2, None),
+        ("filmed dielectric RT", 0, Some([380.0, 1.33])),
+        ("filmed conductor", 1, Some([450.0, 1.8])),
+        ("filmed schlick T", 2, Some([520.0, 1.6])),
+    ];
+    for (name, which, film) in cases {
         let mut b = Builder::new(name);
         let rough = b.constant(ConstValue::Vec2([0.3, 0.1]));
+        let thin_film = film.map(|[t, ior]: [f64; 2]| ThinFilm {
+            thickness: b.float(t),
+            ior: b.float(ior),
+        });
         let kind = match which {
             0 => LobeKind::Dielectric {
                 tint: b.color([1.0, 0.9, 0.8]),
                 ior: b.float(1.5),
                 roughness: rough,
                 scatter_mode: ScatterMode::RT,
+                thin_film,
             },
             1 => LobeKind::Conductor {
                 ior: b.color([0.18, 0.42, 1.37]),
                 extinction: b.color([3.42, 2.35, 1.77]),
                 roughness: rough,
+                thin_film,
             },
             _ => LobeKind::GeneralizedSchlick {
                 color0: b.color([0.04, 0.05, 0.06]),
@@ -1802,6 +1816,7 @@ fn ggx_lobes_on_every_backend() {
                 exponent: b.float(5.0),
                 roughness: rough,
                 scatter_mode: ScatterMode::T,
+                thin_film,
             },
         };
         let n = b.stream(Stream::N);

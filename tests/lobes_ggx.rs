@@ -5,7 +5,7 @@
 //! (The generic chi-square and furnace harness lives in `tests/closures/`.)
 mod common;
 use common::*;
-use shadenet_graph::closure::{LobeKind, ScatterMode};
+use shadenet_graph::closure::{LobeKind, ScatterMode, ThinFilm};
 use shadenet_graph::ir::{Builder, Program};
 use shadenet_graph::types::ConstValue;
 
@@ -17,11 +17,13 @@ enum Spec {
         ior: f64,
         rough: [f64; 2],
         mode: ScatterMode,
+        film: Option<[f64; 2]>,
     },
     Conductor {
         n: [f64; 3],
         k: [f64; 3],
         rough: [f64; 2],
+        film: Option<[f64; 2]>,
     },
     Schlick {
         c0: [f64; 3],
@@ -30,7 +32,16 @@ enum Spec {
         exp: f64,
         rough: [f64; 2],
         mode: ScatterMode,
+        film: Option<[f64; 2]>,
     },
+}
+
+/// A thin film `[thickness nm, ior]` as the lobes take it.
+fn film(b: &mut Builder, film: Option<[f64; 2]>) -> Option<ThinFilm> {
+    film.map(|[t, ior]| ThinFilm {
+        thickness: b.float(t),
+        ior: b.float(ior),
+    })
 }
 
 impl Spec {
@@ -41,16 +52,24 @@ impl Spec {
                 ior,
                 rough,
                 mode,
+                film: f,
             } => LobeKind::Dielectric {
                 tint: b.color(tint),
                 ior: b.float(ior),
                 roughness: b.constant(ConstValue::Vec2(rough)),
                 scatter_mode: mode,
+                thin_film: film(b, f),
             },
-            Spec::Conductor { n, k, rough } => LobeKind::Conductor {
+            Spec::Conductor {
+                n,
+                k,
+                rough,
+                film: f,
+            } => LobeKind::Conductor {
                 ior: b.color(n),
                 extinction: b.color(k),
                 roughness: b.constant(ConstValue::Vec2(rough)),
+                thin_film: film(b, f),
             },
             Spec::Schlick {
                 c0,
@@ -59,6 +78,7 @@ impl Spec {
                 exp,
                 rough,
                 mode,
+                film: f,
             } => LobeKind::GeneralizedSchlick {
                 color0: b.color(c0),
                 color82: b.color(c82),
@@ -66,6 +86,7 @@ impl Spec {
                 exponent: b.float(exp),
                 roughness: b.constant(ConstValue::Vec2(rough)),
                 scatter_mode: mode,
+                thin_film: film(b, f),
             },
         }
     }
@@ -77,6 +98,7 @@ fn diel(ior: f64, rough: [f64; 2], mode: ScatterMode) -> Spec {
         ior,
         rough,
         mode,
+        film: None,
     }
 }
 
@@ -86,6 +108,7 @@ fn gold(rough: [f64; 2]) -> Spec {
         n: [0.18, 0.42, 1.37],
         k: [3.42, 2.35, 1.77],
         rough,
+        film: None,
     }
 }
 
@@ -97,15 +120,61 @@ fn schlick(rough: [f64; 2], c82: [f64; 3], mode: ScatterMode) -> Spec {
         exp: 5.0,
         rough,
         mode,
+        film: None,
     }
 }
 
-/// Every lobe and mode at roughness `rough`.
+/// `spec` under a thin film `[thickness nm, ior]`.
+fn filmed(spec: Spec, f: [f64; 2]) -> Spec {
+    match spec {
+        Spec::Dielectric {
+            tint,
+            ior,
+            rough,
+            mode,
+            ..
+        } => Spec::Dielectric {
+            tint,
+            ior,
+            rough,
+            mode,
+            film: Some(f),
+        },
+        Spec::Conductor { n, k, rough, .. } => Spec::Conductor {
+            n,
+            k,
+            rough,
+            film: Some(f),
+        },
+        Spec::Schlick {
+            c0,
+            c82,
+            c90,
+            exp,
+            rough,
+            mode,
+            ..
+        } => Spec::Schlick {
+            c0,
+            c82,
+            c90,
+            exp,
+            rough,
+            mode,
+            film: Some(f),
+        },
+    }
+}
+
+/// Every lobe and mode at roughness `rough`, without and with a thin film (a soap-like
+/// film on the dielectric, an oxide-like one on gold and on the Schlick interface).
 fn all_specs(rough: [f64; 2]) -> Vec<Spec> {
-    let mut v = vec![gold(rough)];
+    let mut v = vec![gold(rough), filmed(gold(rough), [450.0, 1.8])];
     for m in [ScatterMode::R, ScatterMode::T, ScatterMode::RT] {
         v.push(diel(1.5, rough, m));
+        v.push(filmed(diel(1.5, rough, m), [380.0, 1.33]));
         v.push(schlick(rough, [0.8, 0.9, 1.0], m));
+        v.push(filmed(schlick(rough, [0.8, 0.9, 1.0], m), [520.0, 1.6]));
     }
     v
 }
@@ -466,4 +535,141 @@ fn transmission_is_reciprocal_up_to_eta_squared() {
             }
         }
     }
+}
+
+/// The film's reflectance alone ([`thin_film::fresnel`], f64 interpreter) at `c`, for a film
+/// `[thickness nm, ior]` over an exact base of index `eta` (gray, no extinction), the viewer
+/// in a medium of index `outside`.
+fn film_fresnel(c: f64, film: [f64; 2], outside: f64, eta: f64) -> Vec<f64> {
+    use shadenet_graph::closure::thin_film;
+    let mut b = Builder::new("film");
+    let cv = b.float(c);
+    let f = thin_film::Film {
+        thickness: b.float(film[0]),
+        ior: b.float(film[1]),
+        outside: b.float(outside),
+    };
+    let base = thin_film::Base::Exact {
+        eta: b.color([eta; 3]),
+        kappa: b.color([0.0; 3]),
+    };
+    let r = thin_film::fresnel(&mut b, cv, &f, &base, &|b, _| {
+        b.zero(shadenet_graph::types::Type::Color)
+    });
+    b.output("f", None, r);
+    let p = b.finish().expect("film program builds");
+    let o = run_program(&p, &plane_fragment(), &[], u32::MAX);
+    assert_eq!(o.nonfinite32, 0);
+    o.get("f")
+}
+
+/// Textbook Fresnel amplitudes squared `(Rp, Rs)` at `c` for a relative index `n` (Snell's
+/// law, no shortcut formula): 1 under total internal reflection.
+fn textbook_fresnel(c: f64, n: f64) -> (f64, f64) {
+    let st = (1.0 - c * c).sqrt() / n;
+    if st >= 1.0 {
+        return (1.0, 1.0);
+    }
+    let ct = (1.0 - st * st).sqrt();
+    let rs = (c - n * ct) / (c + n * ct);
+    let rp = (n * c - ct) / (n * c + ct);
+    (rp * rp, rs * rs)
+}
+
+/// (e) A film whose index is the outside medium's is no film: every filmed lobe (gray
+/// dielectric, colored gold, colored Schlick) evaluates to its plain lobe's values. This
+/// fails if the Schlick base's `R23` is halved per polarization (MaterialX's GLSL) or if
+/// the incoherent part of a colored base goes through the XYZ → RGB matrix.
+#[test]
+fn thin_film_of_the_outside_index_is_no_film() {
+    let rough = [0.3, 0.3];
+    let bases = [
+        diel(1.5, rough, ScatterMode::R),
+        diel(1.5, rough, ScatterMode::RT),
+        gold(rough),
+        schlick(rough, [0.8, 0.9, 1.0], ScatterMode::R),
+    ];
+    let pairs = [
+        (dir(0.0, 0.0), dir(10.0, 180.0)),
+        (dir(30.0, 10.0), dir(35.0, 185.0)),
+        (dir(60.0, 0.0), dir(55.0, 170.0)),
+        (dir(80.0, 40.0), dir(75.0, 230.0)),
+    ];
+    let jobs: Vec<Job> = pairs.iter().map(|&(o, i)| Job::Eval(o, i)).collect();
+    for base in bases {
+        let plain = run(base, false, &jobs);
+        let film = run(filmed(base, [500.0, 1.0]), false, &jobs);
+        for k in 0..jobs.len() {
+            let (a, b) = (plain.get(&format!("{k}.v")), film.get(&format!("{k}.v")));
+            assert!(a.iter().any(|x| *x > 1e-3), "{base:?} {k}: {a:?}");
+            for c in 0..3 {
+                assert!(close(a[c], b[c], 2e-6), "{base:?} {k}: {a:?} vs {b:?}");
+            }
+        }
+    }
+}
+
+/// (e) A thick film is incoherent: past a few microns the interference terms vanish and
+/// the film reflects `R12 + T12² R23 / (1 − R12 R23)` per polarization (averaged), checked
+/// against textbook Fresnel amplitudes, films above and below the base's index.
+#[test]
+fn thick_film_is_incoherent() {
+    for (film_ior, base) in [(1.6, 1.5), (1.25, 1.5), (2.0, 1.33)] {
+        for c in [1.0, 0.8, 0.5, 0.2, 0.05] {
+            let got = film_fresnel(c, [20_000.0, film_ior], 1.0, base);
+            let (r12p, r12s) = textbook_fresnel(c, film_ior);
+            let ct = (1.0 - (1.0 - c * c) / (film_ior * film_ior)).sqrt();
+            let (r23p, r23s) = textbook_fresnel(ct, base / film_ior);
+            let inc = |r12: f64, r23: f64| r12 + (1.0 - r12).powi(2) * r23 / (1.0 - r12 * r23);
+            let want = 0.5 * (inc(r12p, r23p) + inc(r12s, r23s));
+            for g in &got {
+                assert!(
+                    (g - want).abs() < 1e-9,
+                    "n {film_ior}/{base} c {c}: {got:?} vs {want}"
+                );
+            }
+        }
+    }
+}
+
+/// (e) Seen from inside glass beyond the critical angle the filmed interface reflects
+/// everything, films of lower and higher index alike (the film's own total reflection and
+/// the base's both give exactly 1 through the same sum).
+#[test]
+fn thin_film_inside_total_internal_reflection_is_one() {
+    for film in [[300.0, 1.33], [300.0, 1.8], [80.0, 2.4]] {
+        for c in [0.6, 0.3, 0.01] {
+            let got = film_fresnel(c, film, 1.5, 1.0);
+            for g in &got {
+                assert!((g - 1.0).abs() < 1e-6, "film {film:?} c {c}: {got:?}");
+            }
+        }
+    }
+    // And the same through the lobe: a smooth filmed `T` lobe seen from inside transmits
+    // nothing there.
+    let jobs = vec![Job::Sample(dir(60.0, 0.0), [0.3, 0.7, 0.5])];
+    let t = run(
+        filmed(diel(1.5, [0.0, 0.0], ScatterMode::T), [300.0, 1.33]),
+        true,
+        &jobs,
+    );
+    assert_eq!(t.get("0.v"), vec![0.0; 3]);
+}
+
+/// (e) Interference: a quarter-wave anti-reflection film for green (index √1.5, 112 nm)
+/// on glass reflects far less green than bare glass (4 %) at normal incidence and leaves
+/// red and blue brighter than green (the purple of coated lenses); a half-wave film of the
+/// same index is optically absent for green, so green comes back near bare glass.
+#[test]
+fn thin_film_interferes() {
+    let n = 1.5f64.sqrt();
+    let bare = ((1.5 - 1.0) / 2.5f64).powi(2);
+    let quarter = film_fresnel(1.0, [550.0 / (4.0 * n), n], 1.0, 1.5);
+    assert!(quarter[1] < 0.25 * bare, "{quarter:?}");
+    assert!(
+        quarter[0] > quarter[1] && quarter[2] > quarter[1],
+        "{quarter:?}"
+    );
+    let half = film_fresnel(1.0, [550.0 / (2.0 * n), n], 1.0, 1.5);
+    assert!((half[1] - bare).abs() < 0.25 * bare, "{half:?} vs {bare}");
 }

@@ -1,6 +1,7 @@
 //! `conductor_bsdf`: a rough metal (GGX reflection with the exact conductor Fresnel per
-//! channel), as MaterialX 1.39 defines it, built on [`ggx::Microfacet`] in `R` mode. It owns
-//! the conductor Fresnel formula.
+//! channel), as MaterialX 1.39 defines it, built on [`ggx::Microfacet`] in `R` mode. Its Fresnel
+//! is the mean of the two polarizations of [`thin_film::polarized`] (the film needs them
+//! apart).
 //!
 //! Fresnel (Lagarde's form of the exact unpolarized formula for a complex index
 //! `n + ik` per channel, `c = wo·h`): `t0 = n² − k² − s²` (`s² = 1 − c²`),
@@ -8,60 +9,25 @@
 //! 2ac)`, `Rp = Rs (c²(a²+b²) + s⁴ − 2ac s²)/(c²(a²+b²) + s⁴ + 2ac s²)`, `F = (Rs + Rp)/2`.
 //! `f · cos θi = F D G2 / (4 cos θo)`.
 //!
+//! A thin film (`thinfilm_thickness` > 0) replaces `F` by [`thin_film::fresnel`] over this
+//! metal.
+//!
 //! Albedo: MaterialX's approximation, the fit `F0 A + B` with `F0` the Fresnel at normal
 //! incidence (the Schlick split with `F90 = 1`); its error against the exact conductor
 //! Fresnel is largest for strongly colored metals at grazing angles.
 
 use super::ggx::{self, Alpha, Microfacet};
-use super::math::{f, gray, one_minus, saturate, scale, sq};
-use super::{Eval, Sample, ScatterMode};
-use crate::ir::{Builder, UnOp, Value};
+use super::math::{f, scale};
+use super::{Eval, Sample, ScatterMode, ThinFilm, thin_film};
+use crate::ir::{Builder, Value};
 
 /// The exact conductor Fresnel reflectance (color) at `c = cos` (float, clamped to [0, 1])
 /// for index `n` and extinction `k` (colors).
 pub fn fresnel(b: &mut Builder, c: Value, n: Value, k: Value) -> Value {
-    let c = saturate(b, c);
-    let c2 = sq(b, c);
-    let s2 = one_minus(b, c2);
-    let (n2, k2) = (b.mul(n, n), b.mul(k, k));
-    let s2c = gray(b, s2);
-    let c2c = gray(b, c2);
-    let t0 = b.sub(n2, k2);
-    let t0 = b.sub(t0, s2c);
-    let t0sq = b.mul(t0, t0);
-    let nk = b.mul(n2, k2);
-    let four = f(b, 4.0);
-    let nk4 = scale(b, nk, four);
-    let ab = b.add(t0sq, nk4);
-    let ab = b.unary(UnOp::Sqrt, ab);
-    let t1 = b.add(ab, c2c);
-    let a = b.add(ab, t0);
-    let half = f(b, 0.5);
-    let a = scale(b, a, half);
-    let a = pos_color(b, a);
-    let a = b.unary(UnOp::Sqrt, a);
-    let two_c = b.add(c, c);
-    let t2 = scale(b, a, two_c);
-    let num = b.sub(t1, t2);
-    let den = b.add(t1, t2);
-    let rs = b.div(num, den);
-    let t3 = scale(b, ab, c2);
-    let s4 = sq(b, s2);
-    let s4c = gray(b, s4);
-    let t3 = b.add(t3, s4c);
-    let t4 = scale(b, t2, s2);
-    let num = b.sub(t3, t4);
-    let den = b.add(t3, t4);
-    let rp = b.div(num, den);
-    let rp = b.mul(rs, rp);
+    let (rp, rs) = thin_film::polarized(b, c, n, k);
     let s = b.add(rs, rp);
+    let half = f(b, 0.5);
     scale(b, s, half)
-}
-
-/// `max(x, 0)` per channel of a color.
-fn pos_color(b: &mut Builder, x: Value) -> Value {
-    let zero = b.zero(crate::types::Type::Color);
-    b.max(x, zero)
 }
 
 /// The lobe's parameters.
@@ -73,13 +39,21 @@ pub struct Conductor {
     pub extinction: Value,
     /// Roughness `(αx, αy)` (vec2).
     pub roughness: Value,
+    /// A thin film over the metal.
+    pub thin_film: Option<ThinFilm>,
 }
 
 impl Conductor {
     fn with<R>(&self, b: &mut Builder, body: impl FnOnce(&mut Builder, &Microfacet) -> R) -> R {
         let alpha = Alpha::new(b, self.roughness);
         let (n, k) = (self.ior, self.extinction);
-        let fr = move |b: &mut Builder, c: Value| fresnel(b, c, n, k);
+        let film = self.thin_film;
+        let fr = move |b: &mut Builder, c: Value| {
+            let base = thin_film::Base::Exact { eta: n, kappa: k };
+            let one = f(b, 1.0);
+            let film = film.as_ref().map(|t| (t, one));
+            thin_film::or_plain(b, c, film, &base, &|b, c| fresnel(b, c, n, k))
+        };
         let etap = f(b, 1.0);
         let tint = ggx::white(b);
         let m = Microfacet {
@@ -102,12 +76,30 @@ impl Conductor {
         self.with(b, |b, m| m.sample(b, wo, u))
     }
 
-    /// The directional albedo (color): `F(1) A + B` from MaterialX's fit.
+    /// The directional albedo (color): `F(1) A + B` from MaterialX's fit; with a film,
+    /// [`thin_film::albedo`] where its thickness is > 0.
     pub fn albedo(&self, b: &mut Builder, wo: Value) -> Value {
         let alpha = Alpha::new(b, self.roughness);
         let one = f(b, 1.0);
         let f0 = fresnel(b, one, self.ior, self.extinction);
         let w = ggx::white(b);
-        ggx::albedo_f0_f90(b, alpha, wo, f0, w)
+        let plain = ggx::albedo_f0_f90(b, alpha, wo, f0, w);
+        let Some(film) = self.thin_film else {
+            return plain;
+        };
+        let (n, k) = (self.ior, self.extinction);
+        let base = thin_film::Base::Exact { eta: n, kappa: k };
+        let fr = |b: &mut Builder, c: Value| {
+            let film = thin_film::Film {
+                thickness: film.thickness,
+                ior: film.ior,
+                outside: one,
+            };
+            thin_film::fresnel(b, c, &film, &base, &|b, c| fresnel(b, c, n, k))
+        };
+        let filmed = thin_film::albedo(b, alpha, wo, &fr);
+        let zero = f(b, 0.0);
+        let on = b.binary(crate::ir::BinOp::Gt, film.thickness, zero);
+        b.select(on, filmed, plain)
     }
 }

@@ -20,14 +20,15 @@
 //! `tint` (the lobe picker only needs a relative size; `layer` over a transmitting top is
 //! not meaningful anyway).
 //!
-//! Thin film (`thinfilm_thickness`, `thinfilm_ior`) is not modelled: the lobe takes no
-//! [`super::ThinFilm`] and the MaterialX atom must report a film as unsupported or ignore a
-//! zero thickness.
+//! A thin film (`thinfilm_thickness` > 0) replaces `F` by [`thin_film::fresnel`]: outside,
+//! film over an index `ior`; inside, seen from the base (outside index `ior`, base index 1).
+//! `R`'s albedo is then [`thin_film::albedo`].
 
 use super::ggx::{self, Alpha, Microfacet};
 use super::math::{f, gray, lt, safe_sqrt, sq};
-use super::{Eval, Sample, ScatterMode};
-use crate::ir::{Builder, Value};
+use super::{Eval, Sample, ScatterMode, ThinFilm, thin_film};
+use crate::ir::{BinOp, Builder, Value};
+use crate::types::Type;
 
 /// The exact unpolarized Fresnel reflectance of a dielectric (float) at `c = cos` (≥ 0)
 /// with relative index `etap`; 1 under total internal reflection.
@@ -77,15 +78,26 @@ pub struct Dielectric {
     pub mode: ScatterMode,
     /// Whether the viewer is inside (bool, [`super::Frame::inside`]).
     pub inside: Value,
+    /// A thin film on the interface.
+    pub thin_film: Option<ThinFilm>,
 }
 
 impl Dielectric {
     fn with<R>(&self, b: &mut Builder, body: impl FnOnce(&mut Builder, &Microfacet) -> R) -> R {
         let alpha = Alpha::new(b, self.roughness);
         let etap = etap(b, self.ior, self.inside);
+        let film = self.film(b);
         let fr = move |b: &mut Builder, c: Value| {
-            let x = fresnel(b, c, etap);
-            gray(b, x)
+            let plain = |b: &mut Builder, c: Value| {
+                let x = fresnel(b, c, etap);
+                gray(b, x)
+            };
+            match &film {
+                None => plain(b, c),
+                Some((tf, outside, base)) => {
+                    thin_film::or_plain(b, c, Some((tf, *outside)), base, &plain)
+                }
+            }
         };
         let m = Microfacet {
             alpha,
@@ -95,6 +107,18 @@ impl Dielectric {
             tint: self.tint,
         };
         body(b, &m)
+    }
+
+    /// The film, the viewer's medium's index and the base under the film (ior outside,
+    /// 1 inside).
+    fn film(&self, b: &mut Builder) -> Option<(ThinFilm, Value, thin_film::Base)> {
+        let tf = self.thin_film?;
+        let one = f(b, 1.0);
+        let outside = b.select(self.inside, self.ior, one);
+        let eta = b.select(self.inside, one, self.ior);
+        let eta = gray(b, eta);
+        let kappa = b.zero(Type::Color);
+        Some((tf, outside, thin_film::Base::Exact { eta, kappa }))
     }
 
     /// `f · |cos θi|` and the pdf.
@@ -122,6 +146,26 @@ impl Dielectric {
         let f0 = gray(b, f0);
         let w = gray(b, one);
         let e = ggx::albedo_f0_f90(b, alpha, wo, f0, w);
+        let e = match self.film(b) {
+            None => e,
+            Some((tf, outside, base)) => {
+                let fr = |b: &mut Builder, c: Value| {
+                    let film = thin_film::Film {
+                        thickness: tf.thickness,
+                        ior: tf.ior,
+                        outside,
+                    };
+                    thin_film::fresnel(b, c, &film, &base, &|b, c| {
+                        let x = fresnel(b, c, etap);
+                        gray(b, x)
+                    })
+                };
+                let filmed = thin_film::albedo(b, alpha, wo, &fr);
+                let zero = f(b, 0.0);
+                let on = b.binary(BinOp::Gt, tf.thickness, zero);
+                b.select(on, filmed, e)
+            }
+        };
         b.mul(self.tint, e)
     }
 }

@@ -34,6 +34,7 @@ pub mod schlick;
 pub mod shade;
 pub mod sheen;
 pub mod subsurface;
+pub mod thin_film;
 pub mod translucent;
 
 pub use frame::Frame;
@@ -119,8 +120,7 @@ pub enum LobeKind {
         /// Phase-function anisotropy (float); unused by the approximation.
         anisotropy: Value,
     },
-    /// `dielectric_bsdf`: a rough GGX dielectric interface. See [`dielectric`]. Thin film is
-    /// not modelled.
+    /// `dielectric_bsdf`: a rough GGX dielectric interface. See [`dielectric`].
     Dielectric {
         /// Tint (color).
         tint: Value,
@@ -130,9 +130,11 @@ pub enum LobeKind {
         roughness: Value,
         /// Reflection, transmission or both.
         scatter_mode: ScatterMode,
+        /// A thin film on the interface ([`thin_film`]); `None` where its thickness is 0.
+        thin_film: Option<ThinFilm>,
     },
     /// `conductor_bsdf`: a rough GGX metal with the exact complex Fresnel. See
-    /// [`conductor`]. Thin film is not modelled.
+    /// [`conductor`].
     Conductor {
         /// Index of refraction `n` (color).
         ior: Value,
@@ -140,9 +142,11 @@ pub enum LobeKind {
         extinction: Value,
         /// Roughness `(αx, αy)` (vec2).
         roughness: Value,
+        /// A thin film on the metal ([`thin_film`]); `None` where its thickness is 0.
+        thin_film: Option<ThinFilm>,
     },
     /// `generalized_schlick_bsdf`: a rough GGX interface with the F82-tinted generalized
-    /// Schlick Fresnel. See [`schlick`]. Thin film is not modelled.
+    /// Schlick Fresnel. See [`schlick`].
     GeneralizedSchlick {
         /// Reflectance at normal incidence (color).
         color0: Value,
@@ -156,6 +160,8 @@ pub enum LobeKind {
         roughness: Value,
         /// Reflection, transmission or both.
         scatter_mode: ScatterMode,
+        /// A thin film on the interface ([`thin_film`]); `None` where its thickness is 0.
+        thin_film: Option<ThinFilm>,
     },
 }
 
@@ -258,21 +264,25 @@ impl LobeKind {
                 ior,
                 roughness,
                 scatter_mode,
+                thin_film,
             } => Resolved::Dielectric(dielectric::Dielectric {
                 tint,
                 ior,
                 roughness,
                 mode: scatter_mode,
                 inside,
+                thin_film,
             }),
             LobeKind::Conductor {
                 ior,
                 extinction,
                 roughness,
+                thin_film,
             } => Resolved::Conductor(conductor::Conductor {
                 ior,
                 extinction,
                 roughness,
+                thin_film,
             }),
             LobeKind::GeneralizedSchlick {
                 color0,
@@ -281,6 +291,7 @@ impl LobeKind {
                 exponent,
                 roughness,
                 scatter_mode,
+                thin_film,
             } => Resolved::Schlick(schlick::Schlick {
                 color0,
                 color82,
@@ -289,6 +300,7 @@ impl LobeKind {
                 roughness,
                 mode: scatter_mode,
                 inside,
+                thin_film,
             }),
         }
     }

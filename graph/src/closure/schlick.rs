@@ -13,12 +13,15 @@
 //! that index forbids refraction `F = 1` (total internal reflection). `RT` reflects with
 //! probability = the mean of `F`'s channels.
 //!
+//! A thin film (`thinfilm_thickness` > 0) replaces `F` by [`thin_film::fresnel`] over this
+//! interface, seen from outside.
+//!
 //! Albedo: `R` is MaterialX's fit `color0 A + color90 B` (F82 ignored, as MaterialX
 //! does); `T` and `RT` give white (energy through, see the dielectric's note).
 
 use super::ggx::{self, Alpha, Microfacet};
 use super::math::{f, gray, lt, one_minus, saturate, scale, sq};
-use super::{Eval, Sample, ScatterMode};
+use super::{Eval, Sample, ScatterMode, ThinFilm, thin_film};
 use crate::ir::{BinOp, Builder, UnOp, Value};
 use crate::types::Type;
 
@@ -64,6 +67,8 @@ pub struct Schlick {
     pub mode: ScatterMode,
     /// Whether the viewer is inside (bool).
     pub inside: Value,
+    /// A thin film on the interface (seen from outside).
+    pub thin_film: Option<ThinFilm>,
 }
 
 impl Schlick {
@@ -94,8 +99,13 @@ impl Schlick {
         let p = self.exponent;
         let etap = self.etap(b, f0);
         let transmits = self.mode != ScatterMode::R;
+        let film = self.thin_film;
         let fr = move |b: &mut Builder, c: Value| {
-            let fr = fresnel(b, c, f0, f82, f90, p);
+            let base = thin_film::Base::Schlick { f0 };
+            let one = f(b, 1.0);
+            let film = film.as_ref().map(|t| (t, one));
+            let plain = |b: &mut Builder, c: Value| fresnel(b, c, f0, f82, f90, p);
+            let fr = thin_film::or_plain(b, c, film, &base, &plain);
             if !transmits {
                 return fr;
             }
@@ -135,7 +145,24 @@ impl Schlick {
             return ggx::white(b);
         }
         let alpha = Alpha::new(b, self.roughness);
-        let [f0, _, f90] = self.colors(b);
-        ggx::albedo_f0_f90(b, alpha, wo, f0, f90)
+        let [f0, f82, f90] = self.colors(b);
+        let plain = ggx::albedo_f0_f90(b, alpha, wo, f0, f90);
+        let Some(tf) = self.thin_film else {
+            return plain;
+        };
+        let p = self.exponent;
+        let base = thin_film::Base::Schlick { f0 };
+        let fr = |b: &mut Builder, c: Value| {
+            let film = thin_film::Film {
+                thickness: tf.thickness,
+                ior: tf.ior,
+                outside: f(b, 1.0),
+            };
+            thin_film::fresnel(b, c, &film, &base, &|b, c| fresnel(b, c, f0, f82, f90, p))
+        };
+        let filmed = thin_film::albedo(b, alpha, wo, &fr);
+        let zero = f(b, 0.0);
+        let on = b.binary(BinOp::Gt, tf.thickness, zero);
+        b.select(on, filmed, plain)
     }
 }

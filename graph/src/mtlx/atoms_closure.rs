@@ -6,7 +6,7 @@
 //! This module owns which pbrlib node makes which lobe and how its inputs map onto the
 //! lobe's parameters; it must not hold lobe formulas (the lobe files do) nor the light loop.
 
-use crate::closure::{Closure, Frame, Lobe, LobeKind, ScatterMode};
+use crate::closure::{Closure, Frame, Lobe, LobeKind, ScatterMode, ThinFilm};
 use crate::ir::{Builder, Stream, UnOp, Value};
 use crate::nodes::{LowVal, LowerFn, NodeInputs};
 use crate::types::Type;
@@ -188,25 +188,20 @@ fn const_float(b: &Builder, inp: &NodeInputs, port: &str) -> Option<f64> {
     }
 }
 
-/// Refuses what the GGX lobes do not model yet: a thin film of non-zero (or unknown)
-/// thickness, retroreflection and a distribution other than GGX.
-fn specular_options(b: &Builder, inp: &NodeInputs) -> Result<(), String> {
-    if inp.def.input("thinfilm_thickness").is_some() {
-        match const_float(b, inp, "thinfilm_thickness") {
-            Some(0.0) => {}
-            Some(t) => {
-                return Err(format!(
-                    "thin film (thinfilm_thickness = {t} nm) is not built yet; set it to 0"
-                ));
-            }
-            None => {
-                return Err(
-                    "a connected thinfilm_thickness is not built yet (thin film); leave it at 0"
-                        .into(),
-                );
-            }
-        }
-    }
+/// Refuses what the GGX lobes do not model yet (retroreflection and a distribution other
+/// than GGX) and returns the thin film: `None` where the nodedef has none or its thickness
+/// is the constant 0.
+fn specular_options(b: &Builder, inp: &NodeInputs) -> Result<Option<ThinFilm>, String> {
+    let film = match inp.def.input("thinfilm_thickness") {
+        None => None,
+        Some(_) => match const_float(b, inp, "thinfilm_thickness") {
+            Some(0.0) => None,
+            _ => Some(ThinFilm {
+                thickness: inp.get("thinfilm_thickness"),
+                ior: inp.get("thinfilm_ior"),
+            }),
+        },
+    };
     if inp.def.input("retroreflective").is_some()
         && const_bool(b, inp, "retroreflective").unwrap_or(true)
     {
@@ -218,7 +213,7 @@ fn specular_options(b: &Builder, inp: &NodeInputs) -> Result<(), String> {
             inp.string("distribution")
         ));
     }
-    Ok(())
+    Ok(film)
 }
 
 /// The `scatter_mode` input (`R` where the nodedef has none).
@@ -240,29 +235,31 @@ fn specular_component(mode: ScatterMode) -> &'static str {
 }
 
 fn dielectric(b: &mut Builder, inp: &NodeInputs) -> Out {
-    specular_options(b, inp)?;
+    let thin_film = specular_options(b, inp)?;
     let mode = scatter_mode(inp)?;
     let kind = LobeKind::Dielectric {
         tint: inp.get("tint"),
         ior: inp.get("ior"),
         roughness: inp.get("roughness"),
         scatter_mode: mode,
+        thin_film,
     };
     lobe(b, inp, kind, specular_component(mode))
 }
 
 fn conductor(b: &mut Builder, inp: &NodeInputs) -> Out {
-    specular_options(b, inp)?;
+    let thin_film = specular_options(b, inp)?;
     let kind = LobeKind::Conductor {
         ior: inp.get("ior"),
         extinction: inp.get("extinction"),
         roughness: inp.get("roughness"),
+        thin_film,
     };
     lobe(b, inp, kind, "specular")
 }
 
 fn generalized_schlick(b: &mut Builder, inp: &NodeInputs) -> Out {
-    specular_options(b, inp)?;
+    let thin_film = specular_options(b, inp)?;
     let mode = scatter_mode(inp)?;
     let kind = LobeKind::GeneralizedSchlick {
         color0: inp.get("color0"),
@@ -271,6 +268,7 @@ fn generalized_schlick(b: &mut Builder, inp: &NodeInputs) -> Out {
         exponent: inp.get("exponent"),
         roughness: inp.get("roughness"),
         scatter_mode: mode,
+        thin_film,
     };
     lobe(b, inp, kind, specular_component(mode))
 }
