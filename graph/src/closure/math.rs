@@ -115,3 +115,18 @@ pub fn div_pdf(b: &mut Builder, a: Value, c: Value) -> Value {
     let z = b.zero(ty);
     b.select(ok, q, z)
 }
+
+/// MaterialX's `mx_f0_to_ior`: the real index `(1 + √F0)/(1 − √F0)` of a normal-incidence
+/// reflectance `f0` (float or color, per channel) clamped to [0.01, 0.99].
+pub fn f0_to_ior(b: &mut Builder, f0: Value) -> Value {
+    let ty = b.ty(f0);
+    let (lo, hi) = (b.float(0.01), b.float(0.99));
+    let (lo, hi) = (b.splat_to(ty, lo), b.splat_to(ty, hi));
+    let f0 = b.clamp(f0, lo, hi);
+    let s = b.unary(UnOp::Sqrt, f0);
+    let one = b.float(1.0);
+    let one = b.splat_to(ty, one);
+    let n = b.add(one, s);
+    let d = b.sub(one, s);
+    b.div(n, d)
+}

@@ -20,9 +20,9 @@
 //! does); `T` and `RT` give white (energy through, see the dielectric's note).
 
 use super::ggx::{self, Alpha, Microfacet};
-use super::math::{f, gray, lt, one_minus, saturate, scale, sq};
+use super::math::{f, f0_to_ior, gray, lt, one_minus, saturate, scale, sq};
 use super::{Eval, Sample, ScatterMode, ThinFilm, thin_film};
-use crate::ir::{BinOp, Builder, UnOp, Value};
+use crate::ir::{BinOp, Builder, Value};
 use crate::types::Type;
 
 /// `cos θ` where the F82 term peaks.
@@ -83,13 +83,7 @@ impl Schlick {
         let v = b.retype(Type::Vec3, f0);
         let third = b.vec3([1.0 / 3.0; 3]);
         let m = b.dot(v, third);
-        let (lo, hi) = (f(b, 0.01), f(b, 0.99));
-        let m = b.clamp(m, lo, hi);
-        let s = b.unary(UnOp::Sqrt, m);
-        let one = f(b, 1.0);
-        let n = b.add(one, s);
-        let d = b.sub(one, s);
-        let ior = b.div(n, d);
+        let ior = f0_to_ior(b, m);
         super::dielectric::etap(b, ior, self.inside)
     }
 

@@ -40,7 +40,7 @@
 //! exactly 1 through the same sum (`R23 = 1` makes every coherent term vanish). The film's
 //! index is clamped to ≥ 1, as MaterialX clamps it to ≥ η1 = 1.
 
-use super::math::{f, gray, one_minus, safe_sqrt, saturate, scale, sq};
+use super::math::{f, f0_to_ior, gray, one_minus, safe_sqrt, saturate, scale, sq};
 use crate::ir::{BinOp, Builder, UnOp, Value};
 use crate::types::Type;
 use std::f64::consts::PI;
@@ -361,13 +361,7 @@ fn airy_polarization(
 /// A Schlick base's phase per channel: π where its index `(1 + √F0)/(1 − √F0)` is below
 /// the film's `eta2` (float), else 0.
 fn schlick_phase(b: &mut Builder, f0: Value, eta2: Value) -> Value {
-    let (lo, hi) = (gray_f(b, 0.01), gray_f(b, 0.99));
-    let f0 = b.clamp(f0, lo, hi);
-    let s = b.unary(UnOp::Sqrt, f0);
-    let one = gray_f(b, 1.0);
-    let n = b.add(one, s);
-    let d = b.sub(one, s);
-    let eta3 = b.div(n, d);
+    let eta3 = f0_to_ior(b, f0);
     let (zero, pi) = (f(b, 0.0), f(b, PI));
     let ch: Vec<Value> = (0..3)
         .map(|i| {
