@@ -11,8 +11,9 @@
 
 use shadenet_gpu::{GpuBackend, GpuOptions};
 use shadenet_graph::ir::Program;
+use shadenet_graph::lower::lower_with;
 use shadenet_graph::network::Network;
-use shadenet_graph::{NodeLibrary, error_chain, link, lower};
+use shadenet_graph::{LightStrategy, NodeLibrary, error_chain, link};
 use shadenet_runtime::input::{self, FileKind, InputError};
 use shadenet_tracer::passes::PassDef;
 use shadenet_tracer::scene::{self, MaterialRef, MaterialSource, Scene, SceneError};
@@ -85,6 +86,9 @@ pub struct RenderOptions {
     pub passes: Option<Vec<String>>,
     /// Resolution.
     pub res: Option<(u32, u32)>,
+    /// How closures gather area lights and the environment (replaces the scene's
+    /// `render.light_strategy`).
+    pub light_strategy: Option<LightStrategy>,
 }
 
 /// Anything that stops a render before the first pixel.
@@ -199,6 +203,9 @@ pub fn apply_options(scene: &mut Scene, opts: &RenderOptions) -> Result<(), Setu
             .map_err(|e| SetupError::Option(format!("--passes: {e}")))?;
         scene.settings.passes = passes;
     }
+    if let Some(s) = opts.light_strategy {
+        scene.settings.light_strategy = s;
+    }
     Ok(())
 }
 
@@ -211,13 +218,16 @@ pub struct CompiledMaterial {
     pub ignored_lights: usize,
 }
 
-/// Reads, overrides, links and lowers one material's network. A MaterialX material finds
-/// the data libraries in `mtlx_libraries`, else as [`crate::mtlx::locate`] says.
+/// Reads, overrides, links and lowers one material's network, its closures lit by
+/// `strategy` (the scene's `render.light_strategy`, which the renderer weights BSDF-sampled
+/// rays with). A MaterialX material finds the data libraries in `mtlx_libraries`, else as
+/// [`crate::mtlx::locate`] says.
 pub fn compile_material(
     m: &MaterialRef,
     files: Files,
     scene_dir: &Path,
     mtlx_libraries: Option<&Path>,
+    strategy: LightStrategy,
 ) -> Result<CompiledMaterial, SetupError> {
     let (source_name, dir) = match &m.source {
         MaterialSource::File(p) | MaterialSource::Mtlx { file: p, .. } => (
@@ -264,7 +274,7 @@ pub fn compile_material(
         set_input(&mut network, node, input, value).map_err(&fail)?;
     }
     let linked = link(&network, lib).map_err(|e| fail(e.to_string()))?;
-    let mut program = lower(&linked, lib).map_err(|e| fail(e.to_string()))?;
+    let mut program = lower_with(&linked, lib, strategy).map_err(|e| fail(e.to_string()))?;
     shadenet_graph::ir::validate(&program)
         .map_err(|e| fail(format!("internal error: invalid IR: {e}")))?;
     program.name = m.name.clone();
@@ -363,7 +373,15 @@ pub fn prepare(
     let compiled = scene
         .materials
         .iter()
-        .map(|m| compile_material(m, files, scene_dir, mtlx_libraries))
+        .map(|m| {
+            compile_material(
+                m,
+                files,
+                scene_dir,
+                mtlx_libraries,
+                scene.settings.light_strategy,
+            )
+        })
         .collect::<Result<Vec<_>, _>>()?;
     let programs = compiled.iter().map(|c| c.program.clone()).collect();
     let renderer = Renderer::new(scene, programs, backend)?;

@@ -1,4 +1,5 @@
-//! `shadenet bench --quick` at a tiny size: every suite runs, every row has its columns, the
+//! `shadenet bench --quick` at a tiny size: every suite runs (B6 where the MaterialX
+//! libraries are found: always under `CI`), every row has its columns, the
 //! CSV parses with one field per column and the SVG is well-formed enough to render.
 
 use shadenet::bench::{self, BenchOptions, report};
@@ -15,12 +16,39 @@ fn quick_bench_runs_every_suite_at_a_tiny_size() {
     };
     let results = bench::run(&opts, |_| {});
     let names: Vec<_> = results.iter().map(|r| r.name).collect();
-    assert_eq!(names, ["B1", "B2", "B3", "B4", "B5", "B7"]);
+    assert_eq!(names, ["B1", "B2", "B3", "B4", "B5", "B6", "B7"]);
     // B7 prints OSL's figures beside ours, labelled as quoted.
-    let b7 = &results[5];
+    let b7 = &results[6];
     assert_eq!(b7.rows.len(), 3);
     assert!(b7.extra.contains("quoted") && b7.extra.contains("32.6 ms"));
+    // B6 renders pbr.toml per light strategy (MaterialX materials): 3 strategies × 4 spp,
+    // the equal-time table after; without the MaterialX libraries it says why it did not run.
+    let b6 = &results[5];
+    if b6.rows.is_empty() && std::env::var_os("CI").is_none() {
+        assert!(b6.extra.contains("did not run"), "{}", b6.extra);
+    } else {
+        assert_eq!(b6.rows.len(), 12, "{}", b6.extra);
+        assert!(b6.extra.contains("Error at equal time"), "{}", b6.extra);
+        for s in [
+            "light_strategy mis",
+            "light_strategy light",
+            "light_strategy bsdf",
+        ] {
+            assert_eq!(
+                b6.rows.iter().filter(|r| r.config.starts_with(s)).count(),
+                4
+            );
+        }
+        assert!(
+            b6.rows
+                .iter()
+                .all(|r| r.error.is_some_and(|e| e.rmse > 0.0))
+        );
+    }
     for r in &results {
+        if r.name == "B6" && r.rows.is_empty() {
+            continue;
+        }
         assert!(!r.rows.is_empty(), "{} has rows", r.name);
         let csv = report::csv(&r.rows);
         let mut lines = csv.lines();
@@ -45,5 +73,10 @@ fn quick_bench_runs_every_suite_at_a_tiny_size() {
     let md = bench::write(&dir, &results, &opts, 0.0).unwrap();
     assert!(md.contains("Larsson 2005"));
     assert!(dir.join("b1.csv").exists() && dir.join("b5.svg").exists());
+    assert!(
+        std::fs::read_to_string(dir.join("b6.svg"))
+            .unwrap()
+            .contains("RMSE vs render time")
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

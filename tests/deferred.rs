@@ -62,6 +62,7 @@ fn deferred_and_immediate_renders_are_identical() {
         spp: Some(2),
         res: Some((24, 20)),
         passes: None,
+        light_strategy: None,
     };
     for scene in ["cornell.toml", "cornell_glass.toml", "default.toml"] {
         let path = example(scene);

@@ -132,6 +132,7 @@ fn render_scene_text(text: &str, dir: &Path) {
         spp: Some(1),
         passes: None,
         res: Some((4, 3)),
+        light_strategy: None,
     };
     if r::apply_options(&mut scene, &tiny).is_err() {
         return;

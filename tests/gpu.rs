@@ -78,6 +78,7 @@ fn gpu_render_of_the_cornell_box_matches_the_jit() {
         spp: Some(1),
         res: Some((64, 64)),
         passes: None,
+        light_strategy: None,
     };
     let path = example("cornell.toml");
     let (jit, _, jit_mode) = render(&path, &opts, BackendKind::Jit);

@@ -144,6 +144,7 @@ fn cornell_box_passes_sum_to_beauty() {
         spp: Some(2),
         res: Some((w as u32, h as u32)),
         passes: None,
+        light_strategy: None,
     };
     let film = render(&example("cornell.toml"), &opts, 2);
     let beauty = film.layer("beauty").unwrap();
@@ -215,6 +216,7 @@ fn one_and_two_threads_give_identical_images() {
         spp: Some(2),
         res: Some((20, 20)),
         passes: None,
+        light_strategy: None,
     };
     let a = render(&example("cornell.toml"), &opts, 1);
     let b = render(&example("cornell.toml"), &opts, 2);
@@ -302,6 +304,7 @@ fn jit_and_interpreter_renders_are_identical() {
         spp: Some(1),
         res: Some((24, 24)),
         passes: None,
+        light_strategy: None,
     };
     let path = example("cornell_glass.toml");
     let run = |kind| {
@@ -426,6 +429,7 @@ fn scenes_with_mirrors_and_glass_render() {
             spp: Some(1),
             res: Some((32, 24)),
             passes: None,
+            light_strategy: None,
         };
         let r = setup(Some(&example(scene)), &opts).unwrap_or_else(|e| panic!("{scene}: {e}"));
         let (film, stats) = r.render(&|_, _| {});

@@ -16,12 +16,14 @@ pub mod network;
 pub mod nodes;
 pub mod ops;
 pub mod opt;
+pub mod transport;
 pub mod types;
 
 pub use link::{LinkError, LinkErrors, Linked, link};
 pub use lower::{CompileError, Compiled, compile_json, lower};
 pub use network::Network;
 pub use nodes::NodeLibrary;
+pub use transport::LightStrategy;
 pub use types::{ClosureKind, ConstValue, Type};
 
 /// An error and its causes, outermost first, joined by `": "`: how the CLI prints an error,

@@ -25,6 +25,7 @@ use crate::link::{LinkError, LinkErrors, Linked, LinkedInput, Source};
 use crate::nodes::{
     InputVal, LowVal, NodeDef, NodeInputs, NodeLibrary, PortDefault, PortType, Upstream,
 };
+use crate::transport::LightStrategy;
 use crate::types::{ConstValue, Type};
 use std::cell::RefCell;
 use std::collections::HashMap;
@@ -266,8 +267,19 @@ fn coerce(b: &mut Builder, v: &LowVal, src: &Source) -> LowVal {
 }
 
 /// Lowers a linked network to a program. Only nodes that some material output depends on
-/// are lowered. Errors name the node whose lowering failed.
+/// are lowered. Errors name the node whose lowering failed. Closures are lit with MIS
+/// ([`lower_with`] picks another strategy).
 pub fn lower(linked: &Linked, lib: &NodeLibrary) -> Result<Program, LinkErrors> {
+    lower_with(linked, lib, LightStrategy::Mis)
+}
+
+/// [`lower`] with closures lit by `strategy` (the renderer must weight BSDF-sampled rays
+/// with the same strategy).
+pub fn lower_with(
+    linked: &Linked,
+    lib: &NodeLibrary,
+    strategy: LightStrategy,
+) -> Result<Program, LinkErrors> {
     // Which nodes reach an output.
     let mut live = vec![false; linked.nodes.len()];
     for (_, s) in &linked.outputs {
@@ -283,6 +295,7 @@ pub fn lower(linked: &Linked, lib: &NodeLibrary) -> Result<Program, LinkErrors> 
     }
 
     let mut b = Builder::new(&linked.name);
+    b.set_light_strategy(strategy);
     let mut defs: Vec<Option<&NodeDef>> = Vec::with_capacity(linked.nodes.len());
     for (i, node) in linked.nodes.iter().enumerate() {
         let def = lib.get(&node.ty);

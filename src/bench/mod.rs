@@ -15,6 +15,9 @@
 //! - **B4** preprocessing (link + optimize + compile) against network size.
 //! - **B5** N passes in one render against N one-pass renders; specialized against
 //!   unspecialized shading.
+//! - **B6** speed against error of the light-transport strategies (`mis`, `light`,
+//!   `bsdf`) on `pbr.toml`: error against a high-spp MIS reference vs render time, and each
+//!   strategy's error at MIS's time.
 //! - **B7** peers: the tree at levels 1 and 10 and an fBm node through `shadenet shade`'s
 //!   batch path on 2 threads, beside OSL's `testshade` figures quoted in issue 23.
 //!
@@ -25,6 +28,7 @@
 pub mod peer;
 pub mod render;
 pub mod report;
+pub mod transport;
 pub mod workloads;
 
 #[cfg(target_arch = "x86_64")]
@@ -47,7 +51,7 @@ use std::time::{Duration, Instant};
 use workloads::{Entry, packets, tree_fragments, tree_program, tree_spec};
 
 /// The suites, in order.
-pub const SUITES: [&str; 6] = ["b1", "b2", "b3", "b4", "b5", "b7"];
+pub const SUITES: [&str; 7] = ["b1", "b2", "b3", "b4", "b5", "b6", "b7"];
 
 /// What to run.
 #[derive(Clone, Debug)]
@@ -122,6 +126,7 @@ pub fn run(opts: &BenchOptions, mut done: impl FnMut(&SuiteResult)) -> Vec<Suite
             "b3" => b3(opts),
             "b4" => b4(opts),
             "b5" => b5(opts),
+            "b6" => transport::b6(opts),
             _ => peer::b7(opts),
         };
         report::fill_ratios(&mut r.rows);
@@ -475,9 +480,15 @@ fn compile_scene(s: &Scene, dir: &Path) -> Vec<Program> {
     s.materials
         .iter()
         .map(|m| {
-            crate::render::compile_material(m, crate::render::Files::Disk, dir, None)
-                .expect("the material compiles")
-                .program
+            crate::render::compile_material(
+                m,
+                crate::render::Files::Disk,
+                dir,
+                None,
+                s.settings.light_strategy,
+            )
+            .expect("the material compiles")
+            .program
         })
         .collect()
 }
@@ -930,7 +941,11 @@ pub fn write(
         std::fs::write(dir.join(format!("{stem}.csv")), report::csv(&r.rows))?;
         std::fs::write(
             dir.join(format!("{stem}.svg")),
-            report::svg(&format!("{} — {}", r.name, r.title), &r.rows),
+            if r.name == "B6" {
+                transport::svg(&format!("{} — {}", r.name, r.title), &r.rows)
+            } else {
+                report::svg(&format!("{} — {}", r.name, r.title), &r.rows)
+            },
         )?;
         md.push_str(&format!(
             "\n## {} — {}\n\n{}{}",

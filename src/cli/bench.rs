@@ -11,19 +11,21 @@ pub(crate) struct BenchArgs {
     #[arg(long)]
     quick: bool,
     /// Suites to run, comma-separated (b1 tree, b2 threads, b3 scenes, b4 preprocessing,
-    /// b5 passes, b7 peers: OSL's figures beside).
-    #[arg(long, value_delimiter = ',', default_value = "b1,b2,b3,b4,b5,b7")]
+    /// b5 passes, b6 light-transport strategies: speed against error on pbr.toml, b7 peers:
+    /// OSL's figures beside).
+    #[arg(long, value_delimiter = ',', default_value = "b1,b2,b3,b4,b5,b6,b7")]
     suite: Vec<String>,
     /// Output directory of the CSV, SVG and summary files.
     #[arg(long, default_value = "bench-out")]
     out: PathBuf,
-    /// Frame size of shading and tree renders, WxH (default 640x480; 160x120 with --quick).
+    /// Frame size of shading and tree renders, WxH (default 640x480; 160x120 with --quick;
+    /// B6: 240x135, 96x54 with --quick).
     #[arg(long, value_parser = parse_res)]
     size: Option<(u32, u32)>,
     /// Tree levels of B1, comma-separated (default 1–10; 1,4,7,10 with --quick).
     #[arg(long, value_delimiter = ',')]
     levels: Option<Vec<u32>>,
-    /// Directory of the example scenes (B3, B5).
+    /// Directory of the example scenes (B3, B5, B6).
     #[arg(long, default_value = "examples/scenes")]
     scenes: PathBuf,
 }
@@ -47,10 +49,10 @@ pub(crate) fn run(args: BenchArgs) -> Result<()> {
     let wants_scenes = args
         .suite
         .iter()
-        .any(|s| matches!(s.to_lowercase().as_str(), "b3" | "b5"));
+        .any(|s| matches!(s.to_lowercase().as_str(), "b3" | "b5" | "b6"));
     if wants_scenes && !args.scenes.join("cornell.toml").is_file() {
         anyhow::bail!(
-            "--scenes: {} holds no example scenes (B3 and B5 render examples/scenes/*.toml): \
+            "--scenes: {} holds no example scenes (B3, B5 and B6 render examples/scenes/*.toml): \
              run from the repository root or pass --scenes DIR",
             args.scenes.display()
         );

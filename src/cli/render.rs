@@ -56,6 +56,12 @@ pub(crate) struct RenderArgs {
     /// Resolution, WxH (overrides the scene).
     #[arg(long, value_parser = parse_res)]
     res: Option<(u32, u32)>,
+    /// How closures gather area lights and the environment (overrides the scene's
+    /// `render.light_strategy`): `mis` (light sampling and BSDF sampling, power heuristic),
+    /// `light` (light sampling only) or `bsdf` (BSDF sampling only; point, spot and distant
+    /// lights stay light-sampled).
+    #[arg(long, value_parser = parse_strategy)]
+    light_strategy: Option<shadenet::graph::LightStrategy>,
     #[command(flatten)]
     threads: ThreadsArg,
     /// The MaterialX `libraries` folder for materials given as `mtlx = "…"` (default:
@@ -65,6 +71,10 @@ pub(crate) struct RenderArgs {
     /// Print nothing but errors (no progress bar, no summary).
     #[arg(short, long)]
     quiet: bool,
+}
+
+fn parse_strategy(s: &str) -> Result<shadenet::graph::LightStrategy, String> {
+    s.parse()
 }
 
 /// Runs `shadenet render`.
@@ -172,6 +182,7 @@ fn setup(
             spp: args.spp,
             passes: args.passes.clone(),
             res: args.res,
+            light_strategy: args.light_strategy,
         },
     )?;
     let (renderer, compiled) =

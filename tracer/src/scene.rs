@@ -11,6 +11,7 @@ use crate::geometry::{self, Mesh};
 use crate::passes::{PassDef, PassKind, RayMatch, Rule, RuleAction};
 use glam::{DMat4, DVec3};
 use serde::Deserialize;
+use shadenet_graph::LightStrategy;
 use shadenet_graph::nodes::{LightDesc, LightKind};
 use shadenet_runtime::input::{self, FileKind, InputError};
 use std::collections::BTreeMap;
@@ -186,6 +187,10 @@ pub struct RenderSpec {
     /// The pixel filter's full width in pixels (default 1 for `box`, 3 for the others).
     #[serde(default)]
     pub filter_width: Option<f64>,
+    /// How closures gather area lights and the environment: `mis` (default), `light` or
+    /// `bsdf` ([`LightStrategy`]).
+    #[serde(default)]
+    pub light_strategy: Option<String>,
 }
 
 impl Default for RenderSpec {
@@ -203,6 +208,7 @@ impl Default for RenderSpec {
             tile_size: 16,
             filter: None,
             filter_width: None,
+            light_strategy: None,
         }
     }
 }
@@ -537,6 +543,9 @@ pub struct Settings {
     pub tile_size: u32,
     /// The pixel filter camera samples are drawn from.
     pub filter: PixelFilter,
+    /// How closures gather area lights and the environment (materials are lowered with it;
+    /// the renderer weights BSDF-sampled rays with it).
+    pub light_strategy: LightStrategy,
 }
 
 /// The shape of a pixel filter (`render.filter`).
@@ -1364,6 +1373,12 @@ fn resolve_settings(cx: &Ctx, r: &RenderSpec) -> Result<Settings, SceneError> {
         occlusion_distance: r.occlusion_distance as f32,
         tile_size: r.tile_size,
         filter: resolve_filter(cx, r)?,
+        light_strategy: match &r.light_strategy {
+            None => LightStrategy::Mis,
+            Some(n) => n
+                .parse()
+                .map_err(|e: String| cx.invalid("render.light_strategy", e))?,
+        },
     })
 }
 
@@ -1436,6 +1451,7 @@ mod tests {
             ("[render]\nocclusion_distance = 1e39\n".into(), "render.occlusion_distance", "out of range"),
             ("[render]\nfilter_width = 0\n".into(), "render.filter_width", "out of range"),
             ("[render]\nfilter = \"tent\"\n".into(), "render.filter", "unknown filter `tent`"),
+            ("[render]\nlight_strategy = \"nee\"\n".into(), "render.light_strategy", "unknown light strategy `nee` (known: mis, light, bsdf)"),
             ("[[render.rules]]\nray = \"camera\"\ndepth = 65\ncomponents = [\"all\"]\n".into(), "render.rules[0].depth", "0 to 64"),
             ("[meshes.s]\ntype = \"sphere\"\nsegments = 4097\n".into(), "meshes.s.segments", "3 to 4096"),
             ("[[lights]]\ntype = \"point\"\nposition = [0, 1e30, 0]\n".into(), "lights[0].position", "1e30 is outside"),

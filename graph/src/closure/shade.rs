@@ -20,6 +20,12 @@
 //! - **Cutout opacity** `o < 1`: every part is scaled by `o` and the rest, `(1 − o) ·
 //!   trace(I)` (a refraction-type ray straight through), is part `transmission`.
 //!
+//! The builder's [`LightStrategy`] (a lowering option) can drop either estimator for area
+//! lights and the environment: `light` gives the light loop weight 1 (the renderer then
+//! gives BSDF-sampled rays' hits on those lights nothing), `bsdf` keeps only delta lights in
+//! the loop, with weight 1 (BSDF-sampled rays then take their whole light). The
+//! continuation is the same in every strategy: it carries the indirect light.
+//!
 //! Each component's work sits inside `component_enabled(k)`. It owns the light loop of
 //! closures; it must not know lobe formulas or MaterialX nodes.
 
@@ -27,6 +33,7 @@ use super::math::{f, gt, lt, one_minus, scale};
 use super::{Closure, Lobe};
 use crate::ir::{BinOp, Builder, RAY_DIFFUSE, RAY_REFLECTION, RAY_REFRACTION, Stream, Value};
 use crate::nodes::LowVal;
+use crate::transport::LightStrategy;
 use crate::types::Type;
 
 /// The render component of ambient light.
@@ -95,34 +102,70 @@ fn direct(
 ) -> Vec<Value> {
     let p = b.stream(Stream::P);
     let on: Vec<Value> = comps.iter().map(|c| b.component_enabled(c)).collect();
-    b.illuminance(p, |b, l, cl| {
-        let vis = b.light_visible();
-        let lp = b.light_pdf();
-        let bp = closure.eval(b, wo, l).pdf;
-        let w = light_weight(b, lp, bp);
-        let k = b.mul(vis, w);
-        let lit = scale(b, cl, k);
-        groups
-            .iter()
-            .zip(&on)
-            .map(|(lobes, on)| {
-                let r = b.if_(
-                    *on,
-                    |b| {
-                        let mut sum = b.zero(Type::Color);
-                        for lobe in lobes {
-                            let e = lobe.eval(b, wo, l);
-                            let v = b.mul(lobe.weight, e.value);
-                            sum = b.add(sum, v);
-                        }
-                        vec![b.mul(sum, lit)]
-                    },
-                    |b| vec![b.zero(Type::Color)],
-                );
-                r[0]
-            })
-            .collect()
+    let strategy = b.light_strategy();
+    b.illuminance(p, |b, l, cl| match strategy {
+        LightStrategy::Mis => {
+            let vis = b.light_visible();
+            let lp = b.light_pdf();
+            let bp = closure.eval(b, wo, l).pdf;
+            let w = light_weight(b, lp, bp);
+            let k = b.mul(vis, w);
+            let lit = scale(b, cl, k);
+            lit_lobes(b, groups, &on, wo, l, lit)
+        }
+        LightStrategy::Light => {
+            let vis = b.light_visible();
+            let lit = scale(b, cl, vis);
+            lit_lobes(b, groups, &on, wo, l, lit)
+        }
+        LightStrategy::Bsdf => {
+            // Only delta lights (`light.pdf` = 0, which no BSDF sample reaches) light the
+            // closure here; the shadow ray of any other light is never traced.
+            let lp = b.light_pdf();
+            let zero = f(b, 0.0);
+            let delta = b.binary(BinOp::Le, lp, zero);
+            b.if_(
+                delta,
+                |b| {
+                    let vis = b.light_visible();
+                    let lit = scale(b, cl, vis);
+                    lit_lobes(b, groups, &on, wo, l, lit)
+                },
+                |b| groups.iter().map(|_| b.zero(Type::Color)).collect(),
+            )
+        }
     })
+}
+
+/// Per component, `Σ weight · eval(wo, l) · lit` over its lobes (0 where it is off).
+fn lit_lobes(
+    b: &mut Builder,
+    groups: &[Vec<&Lobe>],
+    on: &[Value],
+    wo: Value,
+    l: Value,
+    lit: Value,
+) -> Vec<Value> {
+    groups
+        .iter()
+        .zip(on)
+        .map(|(lobes, on)| {
+            let r = b.if_(
+                *on,
+                |b| {
+                    let mut sum = b.zero(Type::Color);
+                    for lobe in lobes {
+                        let e = lobe.eval(b, wo, l);
+                        let v = b.mul(lobe.weight, e.value);
+                        sum = b.add(sum, v);
+                    }
+                    vec![b.mul(sum, lit)]
+                },
+                |b| vec![b.zero(Type::Color)],
+            );
+            r[0]
+        })
+        .collect()
 }
 
 /// The power heuristic's weight of a light sample of density `l` against BSDF sampling of

@@ -18,6 +18,7 @@ use super::{
     is_traceable_ray_type,
 };
 use crate::ops;
+use crate::transport::LightStrategy;
 use crate::types::{ConstValue, Type};
 
 /// Appends typed values to a [`Program`].
@@ -32,6 +33,8 @@ pub struct Builder {
     /// Streams read through [`Builder::stream`] since the last [`Builder::take_streams_read`]
     /// (bit [`Stream::bit`]).
     streams_read: u32,
+    /// How the surface lowering lights closures (a lowering option).
+    light_strategy: LightStrategy,
 }
 
 impl Builder {
@@ -46,7 +49,18 @@ impl Builder {
             error: None,
             overrides: Vec::new(),
             streams_read: 0,
+            light_strategy: LightStrategy::Mis,
         }
+    }
+
+    /// How the surface lowering lights closures ([`LightStrategy::Mis`] unless set).
+    pub fn light_strategy(&self) -> LightStrategy {
+        self.light_strategy
+    }
+
+    /// Sets how the surface lowering lights closures.
+    pub fn set_light_strategy(&mut self, s: LightStrategy) {
+        self.light_strategy = s;
     }
 
     /// The program so far (values, outputs, components), for reading types.

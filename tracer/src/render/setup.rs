@@ -185,6 +185,13 @@ impl Renderer {
         })
     }
 
+    /// Sets the samples per pixel of the next renders (clamped to 1 to
+    /// [`crate::scene::MAX_SPP`]): the same renderer renders at several sample counts
+    /// without compiling again.
+    pub fn set_spp(&mut self, spp: u32) {
+        self.scene.settings.spp = spp.clamp(1, crate::scene::MAX_SPP);
+    }
+
     /// How camera hits are shaded.
     pub fn shading_mode(&self) -> ShadingMode {
         self.mode

@@ -7,7 +7,7 @@ use super::film::override_channels;
 use super::sampler::rand4;
 use super::setup::Renderer;
 use super::stats::{Stage, TileStats};
-use super::trace::{Found, Prepared, RayState, mis_weight};
+use super::trace::{Found, Prepared, RayState};
 use crate::passes::{OverrideKind, RayMatch};
 use shadenet_runtime::{Fragment, ShadeCtx, ShadeOut};
 use std::sync::atomic::Ordering;
@@ -112,32 +112,42 @@ impl Renderer {
             .any(|(k, s)| *k == kind && s.uv_tangents)
     }
 
-    /// Radiance along a secondary ray: the total of what it hits, shaded with the action
-    /// its ray type and depth select.
+    /// The weight of what a BSDF-sampled ray of density `bsdf_pdf` finds on a light source
+    /// the light loop samples with density `light_pdf`: the scene's light strategy's
+    /// ([`shadenet_graph::LightStrategy::bsdf_ray_weight`]; the power heuristic with `mis`).
+    fn bsdf_ray_weight(&self, bsdf_pdf: f32, light_pdf: f32) -> f32 {
+        self.scene
+            .settings
+            .light_strategy
+            .bsdf_ray_weight(bsdf_pdf, light_pdf)
+    }
+
     /// What a BSDF-sampled ray of density `bsdf_pdf` from `o` along `d` sees of the light
     /// sources alone (MIS-weighted): an area light or the environment; black where a
     /// surface is in the way.
     pub(super) fn lights_only(&self, o: glam::Vec3, d: glam::Vec3, bsdf_pdf: f32) -> [f32; 3] {
         match self.intersect(o, d) {
             Found::Miss => {
-                let w = mis_weight(bsdf_pdf, self.environment_pdf);
+                let w = self.bsdf_ray_weight(bsdf_pdf, self.environment_pdf);
                 self.scene.background.map(|x| x as f32 * w)
             }
-            Found::Emitter(r, pdf) => r.map(|x| x * mis_weight(bsdf_pdf, pdf)),
+            Found::Emitter(r, pdf) => r.map(|x| x * self.bsdf_ray_weight(bsdf_pdf, pdf)),
             Found::Surface(_) => [0.0; 3],
         }
     }
 
+    /// Radiance along a secondary ray: the total of what it hits, shaded with the action
+    /// its ray type and depth select.
     pub(super) fn radiance(&self, ray: &RayState, stats: &TileStats) -> [f32; 3] {
         let n = stats.secondary_rays.fetch_add(1, Ordering::Relaxed);
         let found = stats.sampled(Stage::SecondaryTrace, n, || self.intersect(ray.o, ray.d));
         let hit = match found {
             Found::Miss => {
-                let w = mis_weight(ray.bsdf_pdf, self.environment_pdf);
+                let w = self.bsdf_ray_weight(ray.bsdf_pdf, self.environment_pdf);
                 return self.scene.background.map(|x| x as f32 * w);
             }
             Found::Emitter(r, pdf) => {
-                let w = mis_weight(ray.bsdf_pdf, pdf);
+                let w = self.bsdf_ray_weight(ray.bsdf_pdf, pdf);
                 return r.map(|x| x * w);
             }
             Found::Surface(h) => h,

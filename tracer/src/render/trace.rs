@@ -21,21 +21,6 @@ pub(super) enum Found {
     Surface(Hit),
 }
 
-/// The power heuristic's weight of a BSDF sample of density `bsdf_pdf` against the light
-/// loop's density `light_pdf` of the same direction: `b² / (b² + l²)`; 1 where the ray was
-/// not BSDF-sampled (`bsdf_pdf = 0`) or the light is not sampled (`light_pdf = 0`).
-pub(super) fn mis_weight(bsdf_pdf: f32, light_pdf: f32) -> f32 {
-    if bsdf_pdf <= 0.0 || light_pdf.is_nan() || light_pdf <= 0.0 {
-        return 1.0;
-    }
-    let (b, l) = (bsdf_pdf as f64, light_pdf as f64);
-    let (b2, l2) = (b * b, l * l);
-    if !b2.is_finite() {
-        return 1.0;
-    }
-    (b2 / (b2 + l2)) as f32
-}
-
 #[derive(Clone, Copy, Debug)]
 pub(super) struct HitDiffs {
     pub(super) dpdx: Vec3,
