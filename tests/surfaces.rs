@@ -114,8 +114,9 @@ fn the_four_surfaces_compile_with_default_parameters_to_the_lobes_their_weights_
     //   reflection); metalness, coat, fuzz, transmission, subsurface, thin film 0.
     // - UsdPreviewSurface: diffuse + specular (a generalized Schlick reflection; metallic
     //   0 and clearcoat 0 leave one specular lobe).
-    // - gltf_pbr: base (diffuse) under a dielectric reflection; metallic 1 by default keeps
-    //   the metal lobe; clearcoat, sheen, transmission, iridescence 0.
+    // - gltf_pbr: metallic 1 by default keeps the metal lobe alone (the dielectric branch,
+    //   diffuse under a reflection, is mixed in by 1 − metallic); clearcoat, sheen,
+    //   transmission, iridescence 0.
     let want: [(&str, Vec<String>); 4] = [
         (
             "standard_surface",
@@ -176,7 +177,7 @@ fn coat_sheen_and_transmission_bring_their_lobes_back() {
     let Some(lib) = lib() else {
         return;
     };
-    let cases: [(&str, Vec<_>, &str); 9] = [
+    let cases: [(&str, Vec<_>, &str); 11] = [
         (
             "standard_surface",
             vec![f("coat", 1.0)],
@@ -213,6 +214,12 @@ fn coat_sheen_and_transmission_bring_their_lobes_back() {
             vec![f("clearcoat", 1.0)],
             "dielectric(R) (specular)",
         ),
+        (
+            "gltf_pbr",
+            vec![f("metallic", 0.0), f("transmission", 1.0)],
+            "dielectric(T) (transmission)",
+        ),
+        ("gltf_pbr", vec![c("sheen_color", WHITE)], "sheen (sheen)"),
         (
             "UsdPreviewSurface",
             vec![f("clearcoat", 1.0)],
