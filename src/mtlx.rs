@@ -158,6 +158,19 @@ pub fn mtlx_network(
     Ok((net, lib))
 }
 
+/// Reads a `.mtlx` file and says which lobes of its selected material(s) are left after
+/// optimizing with `spec` (`graph::closure::probe`; `compile --stats` prints them).
+pub fn mtlx_lobes(
+    path: &Path,
+    opts: &MtlxOptions,
+    spec: &shadenet_graph::opt::Specialization,
+) -> Result<Vec<shadenet_graph::closure::probe::LobeStat>, MtlxLoadError> {
+    let text = read_to_string(path, FileKind::Text, "MaterialX document")?;
+    let lib = library(&locate(opts.libraries.as_deref())?)?;
+    let file = path.display().to_string();
+    Ok(mtlx::lobes(&file, &text, lib, &opts.selection, spec).map_err(Box::new)?)
+}
+
 /// Reads a `.mtlx` file, finds the libraries and compiles the selected outputs. The
 /// material is named after the file's stem; relative texture paths are made relative to the
 /// file's directory.

@@ -11,7 +11,7 @@
 
 use shadenet_gpu::{GpuBackend, GpuOptions};
 use shadenet_graph::ir::Program;
-use shadenet_graph::lower::lower_with;
+use shadenet_graph::lower::{LowerOptions, lower_with};
 use shadenet_graph::network::Network;
 use shadenet_graph::{LightStrategy, NodeLibrary, error_chain, link};
 use shadenet_runtime::input::{self, FileKind, InputError};
@@ -274,7 +274,11 @@ pub fn compile_material(
         set_input(&mut network, node, input, value).map_err(&fail)?;
     }
     let linked = link(&network, lib).map_err(|e| fail(e.to_string()))?;
-    let mut program = lower_with(&linked, lib, strategy).map_err(|e| fail(e.to_string()))?;
+    let opts = LowerOptions {
+        strategy,
+        ..LowerOptions::default()
+    };
+    let mut program = lower_with(&linked, lib, opts).map_err(|e| fail(e.to_string()))?;
     shadenet_graph::ir::validate(&program)
         .map_err(|e| fail(format!("internal error: invalid IR: {e}")))?;
     program.name = m.name.clone();

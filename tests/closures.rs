@@ -154,6 +154,7 @@ fn one(b: &mut Builder, frame: Frame, kind: LobeKind) -> Closure {
         weight: white(b),
         frame,
         component: "diffuse",
+        unbuilt: None,
     })
 }
 

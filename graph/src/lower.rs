@@ -266,19 +266,35 @@ fn coerce(b: &mut Builder, v: &LowVal, src: &Source) -> LowVal {
     }
 }
 
-/// Lowers a linked network to a program. Only nodes that some material output depends on
-/// are lowered. Errors name the node whose lowering failed. Closures are lit with MIS
-/// ([`lower_with`] picks another strategy).
-pub fn lower(linked: &Linked, lib: &NodeLibrary) -> Result<Program, LinkErrors> {
-    lower_with(linked, lib, LightStrategy::Mis)
+/// Declares the outputs of a closure-valued material output `name` (see
+/// [`LowerOptions::closure_output`]).
+pub type ClosureOutputFn = fn(&mut Builder, &str, &crate::closure::Closure);
+
+/// How [`lower_with`] lowers a network.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct LowerOptions {
+    /// Replaces the surface lowering ([`crate::closure::shade::surface`]) of closure
+    /// outputs: for tools that look at a material's lobes themselves (which lobes
+    /// specialization leaves, [`crate::closure::probe::declare`]; a white furnace of its
+    /// closure). `None` shades, as for rendering.
+    pub closure_output: Option<ClosureOutputFn>,
+    /// How the surface lowering lights closures (the renderer must weight BSDF-sampled rays
+    /// with the same strategy); MIS by default.
+    pub strategy: LightStrategy,
 }
 
-/// [`lower`] with closures lit by `strategy` (the renderer must weight BSDF-sampled rays
-/// with the same strategy).
+/// Lowers a linked network to a program. Only nodes that some material output depends on
+/// are lowered. Errors name the node whose lowering failed. Closures are lit with MIS
+/// ([`lower_with`] picks another strategy, [`LowerOptions`]).
+pub fn lower(linked: &Linked, lib: &NodeLibrary) -> Result<Program, LinkErrors> {
+    lower_with(linked, lib, LowerOptions::default())
+}
+
+/// [`lower`] with `opts`.
 pub fn lower_with(
     linked: &Linked,
     lib: &NodeLibrary,
-    strategy: LightStrategy,
+    opts: LowerOptions,
 ) -> Result<Program, LinkErrors> {
     // Which nodes reach an output.
     let mut live = vec![false; linked.nodes.len()];
@@ -295,7 +311,7 @@ pub fn lower_with(
     }
 
     let mut b = Builder::new(&linked.name);
-    b.set_light_strategy(strategy);
+    b.set_light_strategy(opts.strategy);
     let mut defs: Vec<Option<&NodeDef>> = Vec::with_capacity(linked.nodes.len());
     for (i, node) in linked.nodes.iter().enumerate() {
         let def = lib.get(&node.ty);
@@ -401,8 +417,24 @@ pub fn lower_with(
         };
     }
     for (name, s) in &linked.outputs {
-        let v = driver.source(&mut b, s);
-        declare_output(&mut b, name, &v);
+        let mut v = driver.source(&mut b, s);
+        if let Some(c) = &v.closure {
+            match c.without_unbuilt(b.program()) {
+                Ok(c) => v.closure = Some(std::sync::Arc::new(c)),
+                Err(msg) => {
+                    errors.push(LinkError::Lowering {
+                        node: name.clone(),
+                        ty: "material output".into(),
+                        msg,
+                    });
+                    continue;
+                }
+            }
+        }
+        match (opts.closure_output, &v.closure) {
+            (Some(hook), Some(c)) => hook(&mut b, name, c),
+            _ => declare_output(&mut b, name, &v),
+        }
     }
     if !errors.is_empty() {
         return Err(LinkErrors(errors));

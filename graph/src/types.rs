@@ -44,7 +44,8 @@ pub enum ClosureKind {
     Bsdf,
     /// `EDF`: emission.
     Edf,
-    /// `VDF`: volume scattering (not built: no volumes yet).
+    /// `VDF`: the medium inside a surface. Only a vacuum is built (no lobes: a medium
+    /// whose coefficients are 0); volumes are not.
     Vdf,
     /// `surfaceshader`: a BSDF, an EDF and an opacity.
     SurfaceShader,
@@ -71,13 +72,14 @@ impl ClosureKind {
         ClosureKind::Material,
     ];
 
-    /// Whether values of this kind are built (BSDF, EDF, surfaceshader, material); the others
-    /// (volumes, displacement, light shaders) are refused with a reason.
+    /// Whether values of this kind are built (BSDF, EDF, VDF, surfaceshader, material); the
+    /// others (volume shaders, displacement, light shaders) are refused with a reason.
     pub fn is_built(self) -> bool {
         matches!(
             self,
             ClosureKind::Bsdf
                 | ClosureKind::Edf
+                | ClosureKind::Vdf
                 | ClosureKind::SurfaceShader
                 | ClosureKind::Material
         )

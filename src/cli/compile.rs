@@ -80,11 +80,44 @@ pub(crate) fn run(args: &CompileArgs) -> Result<()> {
     }
     if args.stats {
         print_out(&report.to_string());
+        if args.network.extension().is_some_and(|e| e == "mtlx") {
+            lobe_stats(&args.network, &args.mtlx, &spec)?;
+        }
     }
     if emit == "wgsl" {
         gpu_outputs(&program, &args.gpu, args.stats)?;
     }
     jit_outputs(&program, emit == "clif", args.stats, spec.passes.cse)
+}
+
+/// The `--stats` line of a MaterialX material's lobes: those specialization leaves and the
+/// number it removed (nothing for documents without closures).
+fn lobe_stats(
+    path: &std::path::Path,
+    mtlx: &super::MtlxArgs,
+    spec: &opt::Specialization,
+) -> Result<()> {
+    let lobes = shadenet::mtlx::mtlx_lobes(path, &mtlx.options(), spec)?;
+    if lobes.is_empty() {
+        return Ok(());
+    }
+
+    let live: Vec<String> = lobes
+        .iter()
+        .filter(|l| l.live)
+        .map(|l| format!("{} ({})", l.kind, l.component))
+        .collect();
+    print_out(&format!(
+        "lobes: {} of {} left: {}\n",
+        live.len(),
+        lobes.len(),
+        if live.is_empty() {
+            "none".to_string()
+        } else {
+            live.join(", ")
+        }
+    ));
+    Ok(())
 }
 
 /// `--emit wgsl`: the GPU kernels of an already optimized program's pass plan, each headed

@@ -200,6 +200,7 @@ pub fn program(case: &Case) -> Program {
                 weight,
                 frame,
                 component: "diffuse",
+                unbuilt: None,
             };
             let e = lobe.eval(&mut b, wo, wi);
             let r = lobe.eval(&mut b, wi, wo);

@@ -20,6 +20,7 @@ fn lambert(b: &mut Builder, frame: Frame, color: [f64; 3], rough: f64) -> Closur
         weight,
         frame,
         component: "diffuse",
+        unbuilt: None,
     })
 }
 

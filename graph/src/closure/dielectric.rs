@@ -11,8 +11,11 @@
 //! with pbrt-v4's `1/etap²` radiance scaling (see [`ggx`]). In `RT` reflection is chosen
 //! with probability `F(wo·h)` using `u.z`.
 //!
-//! Albedo: `R` uses MaterialX's fit `tint (F0 A + B)`, `F0 = ((etap − 1)/(etap + 1))²`
-//! (Schlick's split of the exact Fresnel, as MaterialX does); `T` and `RT` give `tint`, the
+//! Albedo: `R` uses MaterialX's fit `tint max(F0 A + B, F(cos θo) (A + B) max(1 − 4ᾱ, 0))`,
+//! `F0 = ((etap − 1)/(etap + 1))²` (Schlick's split of the exact Fresnel, as MaterialX does,
+//! raised for near-mirror lobes to the exact Fresnel at the view angle where Schlick's is
+//! lower, so that `layer` does not give the base light the top reflects; `ᾱ = √(αx αy)`);
+//! `T` and `RT` give `tint`, the
 //! energy (flux) the interface passes on when nothing is absorbed, ignoring the few
 //! percent that single-scattering GGX loses at high roughness and, for `T`, the reflected
 //! share. Note this is not `∫ f |cos θi|` for `T`/`RT`: the transmitted radiance carries
@@ -146,6 +149,24 @@ impl Dielectric {
         let f0 = gray(b, f0);
         let w = gray(b, one);
         let e = ggx::albedo_f0_f90(b, alpha, wo, f0, w);
+        // Schlick's split underestimates the exact Fresnel of a near-mirror interface
+        // (ior 1.5 at 60°: 0.070 against 0.089), and `layer` would give the base that
+        // difference. A near-mirror lobe's albedo is the exact Fresnel at `wo` times the
+        // white albedo; rough lobes average the Fresnel over tilted microfacets (lower at
+        // grazing views), so that bound fades out linearly by α = 0.25.
+        let white = ggx::albedo_f0_f90(b, alpha, wo, w, w);
+        let co = super::math::comp(b, wo, 2);
+        let zero = f(b, 0.0);
+        let co = b.max(co, zero);
+        let fr = fresnel(b, co, etap);
+        let avg = alpha.average(b);
+        let k = f(b, 4.0);
+        let fade = b.mul(avg, k);
+        let fade = b.sub(one, fade);
+        let fade = b.max(fade, zero);
+        let fr = b.mul(fr, fade);
+        let exact = super::math::scale(b, white, fr);
+        let e = b.max(e, exact);
         let e = match self.film(b) {
             None => e,
             Some((tf, outside, base)) => {

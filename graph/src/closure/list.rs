@@ -13,7 +13,7 @@
 use super::math::{div_pdf, f, f as f_, lt, luminance, one_minus, pos, scale, vec3};
 use super::{Eval, Lobe, Sample};
 use crate::ir::{BinOp, Builder, Value};
-use crate::types::Type;
+use crate::types::{ConstValue, Type};
 
 /// A BSDF and EDF as lists: the scattering lobes and the emitted radiance.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -47,13 +47,16 @@ impl Closure {
     /// Every lobe weight and the emission multiplied by `k` (a float or a color).
     pub fn scaled(&self, b: &mut Builder, k: Value) -> Closure {
         let k = b.splat_to(Type::Color, k);
-        // A weight that is 0 stays exactly 0 whatever `k` is (0 · NaN would not fold), so
-        // a lobe whose weight folds to 0 is still deleted after scaling.
+        // A weight that is 0 stays exactly 0 whatever `k` is, and a factor that is 0 makes
+        // it exactly 0 whatever the weight is (`x · 0` does not fold: NaN, −0), so a lobe
+        // whose weight or factor folds to 0 is deleted after scaling.
+        let k_live = nonzero(b, k);
         let lobes = self
             .lobes
             .iter()
             .map(|l| {
                 let live = l.nonzero(b);
+                let live = b.binary(BinOp::And, live, k_live);
                 let w = b.mul(l.weight, k);
                 let zero = b.zero(Type::Color);
                 Lobe {
@@ -68,6 +71,34 @@ impl Closure {
             emission,
             opacity: self.opacity,
         }
+    }
+
+    /// The closure without its unbuilt lobes ([`Lobe::unbuilt`]) whose weight is the
+    /// constant 0 in `p` (the program being built; parameters at their defaults,
+    /// [`crate::opt::fold::constant`]); `Err` with the reasons of those whose weight is not.
+    pub fn without_unbuilt(&self, p: &crate::ir::Program) -> Result<Closure, String> {
+        let mut lobes = Vec::with_capacity(self.lobes.len());
+        let mut refused = Vec::new();
+        for l in &self.lobes {
+            let Some(why) = &l.unbuilt else {
+                lobes.push(l.clone());
+                continue;
+            };
+            match crate::opt::fold::constant(p, l.weight) {
+                Some(ConstValue::Color(c)) if c.iter().all(|x| *x == 0.0) => {}
+                Some(c) => refused.push(format!("{why} (its lobe's weight is {c})")),
+                None => refused.push(format!(
+                    "{why} (its lobe's weight is not a compile-time 0; set the weight that mixes it in to 0)"
+                )),
+            }
+        }
+        if !refused.is_empty() {
+            return Err(refused.join("; "));
+        }
+        Ok(Closure {
+            lobes,
+            ..self.clone()
+        })
     }
 
     /// `a + c`: both lists, emissions summed; the opacity of whichever has one (the
@@ -217,17 +248,7 @@ impl Lobe {
 
     /// Whether any channel of the weight is non-zero (bool; NaN counts as non-zero).
     pub fn nonzero(&self, b: &mut Builder) -> Value {
-        let (r, g, bl) = (
-            b.extract(self.weight, 0),
-            b.extract(self.weight, 1),
-            b.extract(self.weight, 2),
-        );
-        let z = f_(b, 0.0);
-        let nr = b.binary(BinOp::Ne, r, z);
-        let ng = b.binary(BinOp::Ne, g, z);
-        let nb = b.binary(BinOp::Ne, bl, z);
-        let any = b.binary(BinOp::Or, nr, ng);
-        b.binary(BinOp::Or, any, nb)
+        nonzero(b, self.weight)
     }
 
     /// `eval` for world directions (converted to the lobe's frame), unweighted.
@@ -279,6 +300,17 @@ impl Lobe {
         );
         r[0]
     }
+}
+
+/// Whether any channel of color `c` is non-zero (bool; NaN counts as non-zero).
+fn nonzero(b: &mut Builder, c: Value) -> Value {
+    let (r, g, bl) = (b.extract(c, 0), b.extract(c, 1), b.extract(c, 2));
+    let z = f_(b, 0.0);
+    let nr = b.binary(BinOp::Ne, r, z);
+    let ng = b.binary(BinOp::Ne, g, z);
+    let nb = b.binary(BinOp::Ne, bl, z);
+    let any = b.binary(BinOp::Or, nr, ng);
+    b.binary(BinOp::Or, any, nb)
 }
 
 /// `c · s` for a color `c` and float `s` (re-exported for the surface lowering).

@@ -30,6 +30,7 @@ pub mod ggx;
 pub mod list;
 pub mod math;
 pub mod oren_nayar;
+pub mod probe;
 pub mod schlick;
 pub mod shade;
 pub mod sheen;
@@ -177,6 +178,11 @@ pub struct Lobe {
     pub frame: Frame,
     /// The render component (`diffuse`, `specular`, `transmission`, `sheen`, `coat`).
     pub component: &'static str,
+    /// Why the lobe cannot be built as its node asks (a feature no lobe models yet, e.g. a
+    /// thin film of non-zero thickness), or `None`. Such a lobe must specialize away: at the
+    /// material output its weight has to be the constant 0 (it is then dropped,
+    /// [`Closure::without_unbuilt`]), else compiling fails with this reason.
+    pub unbuilt: Option<String>,
 }
 
 /// A lobe's cosine-weighted value and its sampling density for one pair of directions.

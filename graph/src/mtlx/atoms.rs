@@ -79,6 +79,11 @@ const ATOMS: &[Atom] = &[
     a("distance", "in1 in2", l::distance),
     a("dotproduct", "in1 in2", l::dotproduct),
     a("crossproduct", "in1 in2", l::crossproduct),
+    a(
+        "normalmap",
+        "in scale normal tangent bitangent",
+        l::normalmap,
+    ),
     a("transformpoint", "in fromspace tospace", l::transformpoint),
     a(
         "transformvector",
@@ -224,7 +229,7 @@ pub fn missing_reason(nd: &NodeDefElem) -> &'static str {
             }
             "frame" => "no frame number in the shading context yet",
             "flake2d" | "flake3d" => "no flake noise intrinsic yet",
-            "hextiledimage" | "hextilednormalmap" | "heighttonormal" | "normalmap" => {
+            "hextiledimage" | "hextilednormalmap" | "heighttonormal" => {
                 "needs texture derivatives or tangent frames (issue 16)"
             }
             _ => "no lowering in the atom table yet",

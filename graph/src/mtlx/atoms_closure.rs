@@ -24,6 +24,8 @@ const CLOSURE_ATOMS: &[(&str, LowerFn)] = &[
     ("conductor_bsdf", conductor),
     ("generalized_schlick_bsdf", generalized_schlick),
     ("uniform_edf", uniform_edf),
+    ("absorption_vdf", medium),
+    ("anisotropic_vdf", medium),
     ("generalized_schlick_edf", schlick_edf),
     ("surface", surface),
     ("surfacematerial", surfacematerial),
@@ -45,9 +47,7 @@ pub fn lowering(node: &str) -> Option<LowerFn> {
 /// Why a closure nodedef has no lowering (for coverage and errors).
 pub fn missing_reason(node: &str) -> &'static str {
     match node {
-        "volume" | "volumematerial" | "absorption_vdf" | "anisotropic_vdf" => {
-            "no volumes yet (VDF closures)"
-        }
+        "volume" | "volumematerial" => "no volumes yet (volume shaders)",
         "displacement" => "no displacement yet",
         "light" => "light shaders are not built: lights come from the scene",
         "chiang_hair_bsdf" => "no hair BSDF yet",
@@ -92,6 +92,18 @@ fn frame(b: &mut Builder, inp: &NodeInputs) -> Frame {
 
 /// A one-lobe closure weighted by the node's `weight` input.
 fn lobe(b: &mut Builder, inp: &NodeInputs, kind: LobeKind, component: &'static str) -> Out {
+    unbuilt_lobe(b, inp, kind, component, None)
+}
+
+/// [`lobe`] for a node asking for what no lobe models (`unbuilt`, the reason): it must
+/// specialize away ([`crate::closure::Lobe::unbuilt`]).
+fn unbuilt_lobe(
+    b: &mut Builder,
+    inp: &NodeInputs,
+    kind: LobeKind,
+    component: &'static str,
+    unbuilt: Option<String>,
+) -> Out {
     let w = inp.get("weight");
     let weight = b.splat(Type::Color, w);
     let frame = frame(b, inp);
@@ -100,6 +112,7 @@ fn lobe(b: &mut Builder, inp: &NodeInputs, kind: LobeKind, component: &'static s
         weight,
         frame,
         component,
+        unbuilt: unbuilt.map(|why| format!("`{}`: {why}", inp.node)),
     });
     one(LowVal::closure(b, c))
 }
@@ -149,17 +162,20 @@ fn translucent(b: &mut Builder, inp: &NodeInputs) -> Out {
 }
 
 fn sheen(b: &mut Builder, inp: &NodeInputs) -> Out {
-    if inp.def.input("mode").is_some() && inp.string("mode") != "conty_kulla" {
-        return Err(format!(
-            "sheen mode `{}` is not built yet (only conty_kulla)",
-            inp.string("mode")
-        ));
-    }
+    // Another mode is built as Conty–Kulla and must specialize away (open_pbr_surface's
+    // zeltner fuzz has weight 0 by default).
+    let unbuilt =
+        (inp.def.input("mode").is_some() && inp.string("mode") != "conty_kulla").then(|| {
+            format!(
+                "sheen mode `{}` is not built yet (only conty_kulla)",
+                inp.string("mode")
+            )
+        });
     let kind = LobeKind::Sheen {
         color: inp.get("color"),
         roughness: inp.get("roughness"),
     };
-    lobe(b, inp, kind, "sheen")
+    unbuilt_lobe(b, inp, kind, "sheen", unbuilt)
 }
 
 /// `subsurface_bsdf`: a Lambertian approximation until volumes exist (see the lobe).
@@ -172,48 +188,37 @@ fn subsurface(b: &mut Builder, inp: &NodeInputs) -> Out {
     lobe(b, inp, kind, "diffuse")
 }
 
-/// A float input's value where it is a compile-time constant (a literal or a default).
-fn const_float(b: &Builder, inp: &NodeInputs, port: &str) -> Option<f64> {
-    use crate::ir::Op;
+/// The thin film of a GGX lobe: `None` where the nodedef has none or its thickness folds
+/// to the constant 0 (the plain lobe), else the film with its thickness as connected.
+fn thin_film(b: &Builder, inp: &NodeInputs) -> Option<ThinFilm> {
     use crate::types::ConstValue;
-    let v = inp.get(port);
-    let p = b.program();
-    match &p.exprs[v.index()].op {
-        Op::Const(ConstValue::Float(x)) => Some(*x),
-        Op::Param(i) => match &p.params[*i as usize].default {
-            ConstValue::Float(x) => Some(*x),
-            _ => None,
-        },
-        _ => None,
+    inp.def.input("thinfilm_thickness")?;
+    let t = inp.get("thinfilm_thickness");
+    match crate::opt::fold::constant(b.program(), t) {
+        Some(ConstValue::Float(0.0)) => None,
+        _ => Some(ThinFilm {
+            thickness: t,
+            ior: inp.get("thinfilm_ior"),
+        }),
     }
 }
 
-/// Refuses what the GGX lobes do not model yet (retroreflection and a distribution other
-/// than GGX) and returns the thin film: `None` where the nodedef has none or its thickness
-/// is the constant 0.
-fn specular_options(b: &Builder, inp: &NodeInputs) -> Result<Option<ThinFilm>, String> {
-    let film = match inp.def.input("thinfilm_thickness") {
-        None => None,
-        Some(_) => match const_float(b, inp, "thinfilm_thickness") {
-            Some(0.0) => None,
-            _ => Some(ThinFilm {
-                thickness: inp.get("thinfilm_thickness"),
-                ior: inp.get("thinfilm_ior"),
-            }),
-        },
-    };
+/// What the GGX lobes do not model yet, if the node asks for it: retroreflection, a
+/// distribution other than GGX. Such a lobe is built without it and must specialize away
+/// ([`unbuilt_lobe`]).
+fn specular_options(b: &Builder, inp: &NodeInputs) -> Option<String> {
     if inp.def.input("retroreflective").is_some()
         && const_bool(b, inp, "retroreflective").unwrap_or(true)
     {
-        return Err("retroreflective lobes are not built yet".into());
+        return Some("retroreflective lobes are not built yet".into());
     }
     if inp.def.input("distribution").is_some() && inp.string("distribution") != "ggx" {
-        return Err(format!(
+        return Some(format!(
             "microfacet distribution `{}` is not built (only ggx)",
             inp.string("distribution")
         ));
     }
-    Ok(film)
+    None
 }
 
 /// The `scatter_mode` input (`R` where the nodedef has none).
@@ -235,7 +240,8 @@ fn specular_component(mode: ScatterMode) -> &'static str {
 }
 
 fn dielectric(b: &mut Builder, inp: &NodeInputs) -> Out {
-    let thin_film = specular_options(b, inp)?;
+    let unbuilt = specular_options(b, inp);
+    let thin_film = thin_film(b, inp);
     let mode = scatter_mode(inp)?;
     let kind = LobeKind::Dielectric {
         tint: inp.get("tint"),
@@ -244,22 +250,24 @@ fn dielectric(b: &mut Builder, inp: &NodeInputs) -> Out {
         scatter_mode: mode,
         thin_film,
     };
-    lobe(b, inp, kind, specular_component(mode))
+    unbuilt_lobe(b, inp, kind, specular_component(mode), unbuilt)
 }
 
 fn conductor(b: &mut Builder, inp: &NodeInputs) -> Out {
-    let thin_film = specular_options(b, inp)?;
+    let unbuilt = specular_options(b, inp);
+    let thin_film = thin_film(b, inp);
     let kind = LobeKind::Conductor {
         ior: inp.get("ior"),
         extinction: inp.get("extinction"),
         roughness: inp.get("roughness"),
         thin_film,
     };
-    lobe(b, inp, kind, "specular")
+    unbuilt_lobe(b, inp, kind, "specular", unbuilt)
 }
 
 fn generalized_schlick(b: &mut Builder, inp: &NodeInputs) -> Out {
-    let thin_film = specular_options(b, inp)?;
+    let unbuilt = specular_options(b, inp);
+    let thin_film = thin_film(b, inp);
     let mode = scatter_mode(inp)?;
     let kind = LobeKind::GeneralizedSchlick {
         color0: inp.get("color0"),
@@ -270,7 +278,7 @@ fn generalized_schlick(b: &mut Builder, inp: &NodeInputs) -> Out {
         scatter_mode: mode,
         thin_film,
     };
-    lobe(b, inp, kind, specular_component(mode))
+    unbuilt_lobe(b, inp, kind, specular_component(mode), unbuilt)
 }
 
 /// `generalized_schlick_edf`: the base EDF's radiance times `mix(color0, color90, (1 −
@@ -289,6 +297,33 @@ fn schlick_edf(b: &mut Builder, inp: &NodeInputs) -> Out {
     let f = b.mix(inp.get("color0"), inp.get("color90"), k);
     let c = base.scaled(b, f);
     one_closure(b, c)
+}
+
+/// `absorption_vdf`, `anisotropic_vdf`: the medium inside a surface. Volumes are not
+/// built; a medium that neither absorbs nor scatters (its coefficients the compile-time 0,
+/// as the bxdf graphs give it with `transmission_depth` 0) is a vacuum: no lobes, so
+/// `layer(top, vacuum)` is the top.
+fn medium(b: &mut Builder, inp: &NodeInputs) -> Out {
+    use crate::types::ConstValue;
+    for port in ["absorption", "scattering"] {
+        if inp.def.input(port).is_none() {
+            continue;
+        }
+        match crate::opt::fold::constant(b.program(), inp.get(port)) {
+            Some(ConstValue::Vec3(v)) if v.iter().all(|x| *x == 0.0) => {}
+            Some(c) => {
+                return Err(format!(
+                    "volumes are not built yet: a medium needs `{port}` = 0 (a vacuum), it is {c}"
+                ));
+            }
+            None => {
+                return Err(format!(
+                    "volumes are not built yet: a medium needs `{port}` = 0 (a vacuum), it is not a compile-time constant"
+                ));
+            }
+        }
+    }
+    one_closure(b, Closure::default())
 }
 
 fn one_closure(b: &mut Builder, c: Closure) -> Out {

@@ -247,6 +247,44 @@ pub fn crossproduct(b: &mut Builder, inp: &NodeInputs) -> Out {
     one(b.binary(BinOp::Cross, x, y))
 }
 
+/// `normalmap` (MaterialX 1.39 `mx_normalmap_vector2`): a tangent-space normal `in`
+/// (encoded in [0, 1]; an all-zero `in` reads as +z) to world space with the frame of its
+/// `normal`, `tangent` and `bitangent` inputs (the N, dP/du and dP/dv streams by default),
+/// the tangent-plane part scaled by `scale` (float or vector2): `normalize(T·x·sx + B·y·sy
+/// + N·z)`.
+pub fn normalmap(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let v = inp.get("in");
+    let (two, one_, zero) = (b.float(2.0), b.float(1.0), b.float(0.0));
+    let len2 = b.dot(v, v);
+    let empty = b.binary(BinOp::Eq, len2, zero);
+    let two3 = b.splat(Type::Vec3, two);
+    let one3 = b.splat(Type::Vec3, one_);
+    let d = b.mul(v, two3);
+    let d = b.sub(d, one3);
+    let up = b.vec3([0.0, 0.0, 1.0]);
+    let v = b.select(empty, up, d);
+    let s = inp.get("scale");
+    let (sx, sy) = if b.ty(s) == Type::Vec2 {
+        (b.extract(s, 0), b.extract(s, 1))
+    } else {
+        (s, s)
+    };
+    let (x, y, z) = (b.extract(v, 0), b.extract(v, 1), b.extract(v, 2));
+    let (x, y) = (b.mul(x, sx), b.mul(y, sy));
+    let t = inp.get("tangent");
+    let bt = inp.get("bitangent");
+    let n = inp.get("normal");
+    let tx = b.splat(Type::Vec3, x);
+    let by = b.splat(Type::Vec3, y);
+    let nz = b.splat(Type::Vec3, z);
+    let t = b.mul(t, tx);
+    let bt = b.mul(bt, by);
+    let n = b.mul(n, nz);
+    let r = b.add(t, bt);
+    let r = b.add(r, n);
+    one(b.unary(UnOp::Normalize, r))
+}
+
 /// A MaterialX space name: `model`/`object` → object, `world`, `camera`; empty → world.
 fn space(s: &str) -> Result<Space, String> {
     match s {

@@ -33,8 +33,10 @@ pub use error::{MtlxError, Pos};
 pub use library::Library;
 pub use translate::{Selection, to_network};
 
-use crate::lower::{Compiled, lower};
+use crate::closure::probe::LobeStat;
+use crate::lower::{Compiled, LowerOptions, lower_with};
 use crate::network::Network;
+use crate::opt::Specialization;
 
 /// Parses a document's text and translates it to a network (`file` names it in errors).
 pub fn network(
@@ -54,15 +56,44 @@ pub fn compile(
     lib: &Library,
     sel: &Selection,
 ) -> Result<Compiled, MtlxError> {
+    compile_with(file, text, lib, sel, LowerOptions::default())
+}
+
+/// [`compile`] with lowering options.
+pub fn compile_with(
+    file: &str,
+    text: &str,
+    lib: &Library,
+    sel: &Selection,
+    opts: LowerOptions,
+) -> Result<Compiled, MtlxError> {
     let net = network(file, text, lib, sel)?;
     let link = |source| MtlxError::Link {
         file: file.to_string(),
         source,
     };
     let linked = crate::link::link(&net, lib.atoms()).map_err(link)?;
-    let program = lower(&linked, lib.atoms()).map_err(link)?;
+    let program = lower_with(&linked, lib.atoms(), opts).map_err(link)?;
     Ok(Compiled {
         program,
         lights: linked.lights,
     })
+}
+
+/// The lobes of the selected material(s) and whether each is left after optimizing with
+/// `spec` ([`crate::closure::probe`]).
+pub fn lobes(
+    file: &str,
+    text: &str,
+    lib: &Library,
+    sel: &Selection,
+    spec: &Specialization,
+) -> Result<Vec<LobeStat>, MtlxError> {
+    let opts = LowerOptions {
+        closure_output: Some(crate::closure::probe::declare),
+        ..LowerOptions::default()
+    };
+    let c = compile_with(file, text, lib, sel, opts)?;
+    let (p, _) = crate::opt::run(&c.program, spec);
+    Ok(crate::closure::probe::read(&p))
 }

@@ -413,6 +413,10 @@ fn zero_json(t: crate::types::Type) -> Json {
     match t {
         Type::Bool => Json::Bool(false),
         Type::String => Json::String(String::new()),
+        // Scalars are plain numbers (gltf_pbr's `attenuation_distance` has no value).
+        Type::Float => serde_json::json!(0.0),
+        Type::Int => serde_json::json!(0),
+        Type::Matrix33 => serde_json::json!([[1, 0, 0], [0, 1, 0], [0, 0, 1]]),
         Type::Matrix44 => {
             serde_json::json!([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])
         }

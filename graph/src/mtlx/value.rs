@@ -12,8 +12,8 @@ use serde_json::{Value as Json, json};
 pub enum MxType {
     /// A value type we shade.
     Value(Type),
-    /// A closure or shader type not built yet (VDF, volumeshader, displacementshader,
-    /// lightshader); the built ones (BSDF, EDF, surfaceshader, material) are values of
+    /// A closure or shader type not built yet (volumeshader, displacementshader,
+    /// lightshader); the built ones (BSDF, EDF, VDF, surfaceshader, material) are values of
     /// [`Type::Closure`].
     Closure,
     /// A value type with no IR type yet (arrays, uvmap…).
@@ -192,7 +192,12 @@ mod tests {
             classify("material"),
             MxType::Value(Type::Closure(ClosureKind::Material))
         );
-        assert_eq!(classify("VDF"), MxType::Closure);
+        // A VDF is built as a vacuum (or refused by its atom).
+        assert_eq!(
+            classify("VDF"),
+            MxType::Value(Type::Closure(ClosureKind::Vdf))
+        );
+        assert_eq!(classify("volumeshader"), MxType::Closure);
         assert_eq!(classify("displacementshader"), MxType::Closure);
         assert_eq!(classify("color4"), MxType::Value(Type::Color4));
         assert_eq!(classify("vector4"), MxType::Value(Type::Vec4));

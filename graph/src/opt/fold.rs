@@ -165,10 +165,16 @@ fn fold(p: &Program, op: &Op, ty: Type) -> Option<ConstValue> {
     if !all {
         return None;
     }
+    fold_consts(op, ty, &consts)
+}
+
+/// A foldable `op` of type `ty` evaluated on its constant operands `consts` (in operand
+/// order), as [`fold`] does.
+fn fold_consts(op: &Op, ty: Type, consts: &[&ConstValue]) -> Option<ConstValue> {
     // Matrices and strings have no f32 register form: a select picks its operand as is; a
     // matrix construct keeps its elements rounded to f32, as every back end holds them.
     if ty.is_matrix() || ty == Type::String {
-        return match (op, consts.as_slice()) {
+        return match (op, consts) {
             (Op::Select { .. }, [ConstValue::Bool(c), a, b]) => {
                 Some(if *c { (*a).clone() } else { (*b).clone() })
             }
@@ -185,7 +191,7 @@ fn fold(p: &Program, op: &Op, ty: Type) -> Option<ConstValue> {
             _ => None,
         };
     }
-    if let (Op::Extract(_, k), [c]) = (op, consts.as_slice())
+    if let (Op::Extract(_, k), [c]) = (op, consts)
         && c.ty().is_matrix()
     {
         let x = *c.floats().get(*k as usize)?;
@@ -227,6 +233,81 @@ fn fold(p: &Program, op: &Op, ty: Type) -> Option<ConstValue> {
     let c = r.to_const(ty);
     // A valid program always gives a value of the recorded type; anything else stays as is.
     (c.ty() == ty).then_some(c)
+}
+
+/// The constant `v` is in every fragment of a program *under construction* (the builder's
+/// arena: no blocks needed), or `None` where it depends on the fragment, the environment
+/// or a region: what folding would make of it, with every parameter at its default (the
+/// instance the material is compiled as), a `select` on a constant condition taking its
+/// arm without looking at the other, and `and`/`or` decided by one constant side. For lowerings that must decide at compile time (an
+/// unbuilt feature whose lobe weight is 0 is dropped, not refused).
+pub fn constant(p: &Program, v: Value) -> Option<ConstValue> {
+    let mut memo = std::collections::HashMap::new();
+    constant_memo(p, v, &mut memo, 0)
+}
+
+/// [`constant`] with a memo; `depth` bounds the recursion (deep chains give `None`).
+fn constant_memo(
+    p: &Program,
+    v: Value,
+    memo: &mut std::collections::HashMap<usize, Option<ConstValue>>,
+    depth: usize,
+) -> Option<ConstValue> {
+    if let Some(c) = memo.get(&v.index()) {
+        return c.clone();
+    }
+    if depth > 512 {
+        return None;
+    }
+    let e = p.exprs.get(v.index())?;
+    let c = match &e.op {
+        Op::Const(c) => Some(c.clone()),
+        Op::Param(i) => p.params.get(*i as usize).map(|d| d.default.clone()),
+        Op::Select { cond, a, b } => match constant_memo(p, *cond, memo, depth + 1) {
+            Some(ConstValue::Bool(t)) => constant_memo(p, if t { *a } else { *b }, memo, depth + 1),
+            _ => None,
+        },
+        // `and` with a false side and `or` with a true side need not know the other.
+        Op::Binary(op @ (BinOp::And | BinOp::Or), x, y) => {
+            let absorbing = ConstValue::Bool(*op == BinOp::Or);
+            let cx = constant_memo(p, *x, memo, depth + 1);
+            let cy = constant_memo(p, *y, memo, depth + 1);
+            match (cx, cy) {
+                (Some(a), _) if a == absorbing => Some(absorbing),
+                (_, Some(a)) if a == absorbing => Some(absorbing),
+                (Some(ConstValue::Bool(a)), Some(ConstValue::Bool(b))) => {
+                    Some(ConstValue::Bool(if *op == BinOp::Or {
+                        a || b
+                    } else {
+                        a && b
+                    }))
+                }
+                _ => None,
+            }
+        }
+        op => {
+            let ty = e.ty?;
+            let mut operands = Vec::new();
+            op.for_each_operand(|o| operands.push(o));
+            let mut consts = Vec::with_capacity(operands.len());
+            for o in operands {
+                consts.push(constant_memo(p, o, memo, depth + 1)?);
+            }
+            let refs: Vec<&ConstValue> = consts.iter().collect();
+            match op {
+                Op::Unary(..)
+                | Op::Binary(..)
+                | Op::Construct(_)
+                | Op::Extract(..)
+                | Op::Splat(_)
+                | Op::Convert(_)
+                | Op::Call(..) => fold_consts(op, ty, &refs),
+                _ => None,
+            }
+        }
+    };
+    memo.insert(v.index(), c.clone());
+    c
 }
 
 /// Every float component of `c` has exactly the f64 bits `bits` (false for non-float
