@@ -74,7 +74,7 @@ impl Frame {
 
 /// The tangent of Duff et al.'s orthonormal basis around unit `n`:
 /// `s = sign(n.z)`, `a = −1/(s + n.z)`, `t = (1 + s n.x² a, s n.x n.y a, −s n.x)`.
-fn duff_tangent(b: &mut Builder, n: Value) -> Value {
+pub(super) fn duff_tangent(b: &mut Builder, n: Value) -> Value {
     let (nx, ny, nz) = (comp(b, n, 0), comp(b, n, 1), comp(b, n, 2));
     let zero = b.float(0.0);
     let neg = lt(b, nz, zero);

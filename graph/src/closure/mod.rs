@@ -22,6 +22,7 @@
 //! This module owns the lobe data types, the frame and the dispatch; it must not know about
 //! MaterialX nodes (the atoms in `crate::mtlx` build lobes) or the light loop.
 
+pub mod blinn;
 pub mod burley;
 pub mod conductor;
 pub mod dielectric;
@@ -30,6 +31,7 @@ pub mod ggx;
 pub mod list;
 pub mod math;
 pub mod oren_nayar;
+pub mod phong;
 pub mod probe;
 pub mod schlick;
 pub mod shade;
@@ -164,6 +166,25 @@ pub enum LobeKind {
         /// A thin film on the interface ([`thin_film`]); `None` where its thickness is 0.
         thin_film: Option<ThinFilm>,
     },
+    /// The normalized modified Phong lobe of Maya's `phong`: `color · (n+2)/(2π) · cosⁿα`
+    /// about the mirror direction. See [`phong`].
+    Phong {
+        /// Specular color `ks` (the albedo at normal incidence).
+        color: Value,
+        /// Exponent `n` (float), clamped to [0, [`phong::MAX_EXPONENT`]].
+        exponent: Value,
+    },
+    /// The normalized Blinn–Phong half-vector lobe of Maya's `blinn`, with a Schlick
+    /// roll-off. See [`blinn`].
+    Blinn {
+        /// Specular color `ks`.
+        color: Value,
+        /// Exponent `n` (float), clamped to [0, [`phong::MAX_EXPONENT`]].
+        exponent: Value,
+        /// Reflectance at normal incidence relative to grazing (float, clamped to [0, 1];
+        /// 1 turns the roll-off off).
+        rolloff: Value,
+    },
 }
 
 /// One lobe of a closure: its kind and parameters, the color weight the closure gives it,
@@ -176,10 +197,11 @@ pub struct Lobe {
     pub weight: Value,
     /// The shading frame.
     pub frame: Frame,
-    /// The render component (`diffuse`, `specular`, `transmission`, `sheen`, `coat`).
+    /// The render component (`diffuse`, `specular`, `transmission`, `sheen`, `coat`; Phong
+    /// and Blinn lobes are `specular`).
     pub component: &'static str,
-    /// Why the lobe cannot be built as its node asks (a feature no lobe models yet, e.g. a
-    /// thin film of non-zero thickness), or `None`. Such a lobe must specialize away: at the
+    /// Why the lobe cannot be built as its node asks (a feature no lobe models yet, e.g.
+    /// retroreflection), or `None`. Such a lobe must specialize away: at the
     /// material output its weight has to be the constant 0 (it is then dropped,
     /// [`Closure::without_unbuilt`]), else compiling fails with this reason.
     pub unbuilt: Option<String>,
@@ -218,7 +240,9 @@ impl LobeKind {
             | LobeKind::Subsurface { .. } => true,
             LobeKind::Dielectric { .. }
             | LobeKind::Conductor { .. }
-            | LobeKind::GeneralizedSchlick { .. } => false,
+            | LobeKind::GeneralizedSchlick { .. }
+            | LobeKind::Phong { .. }
+            | LobeKind::Blinn { .. } => false,
         }
     }
 
@@ -264,7 +288,9 @@ impl LobeKind {
             | LobeKind::Burley { .. }
             | LobeKind::Translucent { .. }
             | LobeKind::Sheen { .. }
-            | LobeKind::Subsurface { .. } => Resolved::Diffuse(self.clone()),
+            | LobeKind::Subsurface { .. }
+            | LobeKind::Phong { .. }
+            | LobeKind::Blinn { .. } => Resolved::Diffuse(self.clone()),
             LobeKind::Dielectric {
                 tint,
                 ior,
@@ -314,7 +340,7 @@ impl LobeKind {
 
 /// A lobe kind's parameters ready to emit, the viewer's side included.
 enum Resolved {
-    /// A lobe that does not depend on the viewer's side (the diffuse family).
+    /// A lobe that does not depend on the viewer's side (the diffuse family, Phong, Blinn).
     Diffuse(LobeKind),
     Dielectric(dielectric::Dielectric),
     Conductor(conductor::Conductor),
@@ -350,7 +376,7 @@ impl Resolved {
     }
 }
 
-/// `eval` of a side-independent (diffuse-family) lobe.
+/// `eval` of a side-independent lobe (the diffuse family, Phong, Blinn).
 fn diffuse_eval(b: &mut Builder, k: &LobeKind, wo: Value, wi: Value) -> Eval {
     match *k {
         LobeKind::OrenNayar {
@@ -362,11 +388,17 @@ fn diffuse_eval(b: &mut Builder, k: &LobeKind, wo: Value, wi: Value) -> Eval {
         LobeKind::Translucent { color } => translucent::eval(b, color, wo, wi),
         LobeKind::Sheen { color, roughness } => sheen::eval(b, color, roughness, wo, wi),
         LobeKind::Subsurface { color, .. } => subsurface::eval(b, color, wo, wi),
+        LobeKind::Phong { color, exponent } => phong::eval(b, color, exponent, wo, wi),
+        LobeKind::Blinn {
+            color,
+            exponent,
+            rolloff,
+        } => blinn::eval(b, color, exponent, rolloff, wo, wi),
         _ => unreachable!("resolve() sends only the diffuse family here"),
     }
 }
 
-/// `sample` of a side-independent (diffuse-family) lobe.
+/// `sample` of a side-independent lobe (the diffuse family, Phong, Blinn).
 fn diffuse_sample(b: &mut Builder, k: &LobeKind, wo: Value, u: Value) -> Sample {
     match *k {
         LobeKind::OrenNayar {
@@ -378,11 +410,17 @@ fn diffuse_sample(b: &mut Builder, k: &LobeKind, wo: Value, u: Value) -> Sample 
         LobeKind::Translucent { color } => translucent::sample(b, color, wo, u),
         LobeKind::Sheen { color, roughness } => sheen::sample(b, color, roughness, wo, u),
         LobeKind::Subsurface { color, .. } => subsurface::sample(b, color, wo, u),
+        LobeKind::Phong { color, exponent } => phong::sample(b, color, exponent, wo, u),
+        LobeKind::Blinn {
+            color,
+            exponent,
+            rolloff,
+        } => blinn::sample(b, color, exponent, rolloff, wo, u),
         _ => unreachable!("resolve() sends only the diffuse family here"),
     }
 }
 
-/// `albedo` of a side-independent (diffuse-family) lobe.
+/// `albedo` of a side-independent lobe (the diffuse family, Phong, Blinn).
 fn diffuse_albedo(b: &mut Builder, k: &LobeKind, wo: Value) -> Value {
     match *k {
         LobeKind::OrenNayar {
@@ -394,6 +432,12 @@ fn diffuse_albedo(b: &mut Builder, k: &LobeKind, wo: Value) -> Value {
         LobeKind::Translucent { color } => translucent::albedo(b, color, wo),
         LobeKind::Sheen { color, roughness } => sheen::albedo(b, color, roughness, wo),
         LobeKind::Subsurface { color, .. } => subsurface::albedo(b, color, wo),
+        LobeKind::Phong { color, exponent } => phong::albedo(b, color, exponent, wo),
+        LobeKind::Blinn {
+            color,
+            exponent,
+            rolloff,
+        } => blinn::albedo(b, color, exponent, rolloff, wo),
         _ => unreachable!("resolve() sends only the diffuse family here"),
     }
 }

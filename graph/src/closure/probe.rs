@@ -34,7 +34,7 @@ pub struct LobeStat {
 
 impl LobeKind {
     /// The kind's short name: the pbrlib node without `_bsdf`, with the scatter mode of a
-    /// specular interface (`dielectric(RT)`).
+    /// specular interface (`dielectric(RT)`); `phong` and `blinn` for the Maya lobes.
     pub fn name(&self) -> String {
         let mode = |m: &ScatterMode| match m {
             ScatterMode::R => "R",
@@ -54,6 +54,8 @@ impl LobeKind {
             LobeKind::GeneralizedSchlick { scatter_mode, .. } => {
                 format!("generalized_schlick({})", mode(scatter_mode))
             }
+            LobeKind::Phong { .. } => "phong".into(),
+            LobeKind::Blinn { .. } => "blinn".into(),
         }
     }
 }

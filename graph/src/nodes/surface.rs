@@ -469,7 +469,7 @@ fn lower_surface(b: &mut Builder, inp: &NodeInputs, lobe: Lobe) -> Result<Vec<Lo
                     let w = b.mul(w, vis);
                     vec![scale(b, cl, w)]
                 });
-                let norm = blinn_normalization(b, e);
+                let norm = crate::closure::blinn::normalization(b, e);
                 let kn = scale(b, ks, norm);
                 b.mul(kn, sum[0])
             }));
@@ -727,21 +727,6 @@ fn view_vector(b: &mut Builder) -> Value {
     let i = b.stream(Stream::I);
     let i = b.normalize(i);
     b.unary(UnOp::Neg, i)
-}
-
-/// `k(n) = (n+2)(n+4) / (8π (2^(−n/2) + n))` for `n ≥ 0`: `2^(−n/2) + n` increases with
-/// `n`, so the denominator is at least `8π` (its value at `n = 0`) and never zero.
-fn blinn_normalization(b: &mut Builder, e: Value) -> Value {
-    let (two, four, half) = (b.float(2.0), b.float(4.0), b.float(0.5));
-    let a = b.add(e, two);
-    let c = b.add(e, four);
-    let num = b.mul(a, c);
-    let neg_half_e = b.mul(e, half);
-    let p2 = b.binary(BinOp::Pow, half, neg_half_e); // 0.5^(n/2) = 2^(−n/2)
-    let den = b.add(p2, e);
-    let eight_pi = b.float(8.0 * PI);
-    let den = b.mul(den, eight_pi);
-    b.div(num, den)
 }
 
 fn surface_shader_def() -> NodeDef {
