@@ -119,10 +119,7 @@ impl Renderer {
     /// surface is in the way.
     pub(super) fn lights_only(&self, o: glam::Vec3, d: glam::Vec3, bsdf_pdf: f32) -> [f32; 3] {
         match self.intersect(o, d) {
-            Found::Miss => {
-                let w = mis_weight(bsdf_pdf, self.environment_pdf);
-                self.scene.background.map(|x| x as f32 * w)
-            }
+            Found::Miss => self.escaped(d, bsdf_pdf),
             Found::Emitter(r, pdf) => r.map(|x| x * mis_weight(bsdf_pdf, pdf)),
             Found::Surface(_) => [0.0; 3],
         }
@@ -132,10 +129,7 @@ impl Renderer {
         let n = stats.secondary_rays.fetch_add(1, Ordering::Relaxed);
         let found = stats.sampled(Stage::SecondaryTrace, n, || self.intersect(ray.o, ray.d));
         let hit = match found {
-            Found::Miss => {
-                let w = mis_weight(ray.bsdf_pdf, self.environment_pdf);
-                return self.scene.background.map(|x| x as f32 * w);
-            }
+            Found::Miss => return self.escaped(ray.d, ray.bsdf_pdf),
             Found::Emitter(r, pdf) => {
                 let w = mis_weight(ray.bsdf_pdf, pdf);
                 return r.map(|x| x * w);
