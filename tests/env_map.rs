@@ -655,3 +655,42 @@ fn the_committed_sky_is_the_generators_output() {
     let zenith_ish = map.pdf(direction(0.3, 1.0, 0.0));
     assert!(sun > 1000.0 * zenith_ish, "sun pdf {sun}, sky {zenith_ish}");
 }
+
+/// `shadenet gen sky` writes the committed map with its defaults, and refuses a bad size or
+/// sun with an error naming the option.
+#[test]
+fn gen_sky_writes_the_map_and_refuses_bad_parameters() {
+    let dir = tmp_dir("gen");
+    let out = dir.join("sky.hdr");
+    let run = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_shadenet"))
+            .args(["gen", "sky", "-o"])
+            .arg(&out)
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    assert!(run(&[]).status.success());
+    let committed =
+        std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/scenes/pbr_sky.hdr"))
+            .unwrap();
+    assert!(std::fs::read(&out).unwrap() == committed);
+    for (args, want) in [
+        (
+            &["--width", "0"][..],
+            "--width/--height: the image is empty",
+        ),
+        (&["--height", "20000"][..], "too large"),
+        (
+            &["--sun-elevation", "120"][..],
+            "--sun-elevation 120: must be -90 to 90",
+        ),
+        (&["--sun-radius", "0"][..], "--sun-radius 0"),
+    ] {
+        let o = run(args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(want), "{args:?}: {err}");
+    }
+    // The refused runs left the written map as it was.
+    assert!(std::fs::read(&out).unwrap() == committed);
+}
