@@ -6,9 +6,15 @@
 //! the root feeding the material output `color`. Since every leaf reads the fragment, nothing
 //! folds away: the tree measures the cost of passing data between nodes and from the renderer
 //! to the shading system.
+//!
+//! [`sky`] is a procedural lat-long environment map (a sky gradient, a small bright sun disc
+//! with a glow around it and a darker ground), the light of `examples/scenes/pbr.toml`:
+//! written as a Radiance `.hdr` by [`sky_hdr`], it is the committed `pbr_sky.hdr`.
 
 use serde_json::{Map, Value, json};
 use shadenet_graph::ir::Space;
+use shadenet_graph::nodes::env_image::{check_size, uv_to_direction};
+use shadenet_graph::ops::math;
 use std::ops::RangeInclusive;
 
 /// The levels a multiplication tree may have: level 16 is 65 535 multiplies over 65 536
@@ -28,6 +34,132 @@ pub enum GenError {
         /// The level asked for.
         levels: u32,
     },
+    /// A sky parameter is out of range (the message names it).
+    #[error("{0}")]
+    Sky(String),
+}
+
+/// The parameters of [`sky`]; the defaults make the committed `examples/scenes/pbr_sky.hdr`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sky {
+    /// Width in texels (the height's double for square texels).
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// The sun's elevation above the horizon, degrees (−90 to 90).
+    pub sun_elevation: f64,
+    /// The sun's azimuth, degrees: 0 at the map's centre column (−z before the light's
+    /// rotation), 90 at +x (`u = 0.75`).
+    pub sun_azimuth: f64,
+    /// The sun disc's angular radius, degrees (above 0, at most 45).
+    pub sun_radius: f64,
+    /// The sun disc's radiance (finite, ≥ 0); the sky's is about 0.2 to 0.8.
+    pub sun_radiance: f64,
+}
+
+impl Default for Sky {
+    fn default() -> Sky {
+        Sky {
+            width: 256,
+            height: 128,
+            sun_elevation: 35.0,
+            sun_azimuth: 0.0,
+            sun_radius: 2.0,
+            sun_radiance: 1000.0,
+        }
+    }
+}
+
+/// Supersamples per texel side: each texel is the mean of 4 × 4 point samples.
+const SKY_SUPERSAMPLES: u32 = 4;
+
+/// The radiance of the procedural sky in unit direction `d` (map frame, +y up), with the
+/// sun in unit direction `sun`.
+fn sky_radiance(p: &Sky, d: [f64; 3], sun: [f64; 3]) -> [f64; 3] {
+    let lerp = |a: [f64; 3], b: [f64; 3], t: f64| -> [f64; 3] {
+        std::array::from_fn(|c| a[c] + (b[c] - a[c]) * t)
+    };
+    let zenith = [0.16, 0.30, 0.72];
+    let horizon = [0.72, 0.80, 0.95];
+    let ground = [0.10, 0.085, 0.07];
+    let y = d[1];
+    let sky = lerp(zenith, horizon, math::pow(1.0 - y.max(0.0), 4.0));
+    // Below the horizon, the ground, blended over 3° into half the horizon's light.
+    let base = if y >= 0.0 {
+        sky
+    } else {
+        let t = (-y / 0.05).min(1.0);
+        lerp(horizon.map(|c| 0.5 * c), ground, t)
+    };
+    let cos_a = (d[0] * sun[0] + d[1] * sun[1] + d[2] * sun[2]).clamp(-1.0, 1.0);
+    let a = math::acos(cos_a).to_degrees();
+    // A warm glow of 10° around the sun, then the disc.
+    let glow = 2.5 * math::exp(-(a / 10.0) * (a / 10.0));
+    let mut c: [f64; 3] = std::array::from_fn(|i| base[i] + glow * [1.0, 0.85, 0.6][i]);
+    if a <= p.sun_radius {
+        c = [1.0, 0.93, 0.82].map(|x| x * p.sun_radiance);
+    }
+    c
+}
+
+/// The procedural sky of `p` as lat-long texels (rows from the top, the orientation of
+/// `shadenet_graph::nodes::env_image`), each the mean of 4 × 4 point samples. Deterministic:
+/// f64 with our own `sin`, `cos`, `acos`, `exp` and `pow`, rounded once to f32.
+pub fn sky(p: &Sky) -> Result<Vec<[f32; 3]>, GenError> {
+    check_size(p.width, p.height).map_err(|m| GenError::Sky(format!("--width/--height: {m}")))?;
+    let bad =
+        |name: &str, v: f64, range: &str| GenError::Sky(format!("--{name} {v}: must be {range}"));
+    if !(p.sun_elevation.is_finite() && p.sun_elevation.abs() <= 90.0) {
+        return Err(bad("sun-elevation", p.sun_elevation, "-90 to 90 degrees"));
+    }
+    if !p.sun_azimuth.is_finite() {
+        return Err(bad(
+            "sun-azimuth",
+            p.sun_azimuth,
+            "a finite number of degrees",
+        ));
+    }
+    if !(p.sun_radius > 0.0 && p.sun_radius <= 45.0) {
+        return Err(bad(
+            "sun-radius",
+            p.sun_radius,
+            "above 0 and at most 45 degrees",
+        ));
+    }
+    if !(p.sun_radiance.is_finite() && (0.0..=1e30).contains(&p.sun_radiance)) {
+        return Err(bad("sun-radiance", p.sun_radiance, "0 to 1e30"));
+    }
+    let (e, az) = (p.sun_elevation.to_radians(), p.sun_azimuth.to_radians());
+    let (ce, se) = (math::cos(e), math::sin(e));
+    // The map frame's direction of azimuth φ: (sin φ, ·, −cos φ).
+    let sun = [math::sin(az) * ce, se, -math::cos(az) * ce];
+    let (w, h) = (p.width as usize, p.height as usize);
+    let n = SKY_SUPERSAMPLES;
+    let mut texels = Vec::with_capacity(w * h);
+    for j in 0..h {
+        for i in 0..w {
+            let mut sum = [0.0f64; 3];
+            for sj in 0..n {
+                for si in 0..n {
+                    let u = (i as f64 + (si as f64 + 0.5) / n as f64) / w as f64;
+                    let v = (j as f64 + (sj as f64 + 0.5) / n as f64) / h as f64;
+                    let (d, _) = uv_to_direction([u, v], (1.0, 0.0));
+                    let c = sky_radiance(p, d, sun);
+                    sum.iter_mut().zip(c).for_each(|(s, x)| *s += x);
+                }
+            }
+            texels.push(sum.map(|s| (s / (n * n) as f64) as f32));
+        }
+    }
+    Ok(texels)
+}
+
+/// [`sky`] as a Radiance `.hdr` file (run-length encoded RGBE).
+pub fn sky_hdr(p: &Sky) -> Result<Vec<u8>, GenError> {
+    let texels = sky(p)?;
+    Ok(shadenet_tracer::envmap::write_hdr(
+        p.width, p.height, &texels,
+    ))
 }
 
 /// The multiplication-tree network of `levels` levels (benchmark B1), as network JSON

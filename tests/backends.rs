@@ -1563,7 +1563,10 @@ fn scene_env() -> ShadeEnv {
         },
         LightDesc {
             name: "sky".into(),
-            kind: LightKind::Environment { samples: 3 },
+            kind: LightKind::Environment {
+                samples: 3,
+                map: None,
+            },
             power: [0.2, 0.3, 0.5],
         },
     ];

@@ -24,6 +24,7 @@
 //!
 //! [`list_ops`] checks the closure list operations exactly.
 
+mod common;
 #[path = "closures/harness.rs"]
 mod harness;
 #[path = "closures/list_ops.rs"]

@@ -48,7 +48,10 @@ fn quad_light_matches_the_rectangle_form_factor() {
 fn environment_irradiance_is_pi_l() {
     let light = Light::from_desc(&LightDesc {
         name: "sky".into(),
-        kind: LightKind::Environment { samples: 40000 },
+        kind: LightKind::Environment {
+            samples: 40000,
+            map: None,
+        },
         power: [0.5; 3],
     });
     let e = irradiance(&light, [0.0; 3], [0.0, 0.0, 1.0], 3);

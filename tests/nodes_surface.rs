@@ -1211,7 +1211,8 @@ fn light_desc_new_checks_every_kind() {
     assert_eq!(
         field(
             LightKind::Environment {
-                samples: MAX_LIGHT_SAMPLES + 1
+                samples: MAX_LIGHT_SAMPLES + 1,
+                map: None,
             },
             ok
         ),

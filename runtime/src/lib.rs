@@ -1,7 +1,8 @@
 //! shadenet-runtime: what runs a compiled material.
 //!
 //! This crate owns the shading context ABI ([`ctx`]), the intrinsics that need the scene
-//! (light samples: [`lights`], textures: [`texture`]), the interpreter ([`interp`]), the
+//! (light samples: [`lights`] with image environments prepared by [`envmap`], textures:
+//! [`texture`]), the interpreter ([`interp`]), the
 //! reference every other back end is tested against, and the back-end traits with the
 //! material cache ([`backend`]), the fixtures of the back ends' parity tests
 //! ([`testing`]), and the bounded gate every input file passes ([`input`]). It depends on `shadenet-graph` for the IR and the op
@@ -9,6 +10,7 @@
 
 pub mod backend;
 pub mod ctx;
+pub mod envmap;
 pub mod input;
 pub mod interp;
 pub mod lights;

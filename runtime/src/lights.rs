@@ -4,10 +4,16 @@
 //! Units as in pbrt: a point or spot light's power is an intensity (W/sr) and arrives as
 //! `I / r²`; a distant light's is an irradiance (W/m² perpendicular to it); ambient light is
 //! a radiance with no direction, summed by the `ambient` op instead of the light loop.
+//!
+//! An environment light with an image map is importance-sampled by the map's luminance
+//! ([`crate::envmap`]); its distribution is built once, in [`Light::from_desc`], and shared
+//! by every clone of the light.
 
+use crate::envmap::EnvMap;
 use shadenet_graph::nodes::{LightDesc, LightKind};
 use shadenet_graph::ops::math;
 use shadenet_graph::ops::{self, Real};
+use std::sync::Arc;
 
 /// A light as the runtime samples it.
 #[derive(Clone, Debug, PartialEq)]
@@ -16,10 +22,13 @@ pub struct Light {
     pub desc: LightDesc,
     /// For spot lights: cos of the angle where the cone is fully lit, and where it is dark.
     spot_cos: (f64, f64),
+    /// For environment lights with a map: the map prepared for sampling.
+    env: Option<Arc<EnvMap>>,
 }
 
 impl Light {
-    /// Prepares a light for sampling.
+    /// Prepares a light for sampling (for an environment map, builds its distribution:
+    /// prepare lights once and clone them, which shares it).
     pub fn from_desc(desc: &LightDesc) -> Light {
         let spot_cos = match desc.kind {
             LightKind::Spot {
@@ -38,10 +47,20 @@ impl Light {
             }
             _ => (1.0, 1.0),
         };
+        let env = match &desc.kind {
+            LightKind::Environment { map: Some(m), .. } => Some(Arc::new(EnvMap::new(m.clone()))),
+            _ => None,
+        };
         Light {
             desc: desc.clone(),
             spot_cos,
+            env,
         }
+    }
+
+    /// For an environment light with a map, the map prepared for sampling.
+    pub fn env_map(&self) -> Option<&EnvMap> {
+        self.env.as_deref()
     }
 
     /// True for ambient lights (no direction; not part of the light loop).
@@ -71,11 +90,15 @@ pub struct Sample<F> {
 pub const FAR: f64 = 1e7;
 
 /// How many samples a light contributes to the light loop per shaded point (0 for ambient
-/// light, which has no direction).
+/// light, which has no direction, and for an environment map that is black everywhere,
+/// which gives no light).
 pub fn sample_count(light: &Light) -> u32 {
+    if light.env.as_ref().is_some_and(|e| e.is_black()) {
+        return 0;
+    }
     match light.desc.kind {
         LightKind::Ambient => 0,
-        LightKind::Quad { samples, .. } | LightKind::Environment { samples } => samples.max(1),
+        LightKind::Quad { samples, .. } | LightKind::Environment { samples, .. } => samples.max(1),
         _ => 1,
     }
 }
@@ -165,7 +188,23 @@ pub fn sample<F: Real>(
                 pdf: ops::div(F::ONE, w),
             })
         }
-        LightKind::Environment { samples } => {
+        LightKind::Environment { samples, .. } if light.env.is_some() => {
+            // Importance-sampled by the map: radiance / (pdf · N), in f64.
+            let env = light.env.as_deref()?;
+            let [u, v] = random2(seed, index, k);
+            let (d, pdf) = env.sample([u, v])?;
+            let n = (*samples).max(1) as f64;
+            let rad = env.radiance(d);
+            let w = ops::div(1.0, pdf * n);
+            let l: [F; 3] = v3(d);
+            Some(Sample {
+                l,
+                cl: v3(std::array::from_fn(|c| light.desc.power[c] * rad[c] * w)),
+                to: along(l),
+                pdf: F::from_f64(pdf * n),
+            })
+        }
+        LightKind::Environment { samples, .. } => {
             // Uniform directions on the sphere: pdf 1/(4π).
             let [u, v] = random2(seed, index, k);
             let z = 1.0 - 2.0 * u;
@@ -218,8 +257,9 @@ pub fn sample<F: Real>(
 /// The light loop's density of direction `l` (unit) from `p` towards a point `q` on light
 /// `light`, times its sample count: what [`Sample::pdf`] is for a sample in that direction,
 /// for the renderer to weight a BSDF-sampled ray that reaches the light (power heuristic).
-/// Quads: `N r² / (cos θ_light · A)` at the hit point `q` (0 from behind); environments:
-/// `N / (4π)`; 0 for delta and ambient lights.
+/// Quads: `N r² / (cos θ_light · A)` at the hit point `q` (0 from behind); constant
+/// environments: `N / (4π)`; environment maps: `N` × [`EnvMap::pdf`] of `l` (0 for a black
+/// map); 0 for delta and ambient lights.
 pub fn light_pdf(light: &Light, p: [f64; 3], l: [f64; 3], q: [f64; 3]) -> f64 {
     match &light.desc.kind {
         LightKind::Quad {
@@ -239,10 +279,25 @@ pub fn light_pdf(light: &Light, p: [f64; 3], l: [f64; 3], q: [f64; 3]) -> f64 {
             }
             (*samples).max(1) as f64 * r2 / (cos * area)
         }
-        LightKind::Environment { samples } => {
-            (*samples).max(1) as f64 / (4.0 * std::f64::consts::PI)
-        }
+        LightKind::Environment { samples, .. } => match &light.env {
+            Some(env) => (*samples).max(1) as f64 * env.pdf(l),
+            None => (*samples).max(1) as f64 / (4.0 * std::f64::consts::PI),
+        },
         _ => 0.0,
+    }
+}
+
+/// The radiance an environment light sends along unit direction `-l` (what a ray leaving
+/// the scene along `l` sees of it): its power, times the map's texel in that direction
+/// when it has a map; `None` for the other kinds of light.
+pub fn environment_radiance(light: &Light, l: [f64; 3]) -> Option<[f64; 3]> {
+    match (&light.desc.kind, &light.env) {
+        (LightKind::Environment { .. }, Some(env)) => {
+            let rad = env.radiance(l);
+            Some(std::array::from_fn(|c| light.desc.power[c] * rad[c]))
+        }
+        (LightKind::Environment { .. }, None) => Some(light.desc.power),
+        _ => None,
     }
 }
 

@@ -84,7 +84,10 @@ pub fn parity_env() -> ShadeEnv {
         ),
         light(
             "sky",
-            LightKind::Environment { samples: 3 },
+            LightKind::Environment {
+                samples: 3,
+                map: None,
+            },
             [0.2, 0.3, 0.5],
         ),
     ];

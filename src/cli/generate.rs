@@ -1,4 +1,4 @@
-//! `shadenet gen`: generated networks for the benchmarks.
+//! `shadenet gen`: generated networks for the benchmarks, and the procedural sky map.
 
 use anyhow::{Context, Result};
 use clap::{Subcommand, ValueEnum};
@@ -19,6 +19,32 @@ pub(crate) enum GenCmd {
         #[arg(long, value_enum, default_value_t = GenSpace::World)]
         space: GenSpace,
         /// The network file to write (.json).
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// A procedural lat-long sky (gradient, small bright sun disc with a glow, darker
+    /// ground) as a Radiance .hdr environment map; the defaults make
+    /// examples/scenes/pbr_sky.hdr.
+    Sky {
+        /// Width in texels.
+        #[arg(long, default_value_t = 256)]
+        width: u32,
+        /// Height in texels.
+        #[arg(long, default_value_t = 128)]
+        height: u32,
+        /// Sun elevation above the horizon, degrees (-90 to 90).
+        #[arg(long, default_value_t = 35.0, allow_negative_numbers = true)]
+        sun_elevation: f64,
+        /// Sun azimuth, degrees: 0 at the map's centre column (-z), 90 at +x.
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        sun_azimuth: f64,
+        /// Sun disc angular radius, degrees (above 0, at most 45).
+        #[arg(long, default_value_t = 2.0)]
+        sun_radius: f64,
+        /// Sun disc radiance.
+        #[arg(long, default_value_t = 1000.0)]
+        sun_radiance: f64,
+        /// The map file to write (.hdr).
         #[arg(short, long)]
         output: PathBuf,
     },
@@ -50,6 +76,32 @@ pub(crate) fn run(what: GenCmd) -> Result<()> {
             text.push('\n');
             write_atomic(&output, |tmp| {
                 std::fs::write(tmp, &text).map_err(|e| OutputError::Write {
+                    path: output.clone(),
+                    message: e.to_string(),
+                })
+            })?;
+            Ok(())
+        }
+        GenCmd::Sky {
+            width,
+            height,
+            sun_elevation,
+            sun_azimuth,
+            sun_radius,
+            sun_radiance,
+            output,
+        } => {
+            let sky = shadenet::generate::Sky {
+                width,
+                height,
+                sun_elevation,
+                sun_azimuth,
+                sun_radius,
+                sun_radiance,
+            };
+            let bytes = shadenet::generate::sky_hdr(&sky)?;
+            write_atomic(&output, |tmp| {
+                std::fs::write(tmp, &bytes).map_err(|e| OutputError::Write {
                     path: output.clone(),
                     message: e.to_string(),
                 })

@@ -2,6 +2,8 @@
 //! interpreter in f32 and f64.
 #![allow(dead_code)]
 
+pub mod stats;
+
 use shadenet_graph::ir::Program;
 use shadenet_graph::lower::{Literal, lower_single};
 use shadenet_graph::nodes::{LightDesc, NodeLibrary};

@@ -3,7 +3,8 @@
 //! It owns the scene format and its loaders ([`scene`], [`geometry`]), the camera with ray
 //! differentials ([`camera`]), the BVH and ray queries ([`accel`]), render passes and
 //! ray-match rules ([`passes`]), the integrator and the scene services shaders call back
-//! into ([`render`]), the film ([`film`]) and image output ([`output`]).
+//! into ([`render`]), the files of image environment lights ([`envmap`]), the film
+//! ([`film`]) and image output ([`output`]).
 //!
 //! It must not touch nodes or networks: it receives compiled [`shadenet_graph::ir::Program`]s
 //! (the facade links networks) and runs them through a [`shader::ShaderBackend`] (the
@@ -29,6 +30,7 @@
 
 pub mod accel;
 pub mod camera;
+pub mod envmap;
 pub mod film;
 pub mod geometry;
 pub mod output;

@@ -12,6 +12,7 @@ use crate::passes::{PassDef, PassKind, RayMatch, Rule, RuleAction};
 use glam::{DMat4, DVec3};
 use serde::Deserialize;
 use shadenet_graph::LightStrategy;
+use shadenet_graph::nodes::env_image::EnvImage;
 use shadenet_graph::nodes::{LightDesc, LightKind};
 use shadenet_runtime::input::{self, FileKind, InputError};
 use std::collections::BTreeMap;
@@ -41,6 +42,18 @@ pub enum SceneError {
         /// The key, as a dotted path (`instances[2].rotate`).
         key: String,
         /// What is wrong.
+        message: String,
+    },
+    /// An environment map could not be loaded.
+    #[error("{}: `{key}`: cannot load environment map {}: {message}", path.display(), file.display())]
+    EnvMap {
+        /// The scene file.
+        path: PathBuf,
+        /// The key naming the map (`lights[i].map`).
+        key: String,
+        /// The map file.
+        file: PathBuf,
+        /// Why.
         message: String,
     },
     /// A mesh file could not be loaded.
@@ -442,10 +455,10 @@ pub enum LightSpec {
         #[serde(default = "white")]
         color: [f64; 3],
     },
-    /// A constant environment: radiance from every direction, sampled in the light loop,
-    /// and seen by rays that escape the scene.
+    /// An environment: radiance from every direction (constant, or a lat-long image map's),
+    /// sampled in the light loop, and seen by rays that escape the scene.
     Environment {
-        /// Radiance.
+        /// Radiance (a multiplier of the map's texels with a map).
         #[serde(default = "unit")]
         intensity: f64,
         /// Color.
@@ -454,6 +467,12 @@ pub enum LightSpec {
         /// Light samples per shaded point.
         #[serde(default = "sixteen")]
         samples: u32,
+        /// A lat-long radiance map (`.hdr` or `.exr`), relative to the scene file.
+        #[serde(default)]
+        map: Option<String>,
+        /// The map's rotation about +y, degrees.
+        #[serde(default)]
+        rotation: f64,
     },
 }
 
@@ -655,8 +674,6 @@ pub struct Scene {
     pub lights: Vec<LightDesc>,
     /// Quad lights whose face rays can see.
     pub emitters: Vec<Emitter>,
-    /// Radiance of escaped rays (sum of the environment lights).
-    pub background: [f64; 3],
 }
 
 /// Loads a scene file from disk, through the bounded input gate (a regular file within the
@@ -750,11 +767,7 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
     let materials = resolve_materials(&cx, &file.materials)?;
     let (meshes, mesh_names) = resolve_meshes(&cx, &file.meshes)?;
     let instances = resolve_instances(&cx, &file.instances, &meshes, &mesh_names, &file.materials)?;
-    let Lights {
-        lights,
-        emitters,
-        background,
-    } = resolve_lights(&cx, &file.lights)?;
+    let Lights { lights, emitters } = resolve_lights(&cx, &file.lights)?;
     let settings = resolve_settings(&cx, &file.render)?;
     Ok(Scene {
         camera,
@@ -765,7 +778,6 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
         instances,
         lights,
         emitters,
-        background,
     })
 }
 
@@ -970,12 +982,10 @@ fn resolve_instances(
     Ok(instances)
 }
 
-/// The scene's lights in runtime form, the faces of visible quad lights and the
-/// environment's radiance.
+/// The scene's lights in runtime form and the faces of visible quad lights.
 struct Lights {
     lights: Vec<LightDesc>,
     emitters: Vec<Emitter>,
-    background: [f64; 3],
 }
 
 /// `[[lights]]`.
@@ -983,7 +993,6 @@ fn resolve_lights(cx: &Ctx, specs: &[LightSpec]) -> Result<Lights, SceneError> {
     let mut lights = Vec::new();
     let mut emitters = Vec::new();
     let mut quads = Vec::new();
-    let mut background = [0.0; 3];
     for (i, l) in specs.iter().enumerate() {
         let key = format!("lights[{i}]");
         let power = |intensity: f64, color: [f64; 3]| -> Result<[f64; 3], SceneError> {
@@ -1085,12 +1094,17 @@ fn resolve_lights(cx: &Ctx, specs: &[LightSpec]) -> Result<Lights, SceneError> {
                 intensity,
                 color,
                 samples,
+                map,
+                rotation,
             } => {
-                let p = power(*intensity, *color)?;
-                for (b, x) in background.iter_mut().zip(p) {
-                    *b += x;
-                }
-                (LightKind::Environment { samples: *samples }, p)
+                let map = environment_map(cx, &key, map.as_deref(), *rotation)?;
+                (
+                    LightKind::Environment {
+                        samples: *samples,
+                        map,
+                    },
+                    power(*intensity, *color)?,
+                )
             }
         };
         let light = LightDesc::new(name, kind, power).map_err(|e| {
@@ -1122,11 +1136,42 @@ fn resolve_lights(cx: &Ctx, specs: &[LightSpec]) -> Result<Lights, SceneError> {
             });
         }
     }
-    Ok(Lights {
-        lights,
-        emitters,
-        background,
-    })
+    Ok(Lights { lights, emitters })
+}
+
+/// An environment light's `map` (read and size-checked; its texels are checked by
+/// `LightDesc::new`) and `rotation`, which needs a map.
+fn environment_map(
+    cx: &Ctx,
+    key: &str,
+    map: Option<&str>,
+    rotation: f64,
+) -> Result<Option<std::sync::Arc<EnvImage>>, SceneError> {
+    cx.finite(&format!("{key}.rotation"), &[rotation])?;
+    let Some(name) = map else {
+        if rotation != 0.0 {
+            return Err(cx.invalid(
+                format!("{key}.rotation"),
+                "turns an image map: give `map` as well",
+            ));
+        }
+        return Ok(None);
+    };
+    let file = cx.file(name);
+    let (width, height, texels) =
+        crate::envmap::load(&file).map_err(|message| SceneError::EnvMap {
+            path: cx.path.to_path_buf(),
+            key: format!("{key}.map"),
+            file: file.clone(),
+            message,
+        })?;
+    Ok(Some(std::sync::Arc::new(EnvImage {
+        source: file.display().to_string(),
+        width,
+        height,
+        texels,
+        rotation: rotation.to_radians(),
+    })))
 }
 
 fn list<'a>(names: impl Iterator<Item = &'a String>) -> String {

@@ -19,6 +19,7 @@
 //! upstream of that input with the overridden values (bump mapping samples its input at an
 //! offset `uv` this way). The lowering driver provides it through [`Upstream`].
 
+pub mod env_image;
 pub mod geometry;
 pub mod math;
 pub mod pattern;
@@ -322,11 +323,16 @@ pub enum LightKind {
         /// Samples per shaded point (at least 1).
         samples: u32,
     },
-    /// A constant environment: radiance `power` arriving from every direction, sampled with
-    /// `samples` uniformly distributed directions per shaded point.
+    /// An environment: radiance `power` arriving from every direction (times the map's
+    /// texel in that direction when there is a `map`), sampled with `samples` directions per
+    /// shaded point: uniformly on the sphere without a map, importance-sampled by the map's
+    /// luminance with one.
     Environment {
         /// Samples per shaded point (at least 1).
         samples: u32,
+        /// The lat-long radiance map (shared, never copied), or none for a constant
+        /// environment.
+        map: Option<std::sync::Arc<env_image::EnvImage>>,
     },
 }
 
@@ -351,7 +357,9 @@ impl LightDesc {
     /// nodes, the scene file, `shadenet shade --light`): every number finite; directions
     /// nonzero (normalized here); a spot's cone in [0, π] and its dropoff ≥ 0; a quad's
     /// edges spanning an area; area and environment lights 1 to [`MAX_LIGHT_SAMPLES`]
-    /// samples. Negative power is allowed (a light that removes light, as Maya allows).
+    /// samples; an environment's map within its size limits with every texel finite and ≥ 0
+    /// ([`env_image::EnvImage::check`]). Negative power is allowed (a light that removes
+    /// light, as Maya allows).
     pub fn new(
         name: impl Into<String>,
         kind: LightKind,
@@ -453,9 +461,15 @@ impl LightDesc {
                     samples: samples(n)?,
                 }
             }
-            LightKind::Environment { samples: n } => LightKind::Environment {
-                samples: samples(n)?,
-            },
+            LightKind::Environment { samples: n, map } => {
+                if let Some(m) = &map {
+                    m.check().map_err(|reason| err("map", reason))?;
+                }
+                LightKind::Environment {
+                    samples: samples(n)?,
+                    map,
+                }
+            }
         };
         Ok(LightDesc {
             name: name.into(),

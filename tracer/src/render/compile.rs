@@ -307,7 +307,7 @@ pub(super) fn compile_overrides(
 }
 
 /// Per instance, the shading environment: the lights, the camera and the object transform.
-pub(super) fn shade_envs(scene: &Scene) -> Vec<ShadeEnv> {
+pub(super) fn shade_envs(scene: &Scene, lights: &[shadenet_runtime::Light]) -> Vec<ShadeEnv> {
     let cam_t = Transform::look_at(
         scene.camera.position.to_array(),
         scene.camera.look_at.to_array(),
@@ -316,7 +316,8 @@ pub(super) fn shade_envs(scene: &Scene) -> Vec<ShadeEnv> {
     .unwrap_or(Transform::IDENTITY);
     let base = ShadeEnv {
         camera: cam_t,
-        ..ShadeEnv::with_lights(&scene.lights)
+        lights: lights.to_vec(),
+        ..ShadeEnv::default()
     };
     scene
         .instances

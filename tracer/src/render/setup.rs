@@ -17,7 +17,7 @@ use crate::passes::{Components, OverrideKind};
 use crate::scene::Scene;
 use crate::shader::ShaderBackend;
 use shadenet_graph::ir::Program;
-use shadenet_runtime::ShadeEnv;
+use shadenet_runtime::{Light, ShadeEnv};
 use std::time::Instant;
 
 /// How camera hits are shaded (see the module documentation).
@@ -79,9 +79,9 @@ pub struct Renderer {
     pub(super) warnings: Vec<String>,
     pub(super) stats: RenderStats,
     pub(super) mode: ShadingMode,
-    /// The light loop's density of any direction towards the environment (its lights'
-    /// `lights::light_pdf`, uniform over the sphere): the MIS weight of BSDF rays that miss.
-    pub(super) environment_pdf: f32,
+    /// The scene's lights, prepared once (environment maps' distributions built): what
+    /// escaped rays see and the densities that weight BSDF rays reaching a light.
+    pub(super) lights: Vec<Light>,
 }
 
 impl std::fmt::Debug for Renderer {
@@ -148,22 +148,10 @@ impl Renderer {
 
         let camera = Camera::new(&scene.camera);
         let sampler = PixelSampler::new(scene.settings.filter);
-        let envs = shade_envs(&scene);
-        let environment_pdf = scene
-            .lights
-            .iter()
-            .map(|l| {
-                let l = shadenet_runtime::lights::Light::from_desc(l);
-                match l.desc.kind {
-                    shadenet_graph::nodes::LightKind::Environment { .. } => {
-                        shadenet_runtime::lights::light_pdf(&l, [0.0; 3], [0.0, 0.0, 1.0], [0.0; 3])
-                    }
-                    _ => 0.0,
-                }
-            })
-            .sum::<f64>() as f32;
+        let lights: Vec<Light> = scene.lights.iter().map(Light::from_desc).collect();
+        let envs = shade_envs(&scene, &lights);
         Ok(Renderer {
-            environment_pdf,
+            lights,
             scene,
             camera,
             sampler,

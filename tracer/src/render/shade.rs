@@ -115,7 +115,7 @@ impl Renderer {
     /// The weight of what a BSDF-sampled ray of density `bsdf_pdf` finds on a light source
     /// the light loop samples with density `light_pdf`: the scene's light strategy's
     /// ([`shadenet_graph::LightStrategy::bsdf_ray_weight`]; the power heuristic with `mis`).
-    fn bsdf_ray_weight(&self, bsdf_pdf: f32, light_pdf: f32) -> f32 {
+    pub(super) fn bsdf_ray_weight(&self, bsdf_pdf: f32, light_pdf: f32) -> f32 {
         self.scene
             .settings
             .light_strategy
@@ -127,10 +127,7 @@ impl Renderer {
     /// surface is in the way.
     pub(super) fn lights_only(&self, o: glam::Vec3, d: glam::Vec3, bsdf_pdf: f32) -> [f32; 3] {
         match self.intersect(o, d) {
-            Found::Miss => {
-                let w = self.bsdf_ray_weight(bsdf_pdf, self.environment_pdf);
-                self.scene.background.map(|x| x as f32 * w)
-            }
+            Found::Miss => self.escaped(d, bsdf_pdf),
             Found::Emitter(r, pdf) => r.map(|x| x * self.bsdf_ray_weight(bsdf_pdf, pdf)),
             Found::Surface(_) => [0.0; 3],
         }
@@ -142,10 +139,7 @@ impl Renderer {
         let n = stats.secondary_rays.fetch_add(1, Ordering::Relaxed);
         let found = stats.sampled(Stage::SecondaryTrace, n, || self.intersect(ray.o, ray.d));
         let hit = match found {
-            Found::Miss => {
-                let w = self.bsdf_ray_weight(ray.bsdf_pdf, self.environment_pdf);
-                return self.scene.background.map(|x| x as f32 * w);
-            }
+            Found::Miss => return self.escaped(ray.d, ray.bsdf_pdf),
             Found::Emitter(r, pdf) => {
                 let w = self.bsdf_ray_weight(ray.bsdf_pdf, pdf);
                 return r.map(|x| x * w);

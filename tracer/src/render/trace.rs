@@ -11,6 +11,7 @@ use crate::camera::RayDiffs;
 use crate::passes::RayMatch;
 use crate::scene::Emitter;
 use glam::Vec3;
+use shadenet_runtime::lights;
 use std::sync::atomic::Ordering;
 
 pub(super) enum Found {
@@ -91,9 +92,9 @@ impl Renderer {
         let found = self.intersect(ray.o, ray.d);
         let hit = match found {
             Found::Miss => {
-                let bg = self.scene.background;
+                let bg = self.escaped(ray.d, 0.0);
                 for c in 0..3 {
-                    sample[em + c] += bg[c] as f32;
+                    sample[em + c] += bg[c];
                 }
                 return None;
             }
@@ -129,7 +130,7 @@ impl Renderer {
             (Some((t, e)), _) => {
                 let q = o + d * t;
                 let pdf = shadenet_runtime::lights::light_pdf(
-                    &shadenet_runtime::lights::Light::from_desc(&self.scene.lights[e.light]),
+                    &self.lights[e.light],
                     o.as_dvec3().to_array(),
                     d.as_dvec3().to_array(),
                     q.as_dvec3().to_array(),
@@ -139,6 +140,30 @@ impl Renderer {
             (None, Some(h)) => Found::Surface(h),
             (None, None) => Found::Miss,
         }
+    }
+
+    /// What a ray leaving the scene along `d` sees: every environment light's radiance in
+    /// that direction, each weighted by the scene's light strategy for `bsdf_pdf` against the
+    /// light loop's density of the direction for that light (the power heuristic with `mis`;
+    /// in full for `bsdf_pdf = 0`).
+    pub(super) fn escaped(&self, d: Vec3, bsdf_pdf: f32) -> [f32; 3] {
+        let dir = d.as_dvec3().to_array();
+        let mut sum = [0.0f32; 3];
+        for l in &self.lights {
+            let Some(rad) = lights::environment_radiance(l, dir) else {
+                continue;
+            };
+            let w = if bsdf_pdf > 0.0 {
+                let pdf = lights::light_pdf(l, [0.0; 3], dir, [0.0; 3]) as f32;
+                self.bsdf_ray_weight(bsdf_pdf, pdf)
+            } else {
+                1.0
+            };
+            for (s, r) in sum.iter_mut().zip(rad) {
+                *s += r as f32 * w;
+            }
+        }
+        sum
     }
 
     pub(super) fn material_of(&self, hit: &Hit) -> usize {
