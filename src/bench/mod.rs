@@ -938,9 +938,9 @@ pub fn write(
     );
     for r in results {
         let stem = r.name.to_lowercase();
-        std::fs::write(dir.join(format!("{stem}.csv")), report::csv(&r.rows))?;
-        std::fs::write(
-            dir.join(format!("{stem}.svg")),
+        write_file(&dir.join(format!("{stem}.csv")), report::csv(&r.rows))?;
+        write_file(
+            &dir.join(format!("{stem}.svg")),
             if r.name == "B6" {
                 transport::svg(&format!("{} — {}", r.name, r.title), &r.rows)
             } else {
@@ -955,6 +955,20 @@ pub fn write(
             r.extra
         ));
     }
-    std::fs::write(dir.join("summary.md"), &md)?;
+    write_file(&dir.join("summary.md"), &md)?;
     Ok(md)
+}
+
+/// Writes `contents` to a temporary file beside `path` and renames it over `path`, so an
+/// interrupted or failed run never leaves a half-written result where an old one was.
+fn write_file(path: &Path, contents: impl AsRef<[u8]>) -> std::io::Result<()> {
+    let name = path
+        .file_name()
+        .map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
+    let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
+    let result = std::fs::write(&tmp, contents).and_then(|()| std::fs::rename(&tmp, path));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
 }
