@@ -1773,12 +1773,13 @@ fn gpu_pass_plans_agree() {
 #[path = "backends/mtlx.rs"]
 mod mtlx;
 
-/// The GGX lobes (DESIGN §12, issue 15) as whole programs on every back end against the
+/// The specular lobes (DESIGN §12, issue 15) as whole programs on every back end against the
 /// interpreter: `eval`, `sample` and `albedo` of a rough `RT` dielectric (viewer inside and
 /// outside), a gold conductor and a `T` generalized Schlick, directions and random numbers
-/// taken from the hard fragments' streams; each also under a thin film.
+/// taken from the hard fragments' streams; each also under a thin film; and the Phong and
+/// Blinn lobes of the Maya surfaces.
 #[test]
-fn ggx_lobes_on_every_backend() {
+fn specular_lobes_on_every_backend() {
     use shadenet_graph::closure::{LobeKind, ScatterMode, ThinFilm};
     use shadenet_graph::ir::{Builder, Stream};
     let frags = hard_fragments();
@@ -1790,6 +1791,8 @@ fn ggx_lobes_on_every_backend() {
         ("filmed dielectric RT", 0, Some([380.0, 1.33])),
         ("filmed conductor", 1, Some([450.0, 1.8])),
         ("filmed schlick T", 2, Some([520.0, 1.6])),
+        ("phong", 3, None),
+        ("blinn", 4, None),
     ];
     for (name, which, film) in cases {
         let mut b = Builder::new(name);
@@ -1812,7 +1815,7 @@ fn ggx_lobes_on_every_backend() {
                 roughness: rough,
                 thin_film,
             },
-            _ => LobeKind::GeneralizedSchlick {
+            2 => LobeKind::GeneralizedSchlick {
                 color0: b.color([0.04, 0.05, 0.06]),
                 color82: b.color([1.0, 1.0, 1.0]),
                 color90: b.color([1.0, 1.0, 1.0]),
@@ -1820,6 +1823,15 @@ fn ggx_lobes_on_every_backend() {
                 roughness: rough,
                 scatter_mode: ScatterMode::T,
                 thin_film,
+            },
+            3 => LobeKind::Phong {
+                color: b.color([0.9, 0.7, 0.5]),
+                exponent: b.float(30.0),
+            },
+            _ => LobeKind::Blinn {
+                color: b.color([0.9, 0.7, 0.5]),
+                exponent: b.float(30.0),
+                rolloff: b.float(0.4),
             },
         };
         let n = b.stream(Stream::N);
