@@ -422,3 +422,33 @@ fn thin_film_through_materialx() {
     let conn = shade(&filmed_conductor(Some((Err("thick"), 1.5))), &lights).unwrap();
     assert_eq!(part(&conn, "specular"), a);
 }
+
+/// Choosing a material translates only what it reaches: a second material built on a node
+/// no library defines does not stop the first from compiling, and choosing that second one
+/// reports the node.
+#[test]
+fn a_chosen_material_is_not_stopped_by_another_materials_nodes() {
+    let good = material(&diffuse("d", [0.8, 0.8, 0.8], 0.0), Some("d"), None, None);
+    let bad = r#"<no_such_bsdf name="x" type="BSDF"/>
+        <surface name="surf2" type="surfaceshader"><input name="bsdf" type="BSDF" nodename="x"/></surface>
+        <surfacematerial name="M2" type="material">
+        <input name="surfaceshader" type="surfaceshader" nodename="surf2"/></surfacematerial>"#;
+    let body = format!("{good}{bad}");
+    let pick = |m: &str| Selection {
+        material: Some(m.to_string()),
+        output: None,
+    };
+    let Some(ok) = compile_sel(&body, &pick("M")) else {
+        return;
+    };
+    let c = ok.unwrap_or_else(|e| panic!("{e}"));
+    let o = run_program(
+        &c.program,
+        &plane_fragment(),
+        &[point([0.0, 0.0, 2.0], 8.0)],
+        u32::MAX,
+    );
+    assert!(part(&o, "diffuse")[0] > 0.0);
+    let e = compile_sel(&body, &pick("M2")).unwrap().unwrap_err();
+    assert!(e.contains("no_such_bsdf"), "{e}");
+}

@@ -21,7 +21,7 @@ use std::collections::{HashMap, HashSet};
 /// Which part of a document to shade.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Selection {
-    /// A material by name (closures: an error until issue 15).
+    /// A material by name; only the nodes and nodegraphs it reaches are translated.
     pub material: Option<String>,
     /// An output: a top-level `<output>`, a nodegraph (all its outputs) or `graph/output`.
     pub output: Option<String>,
@@ -484,6 +484,24 @@ fn material_output(doc: &Document, name: &str) -> Result<Map<String, Json>, Mtlx
 /// Translates a document into a network for the selection; the compounds it needs are
 /// included, the atoms are [`Library::atoms`].
 pub fn to_network(doc: &Document, lib: &Library, sel: &Selection) -> Result<Network, MtlxError> {
+    // With a material chosen, only what it reaches is translated: another material's
+    // unsupported node must not fail this one.
+    let keep = chosen_material(doc, sel).map(|m| reachable(doc, m));
+    let top: Vec<NodeElem> = match &keep {
+        Some((names, _)) => doc
+            .nodes
+            .iter()
+            .filter(|n| names.contains(n.name.as_str()))
+            .cloned()
+            .collect(),
+        None => doc.nodes.clone(),
+    };
+    let wanted = |g: &&Graph| {
+        g.nodedef.is_none()
+            && keep
+                .as_ref()
+                .is_none_or(|(_, graphs)| graphs.contains(g.name.as_str()))
+    };
     let mut tr = Tr {
         defs: Defs { lib, doc },
         compounds: Vec::new(),
@@ -491,7 +509,7 @@ pub fn to_network(doc: &Document, lib: &Library, sel: &Selection) -> Result<Netw
         stack: Vec::new(),
     };
     let mut nodes = Vec::new();
-    for g in doc.graphs.iter().filter(|g| g.nodedef.is_none()) {
+    for g in doc.graphs.iter().filter(wanted) {
         let iface = Iface {
             graph: &g.name,
             inputs: &g.inputs,
@@ -516,7 +534,7 @@ pub fn to_network(doc: &Document, lib: &Library, sel: &Selection) -> Result<Netw
             inputs: Map::new(),
         });
     }
-    let (top_nodes, types) = tr.scope(&doc.nodes, None)?;
+    let (top_nodes, types) = tr.scope(&top, None)?;
     let outputs = match &sel.material {
         Some(m) => material_output(doc, m)?,
         None => select_outputs(&tr, doc, sel, &types, &mut nodes)?,
@@ -530,6 +548,39 @@ pub fn to_network(doc: &Document, lib: &Library, sel: &Selection) -> Result<Netw
         outputs,
         compounds: tr.compounds,
     })
+}
+
+/// The material a selection names, if the document has it (a missing one is reported by
+/// [`material_output`]).
+fn chosen_material<'d>(doc: &'d Document, sel: &Selection) -> Option<&'d NodeElem> {
+    let name = sel.material.as_ref()?;
+    doc.materials().find(|m| &m.name == name)
+}
+
+/// The names of the top-level nodes and of the nodegraphs (without nodedef) that `root`
+/// reaches through `nodename` and `nodegraph` connections (a nodegraph's interface inputs
+/// included), `root` itself among the nodes.
+fn reachable<'d>(doc: &'d Document, root: &'d NodeElem) -> (HashSet<&'d str>, HashSet<&'d str>) {
+    let mut nodes: HashSet<&str> = HashSet::from([root.name.as_str()]);
+    let mut graphs: HashSet<&str> = HashSet::new();
+    let mut todo: Vec<&[Input]> = vec![&root.inputs];
+    while let Some(inputs) = todo.pop() {
+        for i in inputs {
+            if let Some(n) = &i.nodename
+                && let Some(node) = doc.nodes.iter().find(|x| &x.name == n)
+                && nodes.insert(node.name.as_str())
+            {
+                todo.push(&node.inputs);
+            }
+            if let Some(g) = &i.nodegraph
+                && let Some(graph) = doc.graphs.iter().find(|x| &x.name == g)
+                && graphs.insert(graph.name.as_str())
+            {
+                todo.push(&graph.inputs);
+            }
+        }
+    }
+    (nodes, graphs)
 }
 
 /// The material outputs the selection asks for: by default every top-level `<output>` and
