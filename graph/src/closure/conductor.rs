@@ -84,22 +84,17 @@ impl Conductor {
         let f0 = fresnel(b, one, self.ior, self.extinction);
         let w = ggx::white(b);
         let plain = ggx::albedo_f0_f90(b, alpha, wo, f0, w);
-        let Some(film) = self.thin_film else {
-            return plain;
-        };
         let (n, k) = (self.ior, self.extinction);
         let base = thin_film::Base::Exact { eta: n, kappa: k };
-        let fr = |b: &mut Builder, c: Value| {
-            let film = thin_film::Film {
-                thickness: film.thickness,
-                ior: film.ior,
-                outside: one,
-            };
-            thin_film::fresnel(b, c, &film, &base, &|b, c| fresnel(b, c, n, k))
-        };
-        let filmed = thin_film::albedo(b, alpha, wo, &fr);
-        let zero = f(b, 0.0);
-        let on = b.binary(crate::ir::BinOp::Gt, film.thickness, zero);
-        b.select(on, filmed, plain)
+        let film = self.thin_film.as_ref().map(|t| (t, one));
+        thin_film::albedo_or_plain(
+            b,
+            alpha,
+            wo,
+            film,
+            &base,
+            &|b, c| fresnel(b, c, n, k),
+            plain,
+        )
     }
 }

@@ -30,7 +30,7 @@
 use super::ggx::{self, Alpha, Microfacet};
 use super::math::{f, gray, lt, safe_sqrt, sq};
 use super::{Eval, Sample, ScatterMode, ThinFilm, thin_film};
-use crate::ir::{BinOp, Builder, Value};
+use crate::ir::{Builder, Value};
 use crate::types::Type;
 
 /// The exact unpolarized Fresnel reflectance of a dielectric (float) at `c = cos` (≥ 0)
@@ -167,25 +167,21 @@ impl Dielectric {
         let fr = b.mul(fr, fade);
         let exact = super::math::scale(b, white, fr);
         let e = b.max(e, exact);
-        let e = match self.film(b) {
+        let film = self.film(b);
+        let e = match &film {
             None => e,
-            Some((tf, outside, base)) => {
-                let fr = |b: &mut Builder, c: Value| {
-                    let film = thin_film::Film {
-                        thickness: tf.thickness,
-                        ior: tf.ior,
-                        outside,
-                    };
-                    thin_film::fresnel(b, c, &film, &base, &|b, c| {
-                        let x = fresnel(b, c, etap);
-                        gray(b, x)
-                    })
-                };
-                let filmed = thin_film::albedo(b, alpha, wo, &fr);
-                let zero = f(b, 0.0);
-                let on = b.binary(BinOp::Gt, tf.thickness, zero);
-                b.select(on, filmed, e)
-            }
+            Some((tf, outside, base)) => thin_film::albedo_or_plain(
+                b,
+                alpha,
+                wo,
+                Some((tf, *outside)),
+                base,
+                &|b, c| {
+                    let x = fresnel(b, c, etap);
+                    gray(b, x)
+                },
+                e,
+            ),
         };
         b.mul(self.tint, e)
     }

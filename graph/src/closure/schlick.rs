@@ -141,22 +141,18 @@ impl Schlick {
         let alpha = Alpha::new(b, self.roughness);
         let [f0, f82, f90] = self.colors(b);
         let plain = ggx::albedo_f0_f90(b, alpha, wo, f0, f90);
-        let Some(tf) = self.thin_film else {
-            return plain;
-        };
         let p = self.exponent;
         let base = thin_film::Base::Schlick { f0 };
-        let fr = |b: &mut Builder, c: Value| {
-            let film = thin_film::Film {
-                thickness: tf.thickness,
-                ior: tf.ior,
-                outside: f(b, 1.0),
-            };
-            thin_film::fresnel(b, c, &film, &base, &|b, c| fresnel(b, c, f0, f82, f90, p))
-        };
-        let filmed = thin_film::albedo(b, alpha, wo, &fr);
-        let zero = f(b, 0.0);
-        let on = b.binary(BinOp::Gt, tf.thickness, zero);
-        b.select(on, filmed, plain)
+        let one = f(b, 1.0);
+        let film = self.thin_film.as_ref().map(|t| (t, one));
+        thin_film::albedo_or_plain(
+            b,
+            alpha,
+            wo,
+            film,
+            &base,
+            &|b, c| fresnel(b, c, f0, f82, f90, p),
+            plain,
+        )
     }
 }

@@ -401,7 +401,7 @@ fn safe_sqrt_color(b: &mut Builder, x: Value) -> Value {
 /// Directional albedo of a filmed GGX reflector (MaterialX's approximation): a blend, by
 /// `√ᾱ`, of the film's reflectance at `wo` (the mirror limit) and the fit with `F0` the
 /// film's reflectance at normal incidence and `F90 = 1`.
-pub fn albedo(
+fn albedo(
     b: &mut Builder,
     alpha: super::ggx::Alpha,
     wo: Value,
@@ -422,9 +422,22 @@ pub fn albedo(
     b.mix(mirror, rough, t)
 }
 
-/// A lobe's Fresnel with an optional film: `plain(c)` without one; with one, the film's
-/// reflectance where its thickness is > 0 and `plain(c)` elsewhere (a constant thickness
-/// folds the choice away).
+/// The film of `tf` seen from a medium of index `outside`, and whether it is on (its
+/// thickness > 0; bool).
+fn film_on(b: &mut Builder, tf: &super::ThinFilm, outside: Value) -> (Film, Value) {
+    let film = Film {
+        thickness: tf.thickness,
+        ior: tf.ior,
+        outside,
+    };
+    let zero = f(b, 0.0);
+    let on = b.binary(BinOp::Gt, tf.thickness, zero);
+    (film, on)
+}
+
+/// A lobe's Fresnel with an optional film (`(film, outside index)`): `plain(c)` without one;
+/// with one, the film's reflectance where its thickness is > 0 and `plain(c)` elsewhere (a
+/// constant thickness folds the choice away).
 pub fn or_plain(
     b: &mut Builder,
     c: Value,
@@ -436,13 +449,29 @@ pub fn or_plain(
     let Some((tf, outside)) = film else {
         return p;
     };
-    let film = Film {
-        thickness: tf.thickness,
-        ior: tf.ior,
-        outside,
-    };
+    let (film, on) = film_on(b, tf, outside);
     let filmed = fresnel(b, c, &film, base, plain);
-    let zero = f(b, 0.0);
-    let on = b.binary(BinOp::Gt, tf.thickness, zero);
     b.select(on, filmed, p)
+}
+
+/// A GGX reflector's directional albedo with an optional film, as [`or_plain`] chooses its
+/// Fresnel: `plain` without one; with one, [`albedo`] of the filmed Fresnel where the
+/// thickness is > 0. `plain_fresnel` is the base's own reflectance (a Schlick base's).
+pub fn albedo_or_plain(
+    b: &mut Builder,
+    alpha: super::ggx::Alpha,
+    wo: Value,
+    film: Option<(&super::ThinFilm, Value)>,
+    base: &Base,
+    plain_fresnel: &dyn Fn(&mut Builder, Value) -> Value,
+    plain: Value,
+) -> Value {
+    let Some((tf, outside)) = film else {
+        return plain;
+    };
+    let (film, on) = film_on(b, tf, outside);
+    let filmed = albedo(b, alpha, wo, &|b, c| {
+        fresnel(b, c, &film, base, plain_fresnel)
+    });
+    b.select(on, filmed, plain)
 }
