@@ -296,20 +296,7 @@ pub fn lower_with(
     lib: &NodeLibrary,
     opts: LowerOptions,
 ) -> Result<Program, LinkErrors> {
-    // Which nodes reach an output.
-    let mut live = vec![false; linked.nodes.len()];
-    for (_, s) in &linked.outputs {
-        live[s.node] = true;
-    }
-    for i in (0..linked.nodes.len()).rev() {
-        if !live[i] {
-            continue;
-        }
-        for input in &linked.nodes[i].inputs {
-            mark_sources(input, &mut live);
-        }
-    }
-
+    let live = live_nodes(linked);
     let mut b = Builder::new(&linked.name);
     b.set_light_strategy(opts.strategy);
     let mut defs: Vec<Option<&NodeDef>> = Vec::with_capacity(linked.nodes.len());
@@ -416,26 +403,7 @@ pub fn lower_with(
             streams,
         };
     }
-    for (name, s) in &linked.outputs {
-        let mut v = driver.source(&mut b, s);
-        if let Some(c) = &v.closure {
-            match c.without_unbuilt(b.program()) {
-                Ok(c) => v.closure = Some(std::sync::Arc::new(c)),
-                Err(msg) => {
-                    errors.push(LinkError::Lowering {
-                        node: name.clone(),
-                        ty: "material output".into(),
-                        msg,
-                    });
-                    continue;
-                }
-            }
-        }
-        match (opts.closure_output, &v.closure) {
-            (Some(hook), Some(c)) => hook(&mut b, name, c),
-            _ => declare_output(&mut b, name, &v),
-        }
-    }
+    declare_outputs(&mut b, &driver, &opts, &mut errors);
     if !errors.is_empty() {
         return Err(LinkErrors(errors));
     }
@@ -450,6 +418,54 @@ pub fn lower_with(
     // Validate once: after this, nothing downstream may panic on the program.
     crate::ir::validate(&program).map_err(|e| internal(e.to_string()))?;
     Ok(program)
+}
+
+/// Which nodes reach a material output (indices into `linked.nodes`).
+fn live_nodes(linked: &Linked) -> Vec<bool> {
+    let mut live = vec![false; linked.nodes.len()];
+    for (_, s) in &linked.outputs {
+        live[s.node] = true;
+    }
+    for i in (0..linked.nodes.len()).rev() {
+        if !live[i] {
+            continue;
+        }
+        for input in &linked.nodes[i].inputs {
+            mark_sources(input, &mut live);
+        }
+    }
+    live
+}
+
+/// Declares the material outputs: plain values as outputs, closures lit by the surface
+/// lowering (or handed to `opts.closure_output`) once their unbuilt lobes are dropped; a
+/// closure that keeps an unbuilt lobe is an error in `errors`.
+fn declare_outputs(
+    b: &mut Builder,
+    driver: &Driver,
+    opts: &LowerOptions,
+    errors: &mut Vec<LinkError>,
+) {
+    for (name, s) in &driver.linked.outputs {
+        let mut v = driver.source(b, s);
+        if let Some(c) = &v.closure {
+            match c.without_unbuilt(b.program()) {
+                Ok(c) => v.closure = Some(std::sync::Arc::new(c)),
+                Err(msg) => {
+                    errors.push(LinkError::Lowering {
+                        node: name.clone(),
+                        ty: "material output".into(),
+                        msg,
+                    });
+                    continue;
+                }
+            }
+        }
+        match (opts.closure_output, &v.closure) {
+            (Some(hook), Some(c)) => hook(b, name, c),
+            _ => declare_output(b, name, &v),
+        }
+    }
 }
 
 /// What the first lowering of a node left behind.
