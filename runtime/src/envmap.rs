@@ -147,6 +147,18 @@ impl EnvMap {
     /// `d`: `f(texel) / total / (2π² sin θ)`; 0 for a black map and at the poles.
     pub fn pdf(&self, d: [f64; 3]) -> f64 {
         let (uv, sin_t) = direction_to_uv(d, self.rot);
+        self.pdf_at(uv, sin_t)
+    }
+
+    /// [`EnvMap::pdf`] and [`EnvMap::radiance`] of one direction, which it maps to the
+    /// image once (what a light sample needs).
+    pub fn pdf_and_radiance(&self, d: [f64; 3]) -> (f64, [f64; 3]) {
+        let (uv, sin_t) = direction_to_uv(d, self.rot);
+        (self.pdf_at(uv, sin_t), self.radiance_at(uv))
+    }
+
+    /// [`EnvMap::pdf`] at image coordinates `uv` whose row is at `sin θ = sin_t`.
+    fn pdf_at(&self, uv: [f64; 2], sin_t: f64) -> f64 {
         if self.is_black() || sin_t <= 0.0 {
             return 0.0;
         }
@@ -160,6 +172,22 @@ impl EnvMap {
     /// density per solid angle ([`EnvMap::pdf`] of that direction, so the light loop's
     /// density and the renderer's agree to the bit); `None` for a black map.
     pub fn sample(&self, u: [f64; 2]) -> Option<([f64; 3], f64)> {
+        let d = self.draw(u)?;
+        Some((d, self.pdf(d)))
+    }
+
+    /// The direction [`EnvMap::sample`] draws for `u`, with its density and the map's
+    /// radiance there, mapping it back to the image once ([`EnvMap::pdf_and_radiance`]);
+    /// `None` for a black map.
+    pub fn sample_with_radiance(&self, u: [f64; 2]) -> Option<([f64; 3], f64, [f64; 3])> {
+        let d = self.draw(u)?;
+        let (pdf, rad) = self.pdf_and_radiance(d);
+        Some((d, pdf, rad))
+    }
+
+    /// The unit direction drawn for `u` (texel by the 2D distribution, then uniformly
+    /// within it); `None` for a black map.
+    fn draw(&self, u: [f64; 2]) -> Option<[f64; 3]> {
         if self.is_black() {
             return None;
         }
@@ -167,14 +195,18 @@ impl EnvMap {
         let (j, dv) = sample_1d(&self.marginal, u[1]);
         let (i, du) = sample_1d(&self.conditional[j * (w + 1)..(j + 1) * (w + 1)], u[0]);
         let uv = [(i as f64 + du) / w as f64, (j as f64 + dv) / h as f64];
-        let (d, _) = uv_to_direction(uv, self.rot);
-        Some((d, self.pdf(d)))
+        Some(uv_to_direction(uv, self.rot).0)
     }
 
     /// The map's radiance in unit direction `d`: bilinear between texel centres, wrapping
     /// around in `u` and clamped at the poles.
     pub fn radiance(&self, d: [f64; 3]) -> [f64; 3] {
         let (uv, _) = direction_to_uv(d, self.rot);
+        self.radiance_at(uv)
+    }
+
+    /// [`EnvMap::radiance`] at image coordinates `uv`.
+    fn radiance_at(&self, uv: [f64; 2]) -> [f64; 3] {
         let (w, h) = (self.image.width as i64, self.image.height as i64);
         let x = uv[0] * w as f64 - 0.5;
         let y = uv[1] * h as f64 - 0.5;

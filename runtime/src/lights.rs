@@ -192,9 +192,8 @@ pub fn sample<F: Real>(
             // Importance-sampled by the map: radiance / (pdf · N), in f64.
             let env = light.env.as_deref()?;
             let [u, v] = random2(seed, index, k);
-            let (d, pdf) = env.sample([u, v])?;
+            let (d, pdf, rad) = env.sample_with_radiance([u, v])?;
             let n = (*samples).max(1) as f64;
-            let rad = env.radiance(d);
             let w = ops::div(1.0, pdf * n);
             let l: [F; 3] = v3(d);
             Some(Sample {

@@ -16,6 +16,7 @@ use super::resolve::Defs;
 use super::value::{MxType, classify, literal, unsupported_reason};
 use crate::network::{CompoundInput, CompoundSpec, Network, NodeSpec};
 use serde_json::{Map, Value as Json};
+use std::borrow::Cow;
 use std::collections::{HashMap, HashSet};
 
 /// Which part of a document to shade.
@@ -487,14 +488,14 @@ pub fn to_network(doc: &Document, lib: &Library, sel: &Selection) -> Result<Netw
     // With a material chosen, only what it reaches is translated: another material's
     // unsupported node must not fail this one.
     let keep = chosen_material(doc, sel).map(|m| reachable(doc, m));
-    let top: Vec<NodeElem> = match &keep {
+    let top: Cow<[NodeElem]> = match &keep {
         Some((names, _)) => doc
             .nodes
             .iter()
             .filter(|n| names.contains(n.name.as_str()))
             .cloned()
             .collect(),
-        None => doc.nodes.clone(),
+        None => Cow::Borrowed(&doc.nodes),
     };
     let wanted = |g: &&Graph| {
         g.nodedef.is_none()
