@@ -10,8 +10,8 @@ use rayon::prelude::*;
 use shadenet_graph::ir::{Program, RAY_CAMERA};
 use shadenet_graph::ops::Real;
 use shadenet_runtime::{
-    BatchResult, Fragment, FragmentX4, Interpreter, LANES, Material, ShadeCtx, ShadeEnv, ShadeOut,
-    Transform,
+    BatchResult, Fragment, Fragments, Interpreter, LANES, Material, ShadeCtx, ShadeEnv, ShadeOut,
+    Transform, packed_index, packed_len,
 };
 
 /// The eye position of the shade camera.
@@ -53,8 +53,24 @@ pub fn grid_env(lights: &[shadenet_graph::nodes::LightDesc]) -> ShadeEnv {
     env
 }
 
+/// The values of a shaded grid, in the layout the shading path produced them.
+#[derive(Clone, Debug)]
+pub enum GridValues {
+    /// f64, pixel after pixel, every output float of a pixel together (the interpreter).
+    Pixels(Vec<f64>),
+    /// f32 in the packets' layout of `Material::shade_many` (`shadenet_runtime::packets`),
+    /// segment after segment: every `segment` consecutive pixels (a row, or the whole
+    /// grid) are packed on their own, `packed_len(stride, segment)` floats each.
+    Packed {
+        /// The floats.
+        data: Vec<f32>,
+        /// Pixels per packed segment.
+        segment: usize,
+    },
+}
+
 /// The result of shading a grid: per pixel, every program output flattened (see
-/// [`shadenet_runtime::OutputSlot`]), as f64 whatever the precision used.
+/// [`shadenet_runtime::OutputSlot`]); [`Grid::get`] reads a value whatever the layout.
 #[derive(Clone, Debug)]
 pub struct Grid {
     /// Width in pixels.
@@ -63,10 +79,58 @@ pub struct Grid {
     pub height: u32,
     /// Floats per pixel.
     pub stride: usize,
-    /// `width * height * stride` values, rows top to bottom.
-    pub values: Vec<f64>,
+    /// The values, rows top to bottom.
+    pub values: GridValues,
     /// Non-finite values replaced by the output guard.
     pub nonfinite: u64,
+}
+
+impl Grid {
+    /// Float `k` of pixel `p` (pixels row after row, top first).
+    pub fn get(&self, p: usize, k: usize) -> f64 {
+        match &self.values {
+            GridValues::Pixels(v) => v[p * self.stride + k],
+            GridValues::Packed { data, segment } => {
+                let base = (p / segment) * packed_len(self.stride, *segment);
+                data[base + packed_index(self.stride, p % segment, k)] as f64
+            }
+        }
+    }
+
+    /// Float `k` of every pixel, in pixel order (a channel of an image), as f64.
+    pub fn component(&self, k: usize) -> Vec<f64> {
+        let n = (self.width * self.height) as usize;
+        match &self.values {
+            GridValues::Pixels(v) => (0..n).map(|p| v[p * self.stride + k]).collect(),
+            GridValues::Packed { data, segment } => {
+                let seg_len = packed_len(self.stride, *segment);
+                let mut out = Vec::with_capacity(n);
+                for seg in data.chunks(seg_len.max(1)) {
+                    let start = out.len();
+                    for packet in seg.chunks(self.stride * LANES) {
+                        out.extend(packet[k * LANES..(k + 1) * LANES].iter().map(|x| *x as f64));
+                    }
+                    // The last packet's padding lanes are not pixels.
+                    out.truncate(start + *segment);
+                }
+                out.truncate(n);
+                out
+            }
+        }
+    }
+
+    /// Every value, pixel after pixel (`stride` floats each), as f64.
+    pub fn pixel_values(&self) -> Vec<f64> {
+        match &self.values {
+            GridValues::Pixels(v) => v.clone(),
+            GridValues::Packed { .. } => {
+                let n = (self.width * self.height) as usize;
+                (0..n * self.stride)
+                    .map(|j| self.get(j / self.stride.max(1), j % self.stride.max(1)))
+                    .collect()
+            }
+        }
+    }
 }
 
 /// Shades every pixel of a `w × h` grid with the interpreter in precision `F`, on the rayon
@@ -81,47 +145,78 @@ pub fn shade_grid<F: Real>(
 ) -> Result<Grid, shadenet_runtime::TextureError> {
     let interp = Interpreter::<F>::new(program)?;
     let stride: usize = interp.slots().iter().map(|s| s.ty.width().max(1)).sum();
-    Ok(grid(w, h, stride, |y, row| {
-        let mut scratch = Default::default();
-        let mut out = ShadeOut {
-            values: Vec::new(),
-            nonfinite: 0,
-        };
-        let mut bad = 0u64;
-        for (x, dst) in row.chunks_mut(stride).enumerate() {
-            let mut ctx = ShadeCtx::new(grid_fragment(x as u32, y, w, h), env);
-            ctx.mask = mask;
-            interp.shade_with(&ctx, &mut scratch, &mut out);
-            bad += out.nonfinite as u64;
-            for (d, s) in dst.iter_mut().zip(&out.values) {
-                *d = s.to_f64();
-            }
-        }
-        bad
-    }))
-}
-
-/// The grid loop both shading paths share: rows in parallel on the rayon pool, `row(y,
-/// values)` fills one row (`w * stride` floats) and returns its non-finite count.
-fn grid(w: u32, h: u32, stride: usize, row: impl Fn(u32, &mut [f64]) -> u64 + Sync) -> Grid {
     let mut values = vec![0.0f64; (w * h) as usize * stride];
     let nonfinite = values
         .par_chunks_mut((w as usize * stride).max(1))
         .enumerate()
-        .map(|(y, r)| row(y as u32, r))
+        .map(|(y, row)| {
+            let mut scratch = Default::default();
+            let mut out = ShadeOut {
+                values: Vec::new(),
+                nonfinite: 0,
+            };
+            let mut bad = 0u64;
+            for (x, dst) in row.chunks_mut(stride.max(1)).enumerate() {
+                let mut ctx = ShadeCtx::new(grid_fragment(x as u32, y as u32, w, h), env);
+                ctx.mask = mask;
+                interp.shade_with(&ctx, &mut scratch, &mut out);
+                bad += out.nonfinite as u64;
+                for (d, s) in dst.iter_mut().zip(&out.values) {
+                    *d = s.to_f64();
+                }
+            }
+            bad
+        })
         .sum();
-    Grid {
+    Ok(Grid {
         width: w,
         height: h,
         stride,
-        values,
+        values: GridValues::Pixels(values),
         nonfinite,
+    })
+}
+
+/// One row of the grid as packets, built in place: the first call writes every field, the
+/// next ones only what changes from row to row (`P.y`, `I.y`, `v`, the seed), with the
+/// same arithmetic as [`grid_fragment`]. The lanes past the row's end repeat its last
+/// pixel.
+#[derive(Default)]
+struct RowPackets {
+    frags: Fragments,
+    /// The grid size the packets were fully written for.
+    ready: Option<(u32, u32)>,
+}
+
+impl RowPackets {
+    fn row(&mut self, y: u32, w: u32, h: u32) -> &Fragments {
+        let x_of = |p: usize, lane: usize| (p * LANES + lane).min(w as usize - 1) as u32;
+        if self.ready != Some((w, h)) {
+            self.frags.fill(w as usize, |p, packet| {
+                for lane in 0..LANES {
+                    packet.set_lane(lane, &grid_fragment(x_of(p, lane), y, w, h));
+                }
+            });
+            self.ready = Some((w, h));
+            return &self.frags;
+        }
+        let v = 1.0 - (y as f32 + 0.5) / h as f32;
+        let py = v - 0.5;
+        let iy = py - EYE[1] as f32;
+        for (p, packet) in self.frags.packets_mut().iter_mut().enumerate() {
+            packet.p[1] = [py; LANES];
+            packet.i[1] = [iy; LANES];
+            packet.uv[1] = [v; LANES];
+            packet.seed = std::array::from_fn(|lane| y * w + x_of(p, lane));
+        }
+        &self.frags
     }
 }
 
 /// Shades every pixel of a `w × h` grid with a compiled material on the rayon thread pool,
 /// with the components in `mask` active: one [`Material::shade`] call per fragment, or with
-/// `batch` one [`Material::shade_x4`] call per four fragments of a row.
+/// `batch` one [`Material::shade_many`] call per row (the row built straight into packets;
+/// the JIT shades it in one call of its batch entry). The result is packed row by row.
 pub fn shade_grid_with(
     material: &dyn Material,
     env: &ShadeEnv,
@@ -131,42 +226,50 @@ pub fn shade_grid_with(
     batch: bool,
 ) -> Grid {
     let stride = material.width();
-    grid(w, h, stride, |y, row| {
-        let mut bad = 0u64;
-        let frags: Vec<Fragment> = (0..w).map(|x| grid_fragment(x, y, w, h)).collect();
-        if batch {
-            let mut soa = vec![0.0f32; stride * LANES];
-            for (chunk, dst) in frags.chunks(LANES).zip(row.chunks_mut(stride * LANES)) {
-                let packet = FragmentX4::gather(chunk);
-                bad += material.shade_x4(env, mask, &packet, chunk.len(), &mut soa) as u64;
-                for (lane, px) in dst.chunks_mut(stride).enumerate() {
-                    for (k, d) in px.iter_mut().enumerate() {
-                        *d = soa[k * LANES + lane] as f64;
-                    }
-                }
+    let row_len = packed_len(stride, w as usize);
+    let mut data = vec![0.0f32; row_len * h as usize];
+    let nonfinite = data
+        .par_chunks_mut(row_len.max(1))
+        .enumerate()
+        .map_init(RowPackets::default, |rows, (y, dst)| {
+            let y = y as u32;
+            if batch {
+                let frags = rows.row(y, w, h);
+                return material.shade_many(env, mask, None, frags, dst).nonfinite;
             }
-        } else {
-            let mut out = vec![0.0f32; stride];
-            for (f, dst) in frags.iter().zip(row.chunks_mut(stride)) {
+            let mut one = vec![0.0f32; stride];
+            let mut bad = 0u64;
+            for x in 0..w {
                 let ctx = ShadeCtx {
-                    frag: *f,
+                    frag: grid_fragment(x, y, w, h),
                     env,
                     mask,
                     scene: None,
                 };
-                bad += material.shade(&ctx, &mut out) as u64;
-                for (d, s) in dst.iter_mut().zip(&out) {
-                    *d = *s as f64;
+                bad += material.shade(&ctx, &mut one) as u64;
+                for (k, v) in one.iter().enumerate() {
+                    dst[packed_index(stride, x as usize, k)] = *v;
                 }
             }
-        }
-        bad
-    })
+            bad
+        })
+        .sum();
+    Grid {
+        width: w,
+        height: h,
+        stride,
+        values: GridValues::Packed {
+            data,
+            segment: w as usize,
+        },
+        nonfinite,
+    }
 }
 
 /// Shades every pixel of a `w × h` grid with one [`Material::shade_many`] call (the batch
 /// entry the GPU implements; no scene), with the components in `mask` active. Returns the
-/// grid and the call's result (non-finite count, where the time went).
+/// grid (packed as one segment) and the call's result (non-finite count, where the time
+/// went).
 pub fn shade_grid_many(
     material: &dyn Material,
     env: &ShadeEnv,
@@ -175,17 +278,79 @@ pub fn shade_grid_many(
     mask: u32,
 ) -> (Grid, BatchResult) {
     let stride = material.width();
-    let frags: Vec<Fragment> = (0..h)
+    let frags: Fragments = (0..h)
         .flat_map(|y| (0..w).map(move |x| grid_fragment(x, y, w, h)))
         .collect();
-    let mut out = vec![0.0f32; frags.len() * stride];
-    let result = material.shade_many(env, mask, None, &frags, &mut out);
+    let mut data = vec![0.0f32; packed_len(stride, frags.len())];
+    let result = material.shade_many(env, mask, None, &frags, &mut data);
     let grid = Grid {
         width: w,
         height: h,
         stride,
-        values: out.iter().map(|v| *v as f64).collect(),
+        values: GridValues::Packed {
+            data,
+            segment: frags.len().max(1),
+        },
         nonfinite: result.nonfinite,
     };
     (grid, result)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The row packets equal the grid's fragments, lane for lane, on the first row built
+    /// and on every later row updated in place (padding lanes: the row's last pixel).
+    #[test]
+    fn row_packets_are_the_grid_fragments() {
+        let (w, h) = (7u32, 5u32);
+        let mut rows = RowPackets::default();
+        for y in [0, 3, 4, 1] {
+            let frags = rows.row(y, w, h);
+            assert_eq!(frags.len(), w as usize);
+            for (p, packet) in frags.packets().iter().enumerate() {
+                for lane in 0..LANES {
+                    let x = (p * LANES + lane).min(w as usize - 1) as u32;
+                    assert_eq!(packet.lane(lane), grid_fragment(x, y, w, h), "({x}, {y})");
+                }
+            }
+        }
+    }
+
+    /// Every layout reads back the same values: per pixel ([`Grid::get`]), per channel
+    /// ([`Grid::component`]) and all at once ([`Grid::pixel_values`]), for rows that end
+    /// inside a packet and for one segment over the whole grid.
+    #[test]
+    fn packed_grids_read_back_in_pixel_order() {
+        let (w, h, stride) = (5u32, 3u32, 2usize);
+        let value = |p: usize, k: usize| (p * 10 + k) as f64;
+        let n = (w * h) as usize;
+        for segment in [w as usize, n] {
+            let mut data = vec![f32::NAN; packed_len(stride, segment) * (n / segment)];
+            for p in 0..n {
+                for k in 0..stride {
+                    let at = (p / segment) * packed_len(stride, segment)
+                        + packed_index(stride, p % segment, k);
+                    data[at] = value(p, k) as f32;
+                }
+            }
+            let g = Grid {
+                width: w,
+                height: h,
+                stride,
+                values: GridValues::Packed { data, segment },
+                nonfinite: 0,
+            };
+            let want: Vec<f64> = (0..n * stride)
+                .map(|j| value(j / stride, j % stride))
+                .collect();
+            assert_eq!(g.pixel_values(), want, "segment {segment}");
+            for k in 0..stride {
+                let col: Vec<f64> = (0..n).map(|p| value(p, k)).collect();
+                assert_eq!(g.component(k), col, "segment {segment}, float {k}");
+                assert_eq!(g.get(7, k), value(7, k));
+            }
+        }
+    }
 }

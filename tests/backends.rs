@@ -59,7 +59,7 @@ use shadenet_jit::{JitBackend, JitOptions, OptLevel};
 use shadenet_runtime::testing::{HARD_FLOATS, HARD_INTS, HashScene};
 use shadenet_runtime::{
     Backend, Fragment, InterpBackend, Material, MaterialCache, SceneServices, ShadeCtx, ShadeEnv,
-    shade_batch,
+    shade_batch, shade_many_unpacked,
 };
 use std::sync::Arc;
 use std::time::Duration;
@@ -140,6 +140,8 @@ fn backends() -> Vec<UnderTest> {
         ut("jit-batch", jit(OptLevel::None), Drive::Batch),
         ut("jit-scalar-opt", jit(OptLevel::Speed), Drive::Scalar),
         ut("jit-batch-opt", jit(OptLevel::Speed), Drive::Batch),
+        // The batch entry walking every packet of a call (`Material::shade_many`).
+        ut("jit-many", jit(OptLevel::Speed), Drive::Many),
     ];
     if let Some(gpu) = gpu() {
         v.push(UnderTest {
@@ -212,7 +214,7 @@ fn shade_all(
             (out, bad)
         }
         Drive::Many => {
-            let r = m.shade_many(env, mask, None, frags, &mut out);
+            let r = shade_many_unpacked(m, env, mask, None, frags, &mut out);
             ran_on_the_device(m, &r);
             (out, r.nonfinite)
         }
@@ -1480,7 +1482,7 @@ fn check_scene(
             }
             Drive::Many => {
                 let mut out = vec![f32::NAN; m.width() * frags.len()];
-                let r = m.shade_many(env, u32::MAX, Some(&scene), frags, &mut out);
+                let r = shade_many_unpacked(&*m, env, u32::MAX, Some(&scene), frags, &mut out);
                 ran_on_the_device(&*m, &r);
                 ((out, r.nonfinite), &with)
             }

@@ -124,7 +124,7 @@ fn grid(p: &Program, env: &ShadeEnv) -> Grid {
 fn same_bits(a: &Grid, b: &Grid, what: &str) {
     assert_eq!(a.stride, b.stride, "{what}: output layout");
     assert_eq!(a.nonfinite, b.nonfinite, "{what}: non-finite count");
-    for (i, (x, y)) in a.values.iter().zip(&b.values).enumerate() {
+    for (i, (x, y)) in a.pixel_values().iter().zip(&b.pixel_values()).enumerate() {
         assert_eq!(
             x.to_bits(),
             y.to_bits(),

@@ -44,7 +44,11 @@ fn shade_bits(p: &Program, lights: &[LightDesc], w: u32, h: u32) -> (Vec<u32>, u
     let env = grid_env(lights);
     let g = shade_grid::<f32>(p, &env, w, h, u32::MAX).expect("no textures to load");
     // The grid widens f32 to f64 exactly: narrowing back gives the shaded bits.
-    let bits = g.values.iter().map(|x| (*x as f32).to_bits()).collect();
+    let bits = g
+        .pixel_values()
+        .iter()
+        .map(|x| (*x as f32).to_bits())
+        .collect();
     (bits, g.nonfinite)
 }
 

@@ -657,7 +657,14 @@ fn each_sample_is_tested_once_per_shading_call() {
             let m = b.compile_program(program, Duration::ZERO).unwrap();
             scene.clear();
             let mut out = vec![0.0; m.width() * 2];
-            m.shade_many(&env, u32::MAX, Some(&scene), &[frag, frag], &mut out);
+            shadenet_runtime::shade_many_unpacked(
+                &*m,
+                &env,
+                u32::MAX,
+                Some(&scene),
+                &[frag, frag],
+                &mut out,
+            );
             assert_eq!(
                 scene.shadow_rays.lock().unwrap().len(),
                 2 * 18,

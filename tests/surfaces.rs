@@ -410,7 +410,14 @@ fn furnace_with(
                 })
                 .collect();
             let mut out = vec![f32::NAN; w * frags.len()];
-            let r = m.shade_many(&ShadeEnv::default(), u32::MAX, None, &frags, &mut out);
+            let r = shadenet_runtime::shade_many_unpacked(
+                &*m,
+                &ShadeEnv::default(),
+                u32::MAX,
+                None,
+                &frags,
+                &mut out,
+            );
             assert_eq!(r.nonfinite, 0, "non-finite sample weights at {deg}°");
             let xs: Vec<f64> = out
                 .chunks(w)

@@ -159,7 +159,7 @@ fn backend(options: GpuOptions) -> GpuBackend {
         .without_fallback()
 }
 
-/// Shades every fragment with `m` through `shade_many`.
+/// Shades every fragment with `m` through `shade_many` (outputs fragment after fragment).
 fn shade(
     m: &dyn Material,
     env: &ShadeEnv,
@@ -168,7 +168,7 @@ fn shade(
     frags: &[Fragment],
 ) -> (Vec<f32>, u64, shadenet_runtime::BatchTimes) {
     let mut out = vec![f32::NAN; m.width() * frags.len()];
-    let r = m.shade_many(env, mask, scene, frags, &mut out);
+    let r = shadenet_runtime::shade_many_unpacked(m, env, mask, scene, frags, &mut out);
     (out, r.nonfinite, r.times)
 }
 

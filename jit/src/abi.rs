@@ -15,8 +15,10 @@
 //!   as their bits) in a stack slot, the results are written to another; `imm` is an
 //!   immediate (a texture or light index). Batch (`_x4`) versions take structure-of-arrays
 //!   slots, four lanes per component, and loop over the lanes in Rust — or, where a helper
-//!   has a four-lane form (`noise3`, `fbm3`: `ops::noise_x4`, SIMD with the scalar bits),
-//!   call that once per packet (`=> name` in the table below).
+//!   has a four-lane form, call that once per packet (`=> name` in the table below:
+//!   `noise3`, `fbm3`: `ops::noise_x4`, SIMD with the scalar bits; `=> ctx name` where the
+//!   form needs the context: `light` finds its light once for the four lanes, `visible`
+//!   answers four lanes at once without a scene).
 
 use shadenet_graph::ops::{self, noise, noise_x4, osl_noise};
 use shadenet_runtime::ctx::{Fragment, SceneServices, ShadeEnv};
@@ -141,9 +143,11 @@ pub mod ctx_offset {
 /// returns the non-finite floats the guard replaced.
 pub type ScalarFn = unsafe extern "C" fn(*const CallCtx, *const Fragment, *mut f32) -> u32;
 
-/// The batch entry: shades a packet of four fragments into `out` (structure of arrays:
-/// float `k` of lane `l` at `out[k * 4 + l]`); the last argument is the number of active
-/// lanes, the only ones whose non-finite floats are counted.
+/// The batch entry: shades `n` fragments (the last argument) in consecutive four-lane
+/// packets into `out` in the packets' layout (`shadenet_runtime::packets`: per packet,
+/// float `k` of lane `l` at `k * 4 + l`), walking the packets in one call; only the first
+/// `n` lanes' non-finite floats are counted. At least one packet is shaded (`n = 0` shades
+/// the first packet and counts nothing).
 pub type BatchFn = unsafe extern "C" fn(*const CallCtx, *const FragmentX4, *mut f32, u32) -> u32;
 
 /// The prelude entry: evaluates the prelude once and writes its values into the uniform
@@ -334,18 +338,46 @@ fn texture(ctx: &CallCtx, imm: u32, a: &[f32], o: &mut [f32]) {
 /// else 0.0, `out[7..10]` = the sample's `to` point (for `sn_visible`), `out[10]` = its
 /// density (`light.pdf`).
 fn light(ctx: &CallCtx, imm: u32, a: &[f32], o: &mut [f32]) {
+    let found = light_of(ctx, imm)
+        .and_then(|(li, l, k)| lights::sample(l, li, k, [a[0], a[1], a[2]], a[3].to_bits()));
+    light_out(found, o);
+}
+
+/// Which light gives sample number `imm` of the whole list: its index, the light and the
+/// sample's number among its own.
+fn light_of(ctx: &CallCtx, imm: u32) -> Option<(u32, &lights::Light, u32)> {
     // SAFETY: the caller's environment outlives the call.
     let env = unsafe { &*ctx.env };
     let mut rest = imm;
-    let mut found = None;
     for (li, l) in env.lights.iter().enumerate() {
         let n = lights::sample_count(l);
         if rest < n {
-            found = lights::sample(l, li as u32, rest, [a[0], a[1], a[2]], a[3].to_bits());
-            break;
+            return Some((li as u32, l, rest));
         }
         rest -= n;
     }
+    None
+}
+
+/// The batch form of `light`: the light is found once for the four lanes (the sample
+/// number is the same for all), then each lane samples it, as the scalar form does.
+fn light_x4(ctx: &CallCtx, imm: u32, a: &[[f32; LANES]; 4], o: &mut [[f32; LANES]; 11]) {
+    let which = light_of(ctx, imm);
+    let mut one = [0.0f32; 11];
+    for lane in 0..LANES {
+        let found = which.and_then(|(li, l, k)| {
+            let p = [a[0][lane], a[1][lane], a[2][lane]];
+            lights::sample(l, li, k, p, a[3][lane].to_bits())
+        });
+        light_out(found, &mut one);
+        for (dst, x) in o.iter_mut().zip(one) {
+            dst[lane] = x;
+        }
+    }
+}
+
+/// A light sample (or none) as `light`'s results.
+fn light_out(found: Option<lights::Sample<f32>>, o: &mut [f32]) {
     match found {
         Some(s) => {
             o[..3].copy_from_slice(&s.l);
@@ -390,6 +422,22 @@ fn visible(ctx: &CallCtx, slot: u32, a: &[f32], o: &mut [f32]) {
         _ => ask(),
     };
     o[0] = if open { 1.0 } else { 0.0 };
+}
+
+/// The batch form of `visible`: without a scene every sample is visible (as
+/// `interp::sample_visible` says), so the four lanes are answered at once; with one, each
+/// lane as the scalar form.
+fn visible_x4(ctx: &CallCtx, slot: u32, a: &[[f32; LANES]; 6], o: &mut [[f32; LANES]; 1]) {
+    if ctx.scene().is_none() {
+        o[0] = [1.0; LANES];
+        return;
+    }
+    for lane in 0..LANES {
+        let one: [f32; 6] = std::array::from_fn(|k| a[k][lane]);
+        let mut r = [0.0f32];
+        visible(ctx, slot, &one, &mut r);
+        o[0][lane] = r[0];
+    }
 }
 
 /// The illuminance loop's trip count: every light's samples.
@@ -484,6 +532,20 @@ macro_rules! batch_fn {
             unsafe { call_batch::<$args, $outs>(super::super::$name, c, i, a, o) }
         }
     };
+    ($name:ident, $args:literal, $outs:literal, ctx $batch:ident) => {
+        pub unsafe extern "C" fn batch(c: *const CallCtx, i: u32, a: *const f32, o: *mut f32) {
+            // SAFETY: compiled code passes a live context, `A * 4` readable and `O * 4`
+            // writable floats.
+            unsafe {
+                super::super::$batch(
+                    &*c,
+                    i,
+                    &*(a as *const [[f32; LANES]; $args]),
+                    &mut *(o as *mut [[f32; LANES]; $outs]),
+                )
+            }
+        }
+    };
     ($name:ident, $args:literal, $outs:literal, $batch:ident) => {
         pub unsafe extern "C" fn batch(_: *const CallCtx, _: u32, a: *const f32, o: *mut f32) {
             // SAFETY: compiled code passes `A * 4` readable and `O * 4` writable floats.
@@ -498,7 +560,7 @@ macro_rules! batch_fn {
 }
 
 macro_rules! mem_helpers {
-    ($($name:ident: $args:literal -> $outs:literal $(=> $batch:ident)?),* $(,)?) => {
+    ($($name:ident: $args:literal -> $outs:literal $(=> $($batch:ident)+)?),* $(,)?) => {
         mod mem {
             use super::*;
             $(
@@ -508,7 +570,7 @@ macro_rules! mem_helpers {
                         // SAFETY: forwarded from compiled code, see `call_scalar`.
                         unsafe { call_scalar::<$args, $outs>(super::super::$name, c, i, a, o) }
                     }
-                    batch_fn!($name, $args, $outs $(, $batch)?);
+                    batch_fn!($name, $args, $outs $(, $($batch)+)?);
                 }
             )*
         }
@@ -551,10 +613,10 @@ mem_helpers! {
     mx_worley3_v2: 6 -> 2,
     mx_worley3_v3: 6 -> 3,
     texture: 2 -> 4,
-    light: 4 -> 11,
+    light: 4 -> 11 => ctx light_x4,
     trace: 8 -> 3,
     occlusion: 9 -> 1,
-    visible: 6 -> 1,
+    visible: 6 -> 1 => ctx visible_x4,
     ambient: 0 -> 3,
     matrices: 0 -> 64,
 }

@@ -9,9 +9,11 @@
 //!   its values in the material's uniform block (after the parameter values);
 //! - **scalar** (`fn(ctx, *const Fragment, *mut f32) -> u32`): one fragment, for single hits
 //!   and recursive rays;
-//! - **batch** (`fn(ctx, *const FragmentX4, *mut f32, active) -> u32`): four fragments in
-//!   structure-of-arrays form with Cranelift's 128-bit vectors (`f32x4`), varying
-//!   conditionals as lane masks.
+//! - **batch** (`fn(ctx, *const FragmentX4, *mut f32, n) -> u32`): `n` fragments in
+//!   consecutive four-lane packets (`shadenet_runtime::packets`), one packet per turn of a
+//!   loop inside the entry, with Cranelift's 128-bit vectors (`f32x4`), varying
+//!   conditionals as lane masks; the environment helpers run once per call, not per packet.
+//!   [`Material::shade_many`] without a scene is one call of it.
 //!
 //! Both shading entries write every output in the interpreter's layout through the same
 //! guard (non-finite → 0, counted) and return the count. Intrinsics that need the scene
@@ -44,10 +46,13 @@ use lower::{Helpers, Lowerer, Mode, UniformLayout, Unsupported};
 use shadenet_graph::ir::{Program, Value};
 use shadenet_graph::opt::{self, Specialization};
 use shadenet_graph::types::ConstValue;
-use shadenet_runtime::backend::{CompileStats, FragmentX4, LANES, Material, MaterialInfo};
+use shadenet_runtime::backend::{BatchResult, BatchTimes, CompileStats, Material, MaterialInfo};
 use shadenet_runtime::interp::{OutputSlot, output_layout};
 use shadenet_runtime::texture::TextureSet;
-use shadenet_runtime::{Backend, BackendError, InterpMaterial, SceneServices, ShadeCtx, ShadeEnv};
+use shadenet_runtime::{
+    Backend, BackendError, FragmentX4, Fragments, InterpMaterial, LANES, SceneServices, ShadeCtx,
+    ShadeEnv, packed_len,
+};
 use std::fmt::Write as _;
 use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
@@ -381,6 +386,48 @@ impl Material for JitMaterial {
 
     fn info(&self) -> &MaterialInfo {
         &self.info
+    }
+
+    fn shade_many(
+        &self,
+        env: &ShadeEnv,
+        mask: u32,
+        scene: Option<&dyn SceneServices>,
+        frags: &Fragments,
+        out: &mut [f32],
+    ) -> BatchResult {
+        let t = std::time::Instant::now();
+        let nonfinite = match (scene, self.batch) {
+            (None, Some(f)) if !frags.is_empty() => {
+                assert!(
+                    out.len() >= packed_len(self.width, frags.len()),
+                    "output buffer too small"
+                );
+                let cc = self.call_ctx(env, mask, None, None);
+                // Calls of at most 2³⁰ fragments (the entry counts them in an i32).
+                const CALL: usize = 1 << 28;
+                let stride = self.width * LANES;
+                let mut bad = 0u64;
+                for (c, packets) in frags.packets().chunks(CALL).enumerate() {
+                    let n = (frags.len() - c * CALL * LANES).min(CALL * LANES);
+                    let dst = &mut out[c * CALL * stride..];
+                    // SAFETY: the function was compiled for this material's layout; `packets`
+                    // and `dst` hold the `n` fragments' whole packets (asserted above); the
+                    // context's pointers live for the call.
+                    bad += unsafe { f(&cc, packets.as_ptr(), dst.as_mut_ptr(), n as u32) } as u64;
+                }
+                bad
+            }
+            (None, _) => shadenet_runtime::shade_packets(self, env, mask, frags, out),
+            (Some(scene), _) => shadenet_runtime::shade_each(self, env, mask, scene, frags, out),
+        };
+        BatchResult {
+            nonfinite,
+            times: BatchTimes {
+                kernels: t.elapsed(),
+                ..BatchTimes::default()
+            },
+        }
     }
 }
 

@@ -221,6 +221,8 @@ pub struct Lowerer<'a, 'b> {
     funcs: HashMap<FuncId, FuncRef>,
     ctx: V,
     frag: V,
+    /// Where this fragment's (batch: this packet's) outputs go.
+    out: V,
     uniforms: V,
     scratch: Option<StackSlot>,
     mats: Option<StackSlot>,
@@ -275,6 +277,7 @@ impl<'a, 'b> Lowerer<'a, 'b> {
         let params = b.block_params(entry).to_vec();
         let ctx = params[0];
         let frag = params[1];
+        let out = params.get(2).copied().unwrap_or(frag);
         let uniforms = b.ins().load(ptr, flags(), ctx, ctx_offset::UNIFORMS);
         Lowerer {
             p,
@@ -289,6 +292,7 @@ impl<'a, 'b> Lowerer<'a, 'b> {
             funcs: HashMap::new(),
             ctx,
             frag,
+            out,
             uniforms,
             scratch: None,
             mats: None,
@@ -308,15 +312,100 @@ impl<'a, 'b> Lowerer<'a, 'b> {
             &p.body
         };
         self.prepare_env(block);
-        self.block(block)?;
         match self.mode {
-            Mode::Prelude => self.store_prelude()?,
-            Mode::Scalar | Mode::Batch => self.store_outputs()?,
+            Mode::Prelude => {
+                self.block(block)?;
+                self.store_prelude()?;
+            }
+            Mode::Scalar => {
+                self.block(block)?;
+                let bad = self.store_outputs()?;
+                self.b.ins().return_(&[bad]);
+            }
+            Mode::Batch => self.packet_loop(block)?,
         }
         self.b.seal_all_blocks();
         let cfg = self.module.target_config();
         self.b.finalize(cfg);
         Ok(())
+    }
+
+    /// The batch entry's body: the block once per packet, `frag` and `out` advancing by a
+    /// packet, the count of fragments left deciding the lanes counted by the guard and when
+    /// to stop (a do-while: at least one packet). The environment helpers ran before, once
+    /// per call.
+    fn packet_loop(&mut self, block: &Block) -> R<()> {
+        let params = self
+            .b
+            .block_params(self.b.func.layout.entry_block().expect("entry"))
+            .to_vec();
+        let (frag, out, n) = (params[1], params[2], params[3]);
+        let (vf, vo, vn, vbad) = (
+            self.b.declare_var(self.ptr),
+            self.b.declare_var(self.ptr),
+            self.b.declare_var(I32),
+            self.b.declare_var(I32),
+        );
+        let zero = self.b.ins().iconst(I32, 0);
+        self.b.def_var(vf, frag);
+        self.b.def_var(vo, out);
+        self.b.def_var(vn, n);
+        self.b.def_var(vbad, zero);
+        let (body, exit) = (self.b.create_block(), self.b.create_block());
+        self.b.ins().jump(body, &[]);
+        self.b.switch_to_block(body);
+        self.frag = self.b.use_var(vf);
+        self.out = self.b.use_var(vo);
+        let left = self.b.use_var(vn);
+        self.push_scope();
+        self.block(block)?;
+        let bad = self.store_outputs()?;
+        self.pop_scope();
+        let counted = self.count_active(bad, left);
+        let acc = self.b.use_var(vbad);
+        let acc = self.b.ins().iadd(acc, counted);
+        self.b.def_var(vbad, acc);
+        let packet = std::mem::size_of::<FragmentX4>() as i64;
+        let outs = (self.output_floats() * 16) as i64;
+        let f = self.b.ins().iadd_imm_s(self.frag, packet);
+        let o = self.b.ins().iadd_imm_s(self.out, outs);
+        let rest = self.b.ins().iadd_imm_s(left, -4);
+        self.b.def_var(vf, f);
+        self.b.def_var(vo, o);
+        self.b.def_var(vn, rest);
+        let more = self.b.ins().icmp_imm_s(IntCC::SignedGreaterThan, rest, 0);
+        self.b.ins().brif(more, body, &[], exit, &[]);
+        self.b.switch_to_block(exit);
+        let total = self.b.use_var(vbad);
+        self.b.ins().return_(&[total]);
+        Ok(())
+    }
+
+    /// The guard's per-lane counts (`bad`, i32x4) summed over the lanes below `left`.
+    fn count_active(&mut self, bad: V, left: V) -> V {
+        let lanes = {
+            let bytes: Vec<u8> = (0u32..4).flat_map(|i| i.to_le_bytes()).collect();
+            let c = self.b.func.dfg.constants.insert(ConstantData::from(bytes));
+            self.b.ins().vconst(I32X4, c)
+        };
+        let nv = self.b.ins().splat(I32X4, left);
+        let act = self.b.ins().icmp(IntCC::SignedLessThan, lanes, nv);
+        let counted = self.b.ins().band(bad, act);
+        let mut t = self.b.ins().extractlane(counted, 0);
+        for lane in 1..4u8 {
+            let x = self.b.ins().extractlane(counted, lane);
+            t = self.b.ins().iadd(t, x);
+        }
+        t
+    }
+
+    /// Floats per fragment in the output (the interpreter's layout).
+    fn output_floats(&self) -> usize {
+        self.p
+            .outputs
+            .iter()
+            .map(|o| self.ty(o.value).width().max(1))
+            .sum()
     }
 
     // ---- setup ----
@@ -1452,13 +1541,11 @@ impl<'a, 'b> Lowerer<'a, 'b> {
         Ok(())
     }
 
-    fn store_outputs(&mut self) -> R<()> {
+    /// Writes the outputs through the guard to `out`; returns the guard's count (batch: per
+    /// lane, as an i32x4 of 0 / −1 sums negated: lanes' counts).
+    fn store_outputs(&mut self) -> R<V> {
         let p = self.p;
-        let params = self
-            .b
-            .block_params(self.b.func.layout.entry_block().expect("entry"));
-        let out = params[2];
-        let active = params.get(3).copied();
+        let out = self.out;
         let esize = if self.batch() { 16 } else { 4 };
         let mut offset = 0usize;
         let mut bad = if self.batch() {
@@ -1501,27 +1588,7 @@ impl<'a, 'b> Lowerer<'a, 'b> {
             }
             offset += width;
         }
-        let total = match active {
-            Some(n) if self.batch() => {
-                let lanes = {
-                    let bytes: Vec<u8> = (0u32..4).flat_map(|i| i.to_le_bytes()).collect();
-                    let c = self.b.func.dfg.constants.insert(ConstantData::from(bytes));
-                    self.b.ins().vconst(I32X4, c)
-                };
-                let nv = self.b.ins().splat(I32X4, n);
-                let act = self.b.ins().icmp(IntCC::UnsignedLessThan, lanes, nv);
-                let counted = self.b.ins().band(bad, act);
-                let mut t = self.b.ins().extractlane(counted, 0);
-                for lane in 1..4u8 {
-                    let x = self.b.ins().extractlane(counted, lane);
-                    t = self.b.ins().iadd(t, x);
-                }
-                t
-            }
-            _ => bad,
-        };
-        self.b.ins().return_(&[total]);
-        Ok(())
+        Ok(bad)
     }
 }
 

@@ -17,6 +17,7 @@
 
 use crate::ctx::{Fragment, SceneServices, ShadeCtx, ShadeEnv};
 use crate::interp::{Interpreter, OutputSlot, Scratch, ShadeOut};
+use crate::packets::{FragmentX4, Fragments, LANES, packed_len, unpacked};
 use crate::texture::TextureError;
 use shadenet_graph::ir::Program;
 use shadenet_graph::opt::{self, Specialization};
@@ -26,106 +27,6 @@ use std::fmt;
 use std::hash::{Hash, Hasher};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
-
-/// Lanes of a batch packet: Cranelift's 128-bit vectors hold four f32 (DESIGN §10: F32X4
-/// works on x86-64, F32X8 does not).
-pub const LANES: usize = 4;
-
-/// Four fragments, structure of arrays: every stream component as four consecutive lanes, so
-/// a compiled batch function reads a component of all four fragments with one 128-bit load.
-/// `#[repr(C)]` and 16-byte aligned; its field order follows [`Fragment`].
-#[repr(C, align(16))]
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct FragmentX4 {
-    /// Shading position, per component.
-    pub p: [[f32; LANES]; 3],
-    /// Shading normal.
-    pub n: [[f32; LANES]; 3],
-    /// Geometric normal.
-    pub ng: [[f32; LANES]; 3],
-    /// Incident direction.
-    pub i: [[f32; LANES]; 3],
-    /// Surface parameterization.
-    pub uv: [[f32; LANES]; 2],
-    /// ∂P/∂u.
-    pub dpdu: [[f32; LANES]; 3],
-    /// ∂P/∂v.
-    pub dpdv: [[f32; LANES]; 3],
-    /// ∂P/∂x.
-    pub dpdx: [[f32; LANES]; 3],
-    /// ∂P/∂y.
-    pub dpdy: [[f32; LANES]; 3],
-    /// Shutter time.
-    pub time: [f32; LANES],
-    /// Ray type bit.
-    pub ray_type: [i32; LANES],
-    /// Ray depth.
-    pub ray_depth: [i32; LANES],
-    /// Sampler seed.
-    pub seed: [u32; LANES],
-    /// The sampler's four uniform numbers (the `rand` stream), per component.
-    pub rand: [[f32; LANES]; 4],
-}
-
-impl FragmentX4 {
-    /// Packs one to four fragments; missing lanes repeat the last fragment (so that padding
-    /// lanes compute something harmless). Panics on an empty slice.
-    pub fn gather(frags: &[Fragment]) -> FragmentX4 {
-        let mut x = FragmentX4::default();
-        let last = frags.len().min(LANES) - 1;
-        for lane in 0..LANES {
-            x.set_lane(lane, &frags[lane.min(last)]);
-        }
-        x
-    }
-
-    /// Writes fragment `f` into lane `lane`.
-    pub fn set_lane(&mut self, lane: usize, f: &Fragment) {
-        let put3 = |dst: &mut [[f32; LANES]; 3], v: [f32; 3]| {
-            for c in 0..3 {
-                dst[c][lane] = v[c];
-            }
-        };
-        put3(&mut self.p, f.p);
-        put3(&mut self.n, f.n);
-        put3(&mut self.ng, f.ng);
-        put3(&mut self.i, f.i);
-        self.uv[0][lane] = f.uv[0];
-        self.uv[1][lane] = f.uv[1];
-        put3(&mut self.dpdu, f.dpdu);
-        put3(&mut self.dpdv, f.dpdv);
-        put3(&mut self.dpdx, f.dpdx);
-        put3(&mut self.dpdy, f.dpdy);
-        self.time[lane] = f.time;
-        self.ray_type[lane] = f.ray_type;
-        self.ray_depth[lane] = f.ray_depth;
-        self.seed[lane] = f.seed;
-        for c in 0..4 {
-            self.rand[c][lane] = f.rand[c];
-        }
-    }
-
-    /// The fragment in lane `lane`.
-    pub fn lane(&self, lane: usize) -> Fragment {
-        let get3 = |v: &[[f32; LANES]; 3]| [v[0][lane], v[1][lane], v[2][lane]];
-        Fragment {
-            p: get3(&self.p),
-            n: get3(&self.n),
-            ng: get3(&self.ng),
-            i: get3(&self.i),
-            uv: [self.uv[0][lane], self.uv[1][lane]],
-            dpdu: get3(&self.dpdu),
-            dpdv: get3(&self.dpdv),
-            dpdx: get3(&self.dpdx),
-            dpdy: get3(&self.dpdy),
-            time: self.time[lane],
-            ray_type: self.ray_type[lane],
-            ray_depth: self.ray_depth[lane],
-            seed: self.seed[lane],
-            rand: std::array::from_fn(|c| self.rand[c][lane]),
-        }
-    }
-}
 
 /// Where the time of one compile went, and how big the result is (zero where a back end has
 /// no such phase: the interpreter neither lowers nor generates code).
@@ -216,36 +117,26 @@ pub trait Material: Send + Sync {
     fn info(&self) -> &MaterialInfo;
 
     /// Shades any number of fragments, every one with the same environment, component mask
-    /// and scene: `out` receives [`Material::width`] floats per fragment, fragment after
-    /// fragment (array of structures), guarded. This is the entry a batch back end (the GPU)
-    /// implements; the default shades four at a time through [`Material::shade_x4`] without
-    /// a scene, and one at a time through [`Material::shade`] with one (fragment `i` with
-    /// [`SceneServices::fragment`]`(i)` where the scene gives per-fragment services).
+    /// and scene. `out` receives the outputs in the packets' layout
+    /// ([`crate::packets::packed_index`]: per packet of four fragments, output float `k` of
+    /// its four lanes as four consecutive floats) and holds at least
+    /// [`packed_len`]`(width(), frags.len())` floats; guarded. This is the entry a batch back
+    /// end implements (the JIT: one call of its batch entry for every packet; the GPU: one
+    /// dispatch); the default shades packet by packet through [`Material::shade_x4`] without
+    /// a scene, and one fragment at a time through [`Material::shade`] with one (fragment `i`
+    /// with [`SceneServices::fragment`]`(i)` where the scene gives per-fragment services).
     fn shade_many(
         &self,
         env: &ShadeEnv,
         mask: u32,
         scene: Option<&dyn SceneServices>,
-        frags: &[Fragment],
+        frags: &Fragments,
         out: &mut [f32],
     ) -> BatchResult {
         let t = Instant::now();
         let nonfinite = match scene {
-            None => shade_batch_x4(self, env, mask, frags, out),
-            Some(scene) => {
-                let w = self.width();
-                let mut bad = 0u64;
-                for (i, (f, dst)) in frags.iter().zip(out.chunks_mut(w.max(1))).enumerate() {
-                    let ctx = ShadeCtx {
-                        frag: *f,
-                        env,
-                        mask,
-                        scene: crate::ctx::fragment_services(Some(scene), i),
-                    };
-                    bad += self.shade(&ctx, dst) as u64;
-                }
-                bad
-            }
+            None => shade_packets(self, env, mask, frags, out),
+            Some(scene) => shade_each(self, env, mask, scene, frags, out),
         };
         BatchResult {
             nonfinite,
@@ -255,6 +146,36 @@ pub trait Material: Send + Sync {
             },
         }
     }
+}
+
+/// Shades `frags` one at a time through [`Material::shade`] with the scene (fragment `i`
+/// with its own services), writing the packets' layout. Returns the non-finite floats
+/// replaced.
+pub fn shade_each<M: Material + ?Sized>(
+    material: &M,
+    env: &ShadeEnv,
+    mask: u32,
+    scene: &dyn SceneServices,
+    frags: &Fragments,
+    out: &mut [f32],
+) -> u64 {
+    let w = material.width();
+    let mut one = vec![0.0f32; w];
+    let mut bad = 0u64;
+    for i in 0..frags.len() {
+        let ctx = ShadeCtx {
+            frag: frags.get(i),
+            env,
+            mask,
+            scene: crate::ctx::fragment_services(Some(scene), i),
+        };
+        bad += material.shade(&ctx, &mut one) as u64;
+        let (packet, lane) = (i / LANES, i % LANES);
+        for (k, x) in one.iter().enumerate() {
+            out[packet * w * LANES + k * LANES + lane] = *x;
+        }
+    }
+    bad
 }
 
 /// Where the time of one [`Material::shade_many`] call went. A CPU back end has only
@@ -299,9 +220,11 @@ pub struct BatchResult {
     pub times: BatchTimes,
 }
 
-/// Shades any number of fragments through [`Material::shade_x4`], four at a time: `out`
-/// receives `width()` floats per fragment, fragment after fragment (array of structures).
-/// Returns the non-finite floats replaced.
+/// Shades a slice of fragments packet by packet through [`Material::shade_x4`] without a
+/// scene, writing `width()` floats per fragment, fragment after fragment, into `out`: a
+/// convenience for callers that hold fragments one by one (it packs and unpacks; a hot
+/// path holds [`Fragments`] and calls [`Material::shade_many`]). Returns the non-finite
+/// floats replaced.
 pub fn shade_batch(
     material: &dyn Material,
     env: &ShadeEnv,
@@ -309,27 +232,57 @@ pub fn shade_batch(
     frags: &[Fragment],
     out: &mut [f32],
 ) -> u64 {
-    shade_batch_x4(material, env, mask, frags, out)
+    let w = material.width();
+    let packed = Fragments::from_slice(frags);
+    let mut o = vec![0.0f32; packed_len(w, frags.len())];
+    let bad = shade_packets(material, env, mask, &packed, &mut o);
+    out[..w * frags.len()].copy_from_slice(&unpacked(w, frags.len(), &o));
+    bad
 }
 
-fn shade_batch_x4<M: Material + ?Sized>(
+/// [`Material::shade_many`] for a slice of fragments, its outputs written fragment after
+/// fragment (`width()` floats each) into `out`: the same convenience as [`shade_batch`]
+/// (packing and unpacking) for the batch entry a back end implements, with a scene.
+pub fn shade_many_unpacked(
+    material: &dyn Material,
+    env: &ShadeEnv,
+    mask: u32,
+    scene: Option<&dyn SceneServices>,
+    frags: &[Fragment],
+    out: &mut [f32],
+) -> BatchResult {
+    let w = material.width();
+    let packed = Fragments::from_slice(frags);
+    let mut o = vec![0.0f32; packed_len(w, frags.len())];
+    let r = material.shade_many(env, mask, scene, &packed, &mut o);
+    out[..w * frags.len()].copy_from_slice(&unpacked(w, frags.len(), &o));
+    r
+}
+
+/// Shades any number of fragments through [`Material::shade_x4`], packet by packet, without
+/// a scene: `out` (at least [`packed_len`]`(width(), frags.len())` floats) receives the
+/// packets' layout. Returns the non-finite floats replaced.
+pub fn shade_packets<M: Material + ?Sized>(
     material: &M,
     env: &ShadeEnv,
     mask: u32,
-    frags: &[Fragment],
+    frags: &Fragments,
     out: &mut [f32],
 ) -> u64 {
     let w = material.width();
-    let mut soa = vec![0.0f32; w * LANES];
+    assert!(
+        out.len() >= packed_len(w, frags.len()),
+        "output buffer too small"
+    );
     let mut bad = 0u64;
-    for (chunk, dst) in frags.chunks(LANES).zip(out.chunks_mut(w * LANES)) {
-        let packet = FragmentX4::gather(chunk);
-        bad += material.shade_x4(env, mask, &packet, chunk.len(), &mut soa) as u64;
-        for (lane, px) in dst.chunks_mut(w).enumerate() {
-            for (k, d) in px.iter_mut().enumerate() {
-                *d = soa[k * LANES + lane];
-            }
-        }
+    let mut left = frags.len();
+    for (packet, dst) in frags
+        .packets()
+        .iter()
+        .zip(out.chunks_mut((w * LANES).max(1)))
+    {
+        bad += material.shade_x4(env, mask, packet, left.min(LANES), dst) as u64;
+        left = left.saturating_sub(LANES);
     }
     bad
 }

@@ -4,7 +4,8 @@
 //! (light samples: [`lights`] with image environments prepared by [`envmap`], textures:
 //! [`texture`]), the interpreter ([`interp`]), the
 //! reference every other back end is tested against, and the back-end traits with the
-//! material cache ([`backend`]), the fixtures of the back ends' parity tests
+//! material cache ([`backend`]), the four-lane fragment packets batches are made of
+//! ([`packets`]), the fixtures of the back ends' parity tests
 //! ([`testing`]), and the bounded gate every input file passes ([`input`]). It depends on `shadenet-graph` for the IR and the op
 //! semantics and must not know about networks' file formats, Cranelift, wgpu or the tracer.
 
@@ -14,14 +15,17 @@ pub mod envmap;
 pub mod input;
 pub mod interp;
 pub mod lights;
+pub mod packets;
 pub mod testing;
 pub mod texture;
 
 pub use backend::{
-    Backend, BackendError, BatchResult, BatchTimes, CompileStats, FragmentX4, InterpBackend,
-    InterpMaterial, LANES, Material, MaterialCache, MaterialInfo, shade_batch,
+    Backend, BackendError, BatchResult, BatchTimes, CompileStats, InterpBackend, InterpMaterial,
+    Material, MaterialCache, MaterialInfo, shade_batch, shade_each, shade_many_unpacked,
+    shade_packets,
 };
 pub use ctx::{Fragment, SceneServices, ShadeCtx, ShadeEnv, Transform, fragment_services};
 pub use interp::{Interpreter, OutputSlot, Scratch, ShadeOut, output_layout};
 pub use lights::Light;
+pub use packets::{FragmentX4, Fragments, LANES, packed_index, packed_len, unpacked};
 pub use texture::{Texture, TextureError, TextureSet};

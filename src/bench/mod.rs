@@ -325,11 +325,12 @@ fn shading_rows(
                     continue;
                 }
             };
-            let mut gout = vec![0.0f32; n * m.width()];
+            let packed = shadenet_runtime::Fragments::from_slice(&frags);
+            let mut gout = vec![0.0f32; shadenet_runtime::packed_len(m.width(), n)];
             let mut runs = Vec::new();
             let timing = time(reps, budget, || {
                 let t = Instant::now();
-                let r = m.shade_many(&env, u32::MAX, None, &frags, &mut gout);
+                let r = m.shade_many(&env, u32::MAX, None, &packed, &mut gout);
                 runs.push((t.elapsed(), r.times));
             });
             rows.push(Row {
@@ -343,7 +344,11 @@ fn shading_rows(
                 work: n as u64,
                 unit: "frag",
                 time: timing,
-                error: Some(ErrorStats::measure(&gout[..n * 3], &reference, 3)),
+                error: Some(ErrorStats::measure(
+                    &shadenet_runtime::unpacked(m.width(), n, &gout),
+                    &reference,
+                    3,
+                )),
                 split: median_split(&mut runs),
                 ..Row::default()
             });
@@ -854,7 +859,7 @@ fn b5(opts: &BenchOptions) -> SuiteResult {
             let reference = {
                 let g = crate::shade::shade_grid::<f64>(&c.program, &env, w, h, mask)
                     .expect("no textures");
-                g.values
+                g.pixel_values()
             };
             let spec = Specialization {
                 components: mask,

@@ -355,8 +355,8 @@ fn channel(
         }
         let w = ty.width().max(1);
         let ci = c.min(w - 1);
-        for (p, o) in out.iter_mut().enumerate() {
-            *o += grid.values[p * grid.stride + off + ci] as f32;
+        for (o, x) in out.iter_mut().zip(grid.component(off + ci)) {
+            *o += x as f32;
         }
     }
     out

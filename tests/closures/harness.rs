@@ -422,9 +422,14 @@ impl Compiled {
     pub fn raw(&self, frags: &[Fragment]) -> (Vec<f32>, u64) {
         let env = ShadeEnv::default();
         let mut out = vec![f32::NAN; self.material.width() * frags.len()];
-        let r = self
-            .material
-            .shade_many(&env, u32::MAX, None, frags, &mut out);
+        let r = shadenet_runtime::shade_many_unpacked(
+            &*self.material,
+            &env,
+            u32::MAX,
+            None,
+            frags,
+            &mut out,
+        );
         (out, r.nonfinite)
     }
 

@@ -15,8 +15,8 @@
 
 use shadenet_graph::ir::Program;
 use shadenet_runtime::{
-    Backend, BatchResult, BatchTimes, Fragment, Material, SceneServices, ShadeCtx, ShadeEnv,
-    ShadeOut,
+    Backend, BatchResult, BatchTimes, Fragments, Material, SceneServices, ShadeCtx, ShadeEnv,
+    ShadeOut, packed_index, packed_len,
 };
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -31,14 +31,16 @@ pub trait Shader: Send + Sync {
     /// Shades a batch: every fragment with the same environment and component mask, and
     /// fragment `i` with the scene services `scene.fragment(i)` where the scene gives
     /// per-fragment services (see `SceneServices::fragment`), else `scene`. `out` is
-    /// cleared and receives each fragment's outputs (as [`Shader::shade`] writes them), one
-    /// fragment after the other. The default calls [`Shader::shade`] once per fragment.
+    /// cleared and receives the outputs in the packets' layout of `Material::shade_many`
+    /// (fragment `i`'s float `k` at `shadenet_runtime::packed_index(width, i, k)`, where
+    /// `width` is `out.len()` over [`shadenet_runtime::packed_len`]`(1, frags.len())`). The
+    /// default calls [`Shader::shade`] once per fragment.
     fn shade_many(
         &self,
         env: &ShadeEnv,
         mask: u32,
         scene: Option<&dyn SceneServices>,
-        frags: &[Fragment],
+        frags: &Fragments,
         out: &mut Vec<f32>,
     ) -> BatchResult {
         let t = Instant::now();
@@ -48,16 +50,20 @@ pub trait Shader: Send + Sync {
             nonfinite: 0,
         };
         let mut nonfinite = 0u64;
-        for (i, f) in frags.iter().enumerate() {
+        for i in 0..frags.len() {
             let ctx = ShadeCtx {
-                frag: *f,
+                frag: frags.get(i),
                 env,
                 mask,
                 scene: shadenet_runtime::fragment_services(scene, i),
             };
             self.shade(&ctx, &mut one);
             nonfinite += one.nonfinite as u64;
-            out.extend_from_slice(&one.values);
+            let w = one.values.len();
+            out.resize(packed_len(w, frags.len()), 0.0);
+            for (k, x) in one.values.iter().enumerate() {
+                out[packed_index(w, i, k)] = *x;
+            }
         }
         BatchResult {
             nonfinite,
@@ -103,11 +109,11 @@ impl Shader for MaterialShader {
         env: &ShadeEnv,
         mask: u32,
         scene: Option<&dyn SceneServices>,
-        frags: &[Fragment],
+        frags: &Fragments,
         out: &mut Vec<f32>,
     ) -> BatchResult {
         out.clear();
-        out.resize(frags.len() * self.0.width(), 0.0);
+        out.resize(packed_len(self.0.width(), frags.len()), 0.0);
         self.0.shade_many(env, mask, scene, frags, out)
     }
 }

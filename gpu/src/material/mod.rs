@@ -36,12 +36,12 @@ use crate::planner;
 use shadenet_graph::ir::Program;
 use shadenet_graph::ops::Val;
 use shadenet_graph::types::Type;
-use shadenet_runtime::backend::{BatchResult, CompileStats, FragmentX4, MaterialInfo};
+use shadenet_runtime::backend::{BatchResult, CompileStats, MaterialInfo};
 use shadenet_runtime::interp::{self, Interpreter, OutputSlot};
 use shadenet_runtime::texture::TextureSet;
 use shadenet_runtime::{
-    Backend, BackendError, Fragment, InterpMaterial, Material, SceneServices, ShadeCtx, ShadeEnv,
-    lights,
+    Backend, BackendError, Fragment, FragmentX4, Fragments, InterpMaterial, Material,
+    SceneServices, ShadeCtx, ShadeEnv, lights, packed_index, packed_len,
 };
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -503,19 +503,18 @@ impl Material for GpuMaterial {
         env: &ShadeEnv,
         mask: u32,
         scene: Option<&dyn SceneServices>,
-        frags: &[Fragment],
+        frags: &Fragments,
         out: &mut [f32],
     ) -> BatchResult {
         let mut result = BatchResult::default();
-        let w = self.width;
-        if frags.is_empty() || out.len() < w * frags.len() {
-            if !frags.is_empty() {
+        let (w, n) = (self.width, frags.len());
+        if n == 0 || out.len() < packed_len(w, n) {
+            if n != 0 {
                 eprintln!(
-                    "shadenet-gpu: material `{}`: shade_many got {} output floats for {} \
+                    "shadenet-gpu: material `{}`: shade_many got {} output floats for {n} \
                      fragments of {w}; nothing shaded",
                     self.program.name,
                     out.len(),
-                    frags.len()
                 );
             }
             return result;
@@ -523,8 +522,15 @@ impl Material for GpuMaterial {
         if w == 0 {
             return result;
         }
+        // The device reads columns per stream and writes fragment after fragment: the
+        // packets are unpacked here and the outputs packed back (host time, in `upload` and
+        // `readback`).
+        let t = Instant::now();
+        let aos: Vec<Fragment> = frags.iter().collect();
+        let mut flat = vec![0.0f32; w * n];
+        result.times.upload += t.elapsed();
         let cap = self.plan.max_batch(sample_total(env));
-        for (k, (chunk, dst)) in frags.chunks(cap).zip(out.chunks_mut(cap * w)).enumerate() {
+        for (k, (chunk, dst)) in aos.chunks(cap).zip(flat.chunks_mut(cap * w)).enumerate() {
             // Fragment `i` of the chunk is fragment `base + i` of the call.
             let offset = scene.map(|inner| ChunkServices {
                 inner,
@@ -554,12 +560,26 @@ impl Material for GpuMaterial {
             match ok {
                 Some(bad) => result.nonfinite += bad,
                 None => {
-                    let r = self.companion.shade_many(env, mask, scene, chunk, dst);
+                    let packed = Fragments::from_slice(chunk);
+                    let mut o = vec![0.0f32; packed_len(w, chunk.len())];
+                    let r = self.companion.shade_many(env, mask, scene, &packed, &mut o);
+                    for (i, px) in dst.chunks_mut(w).enumerate() {
+                        for (c, x) in px.iter_mut().enumerate() {
+                            *x = o[packed_index(w, i, c)];
+                        }
+                    }
                     result.nonfinite += r.nonfinite;
                     result.times.add(&r.times);
                 }
             }
         }
+        let t = Instant::now();
+        for (i, px) in flat.chunks(w).enumerate() {
+            for (c, x) in px.iter().enumerate() {
+                out[packed_index(w, i, c)] = *x;
+            }
+        }
+        result.times.readback += t.elapsed();
         result
     }
 }

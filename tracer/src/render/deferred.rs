@@ -12,7 +12,7 @@ use super::setup::Renderer;
 use super::stats::{Stage, TileStats};
 use super::trace::RayState;
 use crate::passes::OverrideKind;
-use shadenet_runtime::Fragment;
+use shadenet_runtime::{Fragment, Fragments, packed_index, packed_len};
 use std::collections::HashMap;
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
@@ -182,11 +182,13 @@ impl Renderer {
         let mut results = vec![(0usize, 0usize); jobs.len()];
         let mut arena: Vec<f32> = Vec::new();
         let mut out = Vec::new();
-        let mut frags = Vec::new();
+        let mut frags = Fragments::new();
         for b in batches {
             let env = &self.envs[b.instance];
             frags.clear();
-            frags.extend(b.jobs.iter().map(|&j| jobs[j].frag));
+            for &j in &b.jobs {
+                frags.push(&jobs[j].frag);
+            }
             let services = BatchServices {
                 hits: b.jobs.iter().map(|&j| jobs[j].hit).collect(),
             };
@@ -203,11 +205,12 @@ impl Renderer {
             if let Ok(mut t) = stats.times.lock() {
                 t.add(&r.times);
             }
-            let width = out.len() / b.jobs.len().max(1);
+            // The packets' layout back to one job after the other.
+            let width = out.len() / packed_len(1, b.jobs.len()).max(1);
             for (i, &j) in b.jobs.iter().enumerate() {
-                results[j] = (arena.len() + i * width, width);
+                results[j] = (arena.len(), width);
+                arena.extend((0..width).map(|k| out[packed_index(width, i, k)]));
             }
-            arena.extend_from_slice(&out[..width * b.jobs.len()]);
         }
         (arena, results)
     }
