@@ -17,8 +17,8 @@
 //!   slots, four lanes per component, and loop over the lanes in Rust — or, where a helper
 //!   has a four-lane form, call that once per packet (`=> name` in the table below:
 //!   `noise3`, `fbm3`: `ops::noise_x4`, SIMD with the scalar bits; `=> ctx name` where the
-//!   form needs the context: `light` finds its light once for the four lanes, `visible`
-//!   answers four lanes at once without a scene).
+//!   form needs the context: `light` and `texture` find their light or texture once for the
+//!   four lanes, `visible` answers four lanes at once without a scene).
 
 use shadenet_graph::ops::{self, noise, noise_x4, osl_noise};
 use shadenet_runtime::ctx::{Fragment, SceneServices, ShadeEnv};
@@ -332,6 +332,19 @@ fn texture(ctx: &CallCtx, imm: u32, a: &[f32], o: &mut [f32]) {
     let t = set.get(imm).map_or([0.0; 4], |t| t.sample([a[0], a[1]]));
     o.copy_from_slice(&t);
 }
+/// The batch form of `texture`: the texture is looked up once for the four lanes, then
+/// sampled per lane as the scalar form does.
+fn texture_x4(ctx: &CallCtx, imm: u32, a: &[[f32; LANES]; 2], o: &mut [[f32; LANES]; 4]) {
+    // SAFETY: the material keeps its texture set alive while its code runs.
+    let set = unsafe { &*ctx.textures };
+    let tex = set.get(imm);
+    for lane in 0..LANES {
+        let t = tex.map_or([0.0; 4], |t| t.sample([a[0][lane], a[1][lane]]));
+        for (dst, x) in o.iter_mut().zip(t) {
+            dst[lane] = x;
+        }
+    }
+}
 /// Light sample number `imm` of the whole light list (lights in order, each contributing
 /// `lights::sample_count` samples), seen from `a[0..3]` with the fragment's seed in
 /// `a[3]`'s bits: `out[0..3]` = L, `out[3..6]` = Cl, `out[6]` = 1.0 if it gives a sample,
@@ -612,7 +625,7 @@ mem_helpers! {
     mx_worley3: 6 -> 1,
     mx_worley3_v2: 6 -> 2,
     mx_worley3_v3: 6 -> 3,
-    texture: 2 -> 4,
+    texture: 2 -> 4 => ctx texture_x4,
     light: 4 -> 11 => ctx light_x4,
     trace: 8 -> 3,
     occlusion: 9 -> 1,
