@@ -225,11 +225,35 @@ pub fn shade_grid_with(
     mask: u32,
     batch: bool,
 ) -> Grid {
+    let mut data = Vec::new();
+    let nonfinite = shade_grid_into(material, env, (w, h), mask, batch, &mut data);
+    Grid {
+        width: w,
+        height: h,
+        stride: material.width(),
+        values: GridValues::Packed {
+            data,
+            segment: w as usize,
+        },
+        nonfinite,
+    }
+}
+
+/// [`shade_grid_with`] into a buffer the caller keeps from frame to frame (resized to the
+/// grid's packed size; no allocation once it is large enough, as a renderer's frame buffer
+/// or OSL's testshade output after its first frame). Returns the non-finite count.
+pub fn shade_grid_into(
+    material: &dyn Material,
+    env: &ShadeEnv,
+    (w, h): (u32, u32),
+    mask: u32,
+    batch: bool,
+    data: &mut Vec<f32>,
+) -> u64 {
     let stride = material.width();
     let row_len = packed_len(stride, w as usize);
-    let mut data = vec![0.0f32; row_len * h as usize];
-    let nonfinite = data
-        .par_chunks_mut(row_len.max(1))
+    data.resize(row_len * h as usize, 0.0);
+    data.par_chunks_mut(row_len.max(1))
         .enumerate()
         .map_init(RowPackets::default, |rows, (y, dst)| {
             let y = y as u32;
@@ -253,17 +277,7 @@ pub fn shade_grid_with(
             }
             bad
         })
-        .sum();
-    Grid {
-        width: w,
-        height: h,
-        stride,
-        values: GridValues::Packed {
-            data,
-            segment: w as usize,
-        },
-        nonfinite,
-    }
+        .sum()
 }
 
 /// Shades every pixel of a `w × h` grid with one [`Material::shade_many`] call (the batch
