@@ -121,3 +121,44 @@ fn compile_emits_clif_and_jit_statistics() {
     assert_eq!(code, 1);
     assert!(err.contains("clif"), "{err}");
 }
+
+/// `--frames N` shades N times into the same buffer: the image is the one frame's, bit for
+/// bit, and the summary gives the later frames' median; 0 frames is refused.
+#[test]
+fn frames_reuse_the_buffer_and_report_the_median() {
+    let mut files = Vec::new();
+    for (backend, frames) in [("jit-batch", "1"), ("jit-batch", "3"), ("jit", "2")] {
+        let exr = tmp(&format!("frames-{backend}-{frames}.exr"));
+        let (code, out, err) = shadenet(&[
+            "shade",
+            "examples/networks/tiles.json",
+            "-o",
+            exr.to_str().unwrap(),
+            "--res",
+            "19x7",
+            "--backend",
+            backend,
+            "--frames",
+            frames,
+        ]);
+        assert_eq!(code, 0, "{out}\n{err}");
+        let later = frames.parse::<u32>().unwrap();
+        assert_eq!(
+            out.contains(&format!("frames 2..{later}: median")),
+            later > 1,
+            "{out}"
+        );
+        files.push(std::fs::read(&exr).unwrap());
+    }
+    assert!(files[0] == files[1] && files[1] == files[2]);
+    let (code, _, err) = shadenet(&[
+        "shade",
+        "examples/networks/tiles.json",
+        "-o",
+        tmp("frames0.png").to_str().unwrap(),
+        "--frames",
+        "0",
+    ]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--frames"), "{err}");
+}

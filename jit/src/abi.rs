@@ -16,11 +16,12 @@
 //!   immediate (a texture or light index). Batch (`_x4`) versions take structure-of-arrays
 //!   slots, four lanes per component, and loop over the lanes in Rust — or, where a helper
 //!   has a four-lane form, call that once per packet (`=> name` in the table below:
-//!   `noise3`, `fbm3`: `ops::noise_x4`, SIMD with the scalar bits; `=> ctx name` where the
+//!   `noise3`, `fbm3`: `ops::noise_x4`, SIMD with the scalar bits; `cellnoise3`,
+//!   `rgb_to_hsv`, `hsv_to_rgb`: `ops::cell_hsv_x4`, the same; `=> ctx name` where the
 //!   form needs the context: `light` and `texture` find their light or texture once for the
 //!   four lanes, `visible` answers four lanes at once without a scene).
 
-use shadenet_graph::ops::{self, noise, noise_x4, osl_noise};
+use shadenet_graph::ops::{self, cell_hsv_x4, noise, noise_x4, osl_noise};
 use shadenet_runtime::ctx::{Fragment, SceneServices, ShadeEnv};
 use shadenet_runtime::interp;
 use shadenet_runtime::lights;
@@ -249,6 +250,10 @@ fn fbm3_x4(a: &[[f32; LANES]; 6], o: &mut [[f32; LANES]; 1]) {
 fn cellnoise3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
     o[0] = noise::cellnoise3([a[0], a[1], a[2]]);
 }
+/// The batch form of `cellnoise3` (`ops::cell_hsv_x4`, the scalar bits).
+fn cellnoise3_x4(a: &[[f32; LANES]; 3], o: &mut [[f32; LANES]; 1]) {
+    o[0] = cell_hsv_x4::cellnoise3_x4(*a);
+}
 // OSL/MaterialX noise (`ops::osl_noise`): ints arrive as their bits.
 fn int(x: f32) -> i32 {
     x.to_bits() as i32
@@ -326,6 +331,14 @@ fn rgb_to_hsv(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
 fn hsv_to_rgb(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
     o.copy_from_slice(&ops::hsv_to_rgb([a[0], a[1], a[2]]));
 }
+/// The batch form of `rgb_to_hsv` (`ops::cell_hsv_x4`, the scalar bits).
+fn rgb_to_hsv_x4(a: &[[f32; LANES]; 3], o: &mut [[f32; LANES]; 3]) {
+    *o = cell_hsv_x4::rgb_to_hsv_x4(*a);
+}
+/// The batch form of `hsv_to_rgb` (`ops::cell_hsv_x4`, the scalar bits).
+fn hsv_to_rgb_x4(a: &[[f32; LANES]; 3], o: &mut [[f32; LANES]; 3]) {
+    *o = cell_hsv_x4::hsv_to_rgb_x4(*a);
+}
 fn texture(ctx: &CallCtx, imm: u32, a: &[f32], o: &mut [f32]) {
     // SAFETY: the material keeps its texture set alive while its code runs.
     let set = unsafe { &*ctx.textures };
@@ -373,16 +386,14 @@ fn light_of(ctx: &CallCtx, imm: u32) -> Option<(u32, &lights::Light, u32)> {
 }
 
 /// The batch form of `light`: the light is found once for the four lanes (the sample
-/// number is the same for all), then each lane samples it, as the scalar form does.
+/// number is the same for all), then sampled for the four lanes at once
+/// (`lights::sample_x4`, the scalar bits).
 fn light_x4(ctx: &CallCtx, imm: u32, a: &[[f32; LANES]; 4], o: &mut [[f32; LANES]; 11]) {
-    let which = light_of(ctx, imm);
+    let found = light_of(ctx, imm)
+        .map(|(li, l, k)| lights::sample_x4(l, li, k, [a[0], a[1], a[2]], a[3].map(f32::to_bits)));
     let mut one = [0.0f32; 11];
     for lane in 0..LANES {
-        let found = which.and_then(|(li, l, k)| {
-            let p = [a[0][lane], a[1][lane], a[2][lane]];
-            lights::sample(l, li, k, p, a[3][lane].to_bits())
-        });
-        light_out(found, &mut one);
+        light_out(found.and_then(|f| f[lane]), &mut one);
         for (dst, x) in o.iter_mut().zip(one) {
             dst[lane] = x;
         }
@@ -604,9 +615,9 @@ mem_helpers! {
     noise2: 2 -> 1,
     noise3: 3 -> 1 => noise3_x4,
     fbm3: 6 -> 1 => fbm3_x4,
-    cellnoise3: 3 -> 1,
-    rgb_to_hsv: 3 -> 3,
-    hsv_to_rgb: 3 -> 3,
+    cellnoise3: 3 -> 1 => cellnoise3_x4,
+    rgb_to_hsv: 3 -> 3 => rgb_to_hsv_x4,
+    hsv_to_rgb: 3 -> 3 => hsv_to_rgb_x4,
     osl_perlin2: 2 -> 1,
     osl_perlin3: 3 -> 1,
     osl_vperlin2: 2 -> 3,

@@ -137,6 +137,7 @@ pub fn sample<F: Real>(
     p: [F; 3],
     seed: u32,
 ) -> Option<Sample<F>> {
+    // A change here goes to `sample_x4` as well (the tests hold the two equal).
     let power: [F; 3] = v3(light.desc.power);
     let far = F::from_f64(FAR);
     let along = |l: [F; 3]| [p[0] + l[0] * far, p[1] + l[1] * far, p[2] + l[2] * far];
@@ -307,6 +308,104 @@ fn towards<F: Real>(pos: [F; 3], p: [F; 3]) -> ([F; 3], F) {
     (ops::normalize(d), ops::div(F::ONE, r2))
 }
 
+/// Four lanes of [`sample`] (f32) for one light and sample number, with per-lane points
+/// `p[axis][lane]` and seeds: a point light runs the four lanes together (the scalar
+/// arithmetic — [`towards`]'s dot product from 0, `sqrt`, the total divisions — on four-lane
+/// arrays in the same order, the root and quotients as SSE2 vector instructions, which round
+/// as the scalar ones do: the scalar bits); every other kind samples each lane with
+/// [`sample`].
+pub fn sample_x4(
+    light: &Light,
+    index: u32,
+    k: u32,
+    p: [[f32; 4]; 3],
+    seed: [u32; 4],
+) -> [Option<Sample<f32>>; 4] {
+    let LightKind::Point { position } = &light.desc.kind else {
+        return std::array::from_fn(|l| {
+            sample(light, index, k, [p[0][l], p[1][l], p[2][l]], seed[l])
+        });
+    };
+    let pos: [f32; 3] = v3(*position);
+    let power: [f32; 3] = v3(light.desc.power);
+    let (l, inv_r2) = towards_x4(pos, p);
+    std::array::from_fn(|lane| {
+        Some(Sample {
+            l: [l[0][lane], l[1][lane], l[2][lane]],
+            cl: power.map(|c| c * inv_r2[lane]),
+            to: pos,
+            pdf: 0.0,
+        })
+    })
+}
+
+/// [`towards`] for four points at once.
+fn towards_x4(pos: [f32; 3], p: [[f32; 4]; 3]) -> ([[f32; 4]; 3], [f32; 4]) {
+    let mut d = [[0.0f32; 4]; 3];
+    for c in 0..3 {
+        for l in 0..4 {
+            d[c][l] = pos[c] - p[c][l];
+        }
+    }
+    // ops::dot: s = 0, then s + x·x per component, in order.
+    let mut r2 = [0.0f32; 4];
+    for dc in &d {
+        for l in 0..4 {
+            r2[l] += dc[l] * dc[l];
+        }
+    }
+    // ops::normalize: each component over ops::sqrt of the same dot product, then the
+    // total division (0 where the divisor is 0); inv_r2 = div(1, r2).
+    let (len, inv) = sqrt_and_inverse(r2);
+    let mut out = [[0.0f32; 4]; 3];
+    for c in 0..3 {
+        out[c] = total_div(d[c], len);
+    }
+    (out, inv)
+}
+
+/// `ops::sqrt` and `ops::div(1, x)` of four lanes: SSE2's `sqrtps` and `divps` round as the
+/// scalar instructions do, and the rules' zeros are selected by masks.
+#[cfg(target_arch = "x86_64")]
+fn sqrt_and_inverse(x: [f32; 4]) -> ([f32; 4], [f32; 4]) {
+    use std::arch::x86_64::*;
+    // SAFETY: SSE2 is part of x86-64; the loads and stores are of four-float arrays.
+    unsafe {
+        let v = _mm_loadu_ps(x.as_ptr());
+        let zero = _mm_setzero_ps();
+        let root = _mm_andnot_ps(_mm_cmplt_ps(v, zero), _mm_sqrt_ps(v));
+        let inv = _mm_andnot_ps(_mm_cmpeq_ps(v, zero), _mm_div_ps(_mm_set1_ps(1.0), v));
+        let (mut r, mut i) = ([0.0f32; 4], [0.0f32; 4]);
+        _mm_storeu_ps(r.as_mut_ptr(), root);
+        _mm_storeu_ps(i.as_mut_ptr(), inv);
+        (r, i)
+    }
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+fn sqrt_and_inverse(x: [f32; 4]) -> ([f32; 4], [f32; 4]) {
+    (x.map(ops::sqrt), x.map(|v| ops::div(1.0, v)))
+}
+
+/// `ops::div(a, b)` of four lanes (0 where `b` is 0).
+#[cfg(target_arch = "x86_64")]
+fn total_div(a: [f32; 4], b: [f32; 4]) -> [f32; 4] {
+    use std::arch::x86_64::*;
+    // SAFETY: SSE2 is part of x86-64; the loads and stores are of four-float arrays.
+    unsafe {
+        let (va, vb) = (_mm_loadu_ps(a.as_ptr()), _mm_loadu_ps(b.as_ptr()));
+        let q = _mm_andnot_ps(_mm_cmpeq_ps(vb, _mm_setzero_ps()), _mm_div_ps(va, vb));
+        let mut out = [0.0f32; 4];
+        _mm_storeu_ps(out.as_mut_ptr(), q);
+        out
+    }
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+fn total_div(a: [f32; 4], b: [f32; 4]) -> [f32; 4] {
+    std::array::from_fn(|l| ops::div(a[l], b[l]))
+}
+
 /// The sum of the ambient lights' power.
 pub fn ambient<F: Real>(lights: &[Light]) -> [F; 3] {
     let mut s = [F::ZERO; 3];
@@ -315,4 +414,78 @@ pub fn ambient<F: Real>(lights: &[Light]) -> [F; 3] {
         s = [s[0] + c[0], s[1] + c[1], s[2] + c[2]];
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Four lanes of a point, a distant, a spot and a quad light from hard and ordinary
+    /// points (zeros, denormals, huge, ±inf, NaN, the light's own position) give
+    /// [`sample`]'s bits.
+    #[test]
+    fn sample_x4_has_the_scalar_bits() {
+        let light =
+            |kind| Light::from_desc(&LightDesc::new("l", kind, [20.0, 18.0, 15.0]).unwrap());
+        let lights = [
+            light(LightKind::Point {
+                position: [1.0, 1.0, 2.0],
+            }),
+            light(LightKind::Distant {
+                direction: [0.3, -0.5, -0.8],
+            }),
+            light(LightKind::Spot {
+                position: [0.0, 0.0, 3.0],
+                direction: [0.0, 0.0, -1.0],
+                cone_angle: 0.8,
+                penumbra_angle: 0.1,
+                dropoff: 2.0,
+            }),
+            light(LightKind::Quad {
+                corner: [-1.0, 2.0, -1.0],
+                edge_u: [2.0, 0.0, 0.0],
+                edge_v: [0.0, 0.0, 2.0],
+                samples: 3,
+            }),
+        ];
+        let hard = [
+            0.0f32,
+            -0.0,
+            1.0,
+            -2.5,
+            1e-45,
+            -3e-41,
+            f32::MIN_POSITIVE,
+            1e-30,
+            1e30,
+            f32::MAX,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+        ];
+        let mut points: Vec<[f32; 3]> = Vec::new();
+        for &a in &hard {
+            points.push([a, 0.25, -1.0]);
+            points.push([1.0, a, 2.0]);
+            points.push([0.5, 1.0, a]);
+        }
+        points.push([1.0, 1.0, 2.0]); // the point light's position
+        for (li, light) in lights.iter().enumerate() {
+            for k in 0..sample_count(light).max(1) {
+                for (c, chunk) in points.chunks(4).enumerate() {
+                    let at = |l: usize| chunk[l % chunk.len()];
+                    let p = std::array::from_fn(|a| std::array::from_fn(|l| at(l)[a]));
+                    let seed = std::array::from_fn(|l| (c * 4 + l) as u32 * 7919);
+                    let got = sample_x4(light, li as u32, k, p, seed);
+                    for (l, g) in got.iter().enumerate() {
+                        let want = sample::<f32>(light, li as u32, k, at(l), seed[l]);
+                        let bits = |s: Option<Sample<f32>>| {
+                            s.map(|s| [s.l, s.cl, s.to, [s.pdf; 3]].map(|v| v.map(f32::to_bits)))
+                        };
+                        assert_eq!(bits(*g), bits(want), "light {li} sample {k} at {:?}", at(l));
+                    }
+                }
+            }
+        }
+    }
 }

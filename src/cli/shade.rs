@@ -10,7 +10,9 @@ use shadenet::graph::nodes::{LightDesc, LightKind};
 use shadenet::graph::opt::{self, Specialization};
 use shadenet::output::{write_exr, write_png};
 use shadenet::runtime::{Backend, BatchTimes, CompileStats, InterpBackend, Material};
-use shadenet::shade::{Grid, grid_env, shade_grid, shade_grid_many, shade_grid_with};
+use shadenet::shade::{
+    Grid, GridValues, grid_env, shade_grid, shade_grid_into, shade_grid_many, shade_grid_with,
+};
 use shadenet_gpu::GpuBackend;
 use shadenet_jit::{JitBackend, JitOptions};
 use std::path::PathBuf;
@@ -63,6 +65,11 @@ pub(crate) struct ShadeArgs {
     precision: Precision,
     #[command(flatten)]
     threads: ThreadsArg,
+    /// Shade the grid this many times (1 to 1000) and report the first frame and the median
+    /// of the others, as OSL's testshade `--iters` does: a compiled back end reuses its
+    /// output buffer from frame to frame, so later frames pay no allocation.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    frames: u32,
     /// Print nothing but errors.
     #[arg(short, long)]
     quiet: bool,
@@ -84,6 +91,8 @@ struct Shaded {
     grid: Grid,
     load_time: Duration,
     shade_time: Duration,
+    /// Frames 2.. (`--frames`): each frame's time.
+    later: Vec<Duration>,
     ops: usize,
     /// The back end that ran and its compile statistics (`None`: the f64 interpreter).
     stats: Option<(&'static str, CompileStats)>,
@@ -188,10 +197,18 @@ fn shade(args: &ShadeArgs, job: &Job) -> Result<Shaded> {
         let load_time = job.load_start.elapsed();
         let t1 = Instant::now();
         let grid = shade_grid::<f64>(p, &env, w, h, mask)?;
+        let shade_time = t1.elapsed();
+        let mut later = Vec::new();
+        for _ in 1..args.frames {
+            let t = Instant::now();
+            shade_grid::<f64>(p, &env, w, h, mask)?;
+            later.push(t.elapsed());
+        }
         return Ok(Shaded {
             grid,
             load_time,
-            shade_time: t1.elapsed(),
+            shade_time,
+            later,
             ops: p.op_count(),
             stats: None,
             gpu_split: None,
@@ -217,23 +234,36 @@ fn shade(args: &ShadeArgs, job: &Job) -> Result<Shaded> {
         b.compile(program, &job.spec)?
     };
     let load_time = job.load_start.elapsed();
-    let t1 = Instant::now();
     let mut gpu_split = None;
-    let grid = if job.backend == BackendArg::Gpu {
-        let (grid, r) = shade_grid_many(&*material, &env, w, h, mask);
-        gpu_split = Some(r.times);
-        grid
+    let (grid, shade_time, later) = if job.backend == BackendArg::Gpu {
+        let (mut grid, mut first, mut later) = (None, Duration::ZERO, Vec::new());
+        for f in 0..args.frames {
+            let t = Instant::now();
+            let (g, r) = shade_grid_many(&*material, &env, w, h, mask);
+            let took = t.elapsed();
+            if f == 0 {
+                (first, gpu_split) = (took, Some(r.times));
+            } else {
+                later.push(took);
+            }
+            grid = Some(g);
+        }
+        (grid.expect("at least one frame"), first, later)
     } else {
-        shade_grid_with(
-            &*material,
-            &env,
-            w,
-            h,
-            mask,
-            job.backend == BackendArg::JitBatch,
-        )
+        let batch = job.backend == BackendArg::JitBatch;
+        let t = Instant::now();
+        let mut grid = shade_grid_with(&*material, &env, w, h, mask, batch);
+        let first = t.elapsed();
+        let mut later = Vec::new();
+        if let GridValues::Packed { data, .. } = &mut grid.values {
+            for _ in 1..args.frames {
+                let t = Instant::now();
+                shade_grid_into(&*material, &env, (w, h), mask, batch, data);
+                later.push(t.elapsed());
+            }
+        }
+        (grid, first, later)
     };
-    let shade_time = t1.elapsed();
     let info = material.info();
     let which = match &info.fallback {
         Some(_) => "interp (fallback)",
@@ -243,6 +273,7 @@ fn shade(args: &ShadeArgs, job: &Job) -> Result<Shaded> {
         grid,
         load_time,
         shade_time,
+        later,
         ops: info.stats.ops,
         stats: Some((which, info.stats)),
         gpu_split,
@@ -417,6 +448,23 @@ fn summary(args: &ShadeArgs, s: &Shaded) {
         s.ops,
         s.grid.nonfinite
     );
+    if !s.later.is_empty() {
+        let mut t: Vec<f64> = s.later.iter().map(|d| d.as_secs_f64()).collect();
+        t.sort_by(f64::total_cmp);
+        let median = if t.len() % 2 == 1 {
+            t[t.len() / 2]
+        } else {
+            0.5 * (t[t.len() / 2 - 1] + t[t.len() / 2])
+        };
+        say!(
+            "frames 2..{}: median {:.3} ms per frame ({:.3}–{:.3}), {:.2} M fragments/s",
+            t.len() + 1,
+            median * 1e3,
+            t[0] * 1e3,
+            t[t.len() - 1] * 1e3,
+            n as f64 / median / 1e6
+        );
+    }
     if let Some((_, st)) = &s.stats {
         say!("compile: {st}");
     }

@@ -14,6 +14,7 @@
 //! Non-finite values that still arise (overflow, a NaN from a stream) are left to the
 //! material output guard, which replaces them with 0 and counts them.
 
+pub mod cell_hsv_x4;
 pub mod math;
 pub mod noise;
 pub mod noise_x4;
