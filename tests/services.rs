@@ -1007,3 +1007,96 @@ fn trace_and_occlusion_ops_follow_their_definition() {
         );
     }
 }
+
+// ---- the batch entry with a scene ----
+
+/// Services that answer with a tag: the batch's own (-1) or fragment `i`'s (`i`).
+struct Tagged {
+    tag: f32,
+    parts: Vec<Tagged>,
+}
+
+impl SceneServices for Tagged {
+    fn trace(&self, _: [f32; 3], _: [f32; 3], _: i32, _: i32, _: f32) -> [f32; 3] {
+        [self.tag, 0.5, 0.25]
+    }
+    fn occluded(&self, _: [f32; 3], _: [f32; 3]) -> bool {
+        self.tag < 0.0 || self.tag as u32 % 3 == 1
+    }
+    fn occlusion(&self, _: [f32; 3], _: [f32; 3], _: u32, _: f32, _: u32) -> f32 {
+        self.tag / 1000.0
+    }
+    fn fragment(&self, index: usize) -> Option<&dyn SceneServices> {
+        self.parts.get(index).map(|t| t as &dyn SceneServices)
+    }
+}
+
+/// The JIT's `shade_many` with a scene runs the batch entry, whose lanes ask their own
+/// fragment's services (`SceneServices::fragment(first + lane)`) for traces, occlusion and
+/// light visibility, in every packet — and padding lanes ask nothing: 101 fragments (the
+/// last packet has one), against each fragment shaded alone with its own services.
+#[test]
+fn the_batch_entry_asks_each_fragment_for_its_own_services() {
+    let text = "program \"tagged\" {\n  %p = stream P : vec3\n  %n = stream N : vec3\n  \
+        %ii = stream I : vec3\n  %t = trace reflection %ii : color\n  %ns = const 4 : int\n  \
+        %md = const 2.0 : float\n  %o = occlusion %n, %ns, %md : float\n  \
+        %l = illuminance %p {\n    %v = light.visible : float\n    yield %v\n  }\n  \
+        %vis = proj %l, 0 : float\n  output t %t\n  output o %o\n  output vis %vis\n}\n";
+    let p = ir::parse(text).unwrap_or_else(|e| panic!("{e}\n{text}"));
+    let light = LightDesc::new(
+        "key",
+        LightKind::Point {
+            position: [1.0, 1.0, 2.0],
+        },
+        [1.0; 3],
+    )
+    .unwrap();
+    let env = ShadeEnv::with_lights(&[light]);
+    let frags: Vec<Fragment> = (0..101)
+        .map(|i| Fragment {
+            p: [i as f32 * 0.01, 0.5, 0.0],
+            n: [0.0, 0.0, 1.0],
+            i: [0.1, 0.0, -1.0],
+            seed: i,
+            ..Fragment::default()
+        })
+        .collect();
+    let scene = Tagged {
+        tag: -1.0,
+        parts: (0..frags.len() + 4)
+            .map(|i| Tagged {
+                tag: i as f32,
+                parts: Vec::new(),
+            })
+            .collect(),
+    };
+    let m = shadenet_jit::JitBackend::new()
+        .compile_program(&p, Duration::ZERO)
+        .unwrap();
+    assert_eq!(m.info().backend, "jit");
+    let w = m.width();
+    let mut got = vec![f32::NAN; w * frags.len()];
+    shadenet_runtime::shade_many_unpacked(&*m, &env, u32::MAX, Some(&scene), &frags, &mut got);
+    let mut one = vec![0.0f32; w];
+    for (i, row) in got.chunks(w).enumerate() {
+        assert_eq!(row[..3], [i as f32, 0.5, 0.25], "fragment {i}: trace");
+        assert_eq!(row[3], i as f32 / 1000.0, "fragment {i}: occlusion");
+        assert_eq!(
+            row[4],
+            if i % 3 == 1 { 0.0 } else { 1.0 },
+            "fragment {i}: visible"
+        );
+        let ctx = ShadeCtx {
+            frag: frags[i],
+            env: &env,
+            mask: u32::MAX,
+            scene: scene.fragment(i),
+        };
+        m.shade(&ctx, &mut one);
+        assert_eq!(
+            row.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+            one.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+            "fragment {i}: batch vs alone"
+        );
+    }
+}

@@ -26,7 +26,7 @@ use shadenet_runtime::ctx::{Fragment, SceneServices, ShadeEnv};
 use shadenet_runtime::interp;
 use shadenet_runtime::lights;
 use shadenet_runtime::texture::TextureSet;
-use shadenet_runtime::{FragmentX4, LANES};
+use shadenet_runtime::{FragmentX4, LANES, fragment_services};
 use std::cell::Cell;
 
 /// What every compiled entry point reads besides the fragment: `#[repr(C)]`, built by the
@@ -47,13 +47,26 @@ pub struct CallCtx {
     pub n_lights: u32,
     /// The renderer's services: the [`shadenet_runtime::ShadeCtx::scene`] field of a
     /// `Material::shade` call (whichever entry runs it: a material built without a scalar
-    /// entry shades one lane of the batch entry), or null (`shade_x4` calls and the prelude:
-    /// no scene); read only by the scene helpers (`sn_trace`, `sn_occlusion`, `sn_visible`)
-    /// through [`CallCtx::scene`].
+    /// entry shades one lane of the batch entry), the batch's services of a
+    /// `Material::shade_many` call with a scene, or null (`shade_x4` calls, scene-less
+    /// batches and the prelude); read only by the scene helpers (`sn_trace`,
+    /// `sn_occlusion`, `sn_visible`) through [`CallCtx::scene`] and
+    /// [`CallCtx::lane_scene`].
     pub scene: *const SceneRef,
     /// The answers of `light.visible` so far in this call ([`VisibilityMemo`]), or null (no
     /// memo: every question goes to the scene).
     pub visibility: *const VisibilityMemo,
+    /// Batch calls: one memo per lane (each keyed by its fragment), or null.
+    pub visibility_x4: *const [VisibilityMemo; LANES],
+    /// Batch calls: the index in the batch of the current packet's first fragment (the
+    /// compiled loop stores it before each packet; the caller sets the first packet's).
+    pub first: u32,
+    /// Batch calls: the current packet's lanes that hold fragments (1 to 4; the compiled loop
+    /// stores it). Padding lanes never ask the scene.
+    pub lanes: u32,
+    /// 1 when `scene` is a whole batch's services (lane `l` asks
+    /// `fragment_services(scene, first + l)`), 0 when it is one fragment's own.
+    pub batch_scene: u32,
 }
 
 /// Light samples per call whose visibility [`VisibilityMemo`] remembers; later sample slots
@@ -65,7 +78,9 @@ pub const MEMO_SLOTS: usize = 64;
 /// (the scene's answers are pure, so this saves shadow rays and changes no result). A
 /// question at another point forgets the answers.
 pub struct VisibilityMemo {
-    at: Cell<Option<[u32; 3]>>,
+    /// The fragment (its index in a batch; 0 for a single call) and point the answers are
+    /// for.
+    at: Cell<Option<(u32, [u32; 3])>>,
     /// 0 not asked, 1 open, 2 blocked.
     answers: [Cell<u8>; MEMO_SLOTS],
 }
@@ -80,12 +95,13 @@ impl Default for VisibilityMemo {
 }
 
 impl VisibilityMemo {
-    /// The answer for sample `slot` seen from `p`, asking `ask` the first time.
-    fn get_or_ask(&self, slot: u32, p: [f32; 3], ask: impl FnOnce() -> bool) -> bool {
+    /// The answer for sample `slot` of fragment `frag` seen from `p`, asking `ask` the first
+    /// time.
+    fn get_or_ask(&self, slot: u32, frag: u32, p: [f32; 3], ask: impl FnOnce() -> bool) -> bool {
         let Some(cell) = self.answers.get(slot as usize) else {
             return ask();
         };
-        let at = Some(p.map(f32::to_bits));
+        let at = Some((frag, p.map(f32::to_bits)));
         if self.at.get() != at {
             self.at.set(at);
             for a in &self.answers {
@@ -115,6 +131,19 @@ impl CallCtx {
         unsafe { self.visibility.as_ref() }
     }
 
+    /// The services lane `lane` of a batch call asks: the fragment's own (see
+    /// [`CallCtx::batch_scene`]); `None` without a scene or for a padding lane.
+    pub fn lane_scene(&self, lane: usize) -> Option<&dyn SceneServices> {
+        if lane as u32 >= self.lanes {
+            return None;
+        }
+        let scene = self.scene()?;
+        if self.batch_scene == 0 {
+            return Some(scene);
+        }
+        fragment_services(Some(scene), self.first as usize + lane)
+    }
+
     /// The scene this call may ask, if any.
     pub fn scene(&self) -> Option<&dyn SceneServices> {
         if self.scene.is_null() {
@@ -138,6 +167,10 @@ pub mod ctx_offset {
     pub const MASK: i32 = offset_of!(CallCtx, mask) as i32;
     /// `n_lights`.
     pub const N_LIGHTS: i32 = offset_of!(CallCtx, n_lights) as i32;
+    /// `first`.
+    pub const FIRST: i32 = offset_of!(CallCtx, first) as i32;
+    /// `lanes`.
+    pub const LANES: i32 = offset_of!(CallCtx, lanes) as i32;
 }
 
 /// The scalar entry: shades one fragment into `out` (the interpreter's output layout) and
@@ -148,8 +181,9 @@ pub type ScalarFn = unsafe extern "C" fn(*const CallCtx, *const Fragment, *mut f
 /// packets into `out` in the packets' layout (`shadenet_runtime::packets`: per packet,
 /// float `k` of lane `l` at `k * 4 + l`), walking the packets in one call; only the first
 /// `n` lanes' non-finite floats are counted. At least one packet is shaded (`n = 0` shades
-/// the first packet and counts nothing).
-pub type BatchFn = unsafe extern "C" fn(*const CallCtx, *const FragmentX4, *mut f32, u32) -> u32;
+/// the first packet and counts nothing). The entry writes the context's `first` and
+/// `lanes` before each packet (hence `*mut`).
+pub type BatchFn = unsafe extern "C" fn(*mut CallCtx, *const FragmentX4, *mut f32, u32) -> u32;
 
 /// The prelude entry: evaluates the prelude once and writes its values into the uniform
 /// block (the second argument; the same block `CallCtx::uniforms` points to).
@@ -442,7 +476,7 @@ fn visible(ctx: &CallCtx, slot: u32, a: &[f32], o: &mut [f32]) {
     let p = [a[0], a[1], a[2]];
     let ask = || interp::sample_visible(ctx.scene(), p, [a[3], a[4], a[5]]);
     let open = match ctx.visibility() {
-        Some(memo) if ctx.scene().is_some() => memo.get_or_ask(slot, p, ask),
+        Some(memo) if ctx.scene().is_some() => memo.get_or_ask(slot, 0, p, ask),
         _ => ask(),
     };
     o[0] = if open { 1.0 } else { 0.0 };
@@ -450,17 +484,52 @@ fn visible(ctx: &CallCtx, slot: u32, a: &[f32], o: &mut [f32]) {
 
 /// The batch form of `visible`: without a scene every sample is visible (as
 /// `interp::sample_visible` says), so the four lanes are answered at once; with one, each
-/// lane as the scalar form.
+/// lane asks its fragment's services (a padding lane asks nothing), through its lane's memo.
 fn visible_x4(ctx: &CallCtx, slot: u32, a: &[[f32; LANES]; 6], o: &mut [[f32; LANES]; 1]) {
     if ctx.scene().is_none() {
         o[0] = [1.0; LANES];
         return;
     }
+    // SAFETY: a non-null `visibility_x4` points at the memos on the stack of the running
+    // call.
+    let memos = unsafe { ctx.visibility_x4.as_ref() };
     for lane in 0..LANES {
-        let one: [f32; 6] = std::array::from_fn(|k| a[k][lane]);
-        let mut r = [0.0f32];
-        visible(ctx, slot, &one, &mut r);
-        o[0][lane] = r[0];
+        let p = [a[0][lane], a[1][lane], a[2][lane]];
+        let to = [a[3][lane], a[4][lane], a[5][lane]];
+        let scene = ctx.lane_scene(lane);
+        let ask = || interp::sample_visible(scene, p, to);
+        let open = match memos {
+            Some(m) if scene.is_some() => {
+                m[lane].get_or_ask(slot, ctx.first.wrapping_add(lane as u32), p, ask)
+            }
+            _ => ask(),
+        };
+        o[0][lane] = if open { 1.0 } else { 0.0 };
+    }
+}
+
+/// The batch form of `trace`: each lane traces with its fragment's services (black for a
+/// padding lane or without a scene).
+fn trace_x4(ctx: &CallCtx, imm: u32, a: &[[f32; LANES]; 8], o: &mut [[f32; LANES]; 3]) {
+    for lane in 0..LANES {
+        let at = |k: usize| a[k][lane];
+        let (dir, p) = ([at(0), at(1), at(2)], [at(3), at(4), at(5)]);
+        let depth = at(6).to_bits() as i32;
+        let c = interp::trace_radiance(ctx.lane_scene(lane), p, dir, imm as i32, depth, at(7));
+        for (dst, x) in o.iter_mut().zip(c) {
+            dst[lane] = x;
+        }
+    }
+}
+
+/// The batch form of `occlusion`: each lane asks its fragment's services (1 for a padding
+/// lane or without a scene).
+fn occlusion_x4(ctx: &CallCtx, _: u32, a: &[[f32; LANES]; 9], o: &mut [[f32; LANES]; 1]) {
+    for lane in 0..LANES {
+        let at = |k: usize| a[k][lane];
+        let (n, p) = ([at(0), at(1), at(2)], [at(5), at(6), at(7)]);
+        let (samples, seed) = (at(3).to_bits() as i32, at(8).to_bits());
+        o[0][lane] = interp::occlusion_value(ctx.lane_scene(lane), p, n, samples, at(4), seed);
     }
 }
 
@@ -638,8 +707,8 @@ mem_helpers! {
     mx_worley3_v3: 6 -> 3,
     texture: 2 -> 4 => ctx texture_x4,
     light: 4 -> 11 => ctx light_x4,
-    trace: 8 -> 3,
-    occlusion: 9 -> 1,
+    trace: 8 -> 3 => ctx trace_x4,
+    occlusion: 9 -> 1 => ctx occlusion_x4,
     visible: 6 -> 1 => ctx visible_x4,
     ambient: 0 -> 3,
     matrices: 0 -> 64,

@@ -20,8 +20,9 @@
 //! (light samples, ambient light, space matrices, textures, traced rays, ambient occlusion,
 //! light visibility) and the transcendental, noise and colour functions are calls of
 //! `extern "C"` helpers that run the interpreter's own Rust code; arithmetic is inline and
-//! bit-identical to `shadenet_graph::ops` (see [`lower`]). Only the scalar entry sees the
-//! renderer's scene (`ShadeCtx::scene`); the batch entry shades as without one.
+//! bit-identical to `shadenet_graph::ops` (see [`lower`]). The scalar entry sees the
+//! renderer's scene through `ShadeCtx::scene`; the batch entry through `shade_many`'s scene,
+//! each lane asking its own fragment's services (`SceneServices::fragment`).
 //!
 //! Matrices are values like vectors (9 or 16 components, row-major), constant, uniform or
 //! per fragment: every op of a valid program compiles. An op this back end cannot compile
@@ -296,8 +297,9 @@ pub struct JitMaterial {
 }
 
 impl JitMaterial {
-    /// The call context; `scene` is the shading context's `scene` field (scalar calls) or
-    /// `None` (batch calls: no scene).
+    /// The call context; `scene` is the shading context's `scene` field (scalar calls), a
+    /// batch's services (`shade_many` with a scene: set `batch_scene` and the lane memos
+    /// after) or `None` (no scene).
     fn call_ctx(
         &self,
         env: &ShadeEnv,
@@ -307,6 +309,10 @@ impl JitMaterial {
     ) -> CallCtx {
         CallCtx {
             visibility: visibility.map_or(std::ptr::null(), |m| m as *const _),
+            visibility_x4: std::ptr::null(),
+            first: 0,
+            lanes: LANES as u32,
+            batch_scene: 0,
             env,
             textures: &*self.textures,
             uniforms: self.uniforms.as_ptr(),
@@ -331,7 +337,9 @@ impl Material for JitMaterial {
     fn shade(&self, ctx: &ShadeCtx, out: &mut [f32]) -> u32 {
         assert!(out.len() >= self.width, "output buffer too small");
         let memo = abi::VisibilityMemo::default();
-        let cc = self.call_ctx(ctx.env, ctx.mask, Some(&ctx.scene), Some(&memo));
+        let memos: [abi::VisibilityMemo; LANES] = Default::default();
+        let mut cc = self.call_ctx(ctx.env, ctx.mask, Some(&ctx.scene), Some(&memo));
+        cc.visibility_x4 = &memos;
         match (self.scalar, self.batch) {
             // SAFETY: the function was compiled for this material's layout; `out` holds
             // `width` floats; the context's pointers live for the call.
@@ -340,7 +348,7 @@ impl Material for JitMaterial {
                 let packet = FragmentX4::gather(std::slice::from_ref(&ctx.frag));
                 let mut soa = vec![0.0f32; self.width * LANES];
                 // SAFETY: as above, with `width * 4` floats.
-                let bad = unsafe { f(&cc, &packet, soa.as_mut_ptr(), 1) };
+                let bad = unsafe { f(&mut cc, &packet, soa.as_mut_ptr(), 1) };
                 for (k, o) in out[..self.width].iter_mut().enumerate() {
                     *o = soa[k * LANES];
                 }
@@ -359,11 +367,13 @@ impl Material for JitMaterial {
         out: &mut [f32],
     ) -> u32 {
         assert!(out.len() >= self.width * LANES, "output buffer too small");
-        let cc = self.call_ctx(env, mask, None, None);
+        let mut cc = self.call_ctx(env, mask, None, None);
         match (self.batch, self.scalar) {
             // SAFETY: the function was compiled for this material's layout; `out` holds
             // `width * 4` floats; the context's pointers live for the call.
-            (Some(f), _) => unsafe { f(&cc, frags, out.as_mut_ptr(), active.min(LANES) as u32) },
+            (Some(f), _) => unsafe {
+                f(&mut cc, frags, out.as_mut_ptr(), active.min(LANES) as u32)
+            },
             (None, Some(f)) => {
                 let mut one = vec![0.0f32; self.width];
                 let mut bad = 0;
@@ -398,12 +408,18 @@ impl Material for JitMaterial {
     ) -> BatchResult {
         let t = std::time::Instant::now();
         let nonfinite = match (scene, self.batch) {
-            (None, Some(f)) if !frags.is_empty() => {
+            (_, Some(f)) if !frags.is_empty() => {
                 assert!(
                     out.len() >= packed_len(self.width, frags.len()),
                     "output buffer too small"
                 );
-                let cc = self.call_ctx(env, mask, None, None);
+                // The batch's services: lane `l` of the packet at `first` asks
+                // `fragment_services(scene, first + l)`, through its own memo.
+                let services: Option<&dyn SceneServices> = scene;
+                let memos: [abi::VisibilityMemo; LANES] = Default::default();
+                let mut cc = self.call_ctx(env, mask, Some(&services), None);
+                cc.batch_scene = 1;
+                cc.visibility_x4 = &memos;
                 // Calls of at most 2³⁰ fragments (the entry counts them in an i32).
                 const CALL: usize = 1 << 28;
                 let stride = self.width * LANES;
@@ -411,10 +427,13 @@ impl Material for JitMaterial {
                 for (c, packets) in frags.packets().chunks(CALL).enumerate() {
                     let n = (frags.len() - c * CALL * LANES).min(CALL * LANES);
                     let dst = &mut out[c * CALL * stride..];
+                    cc.first = (c * CALL * LANES) as u32;
                     // SAFETY: the function was compiled for this material's layout; `packets`
                     // and `dst` hold the `n` fragments' whole packets (asserted above); the
-                    // context's pointers live for the call.
-                    bad += unsafe { f(&cc, packets.as_ptr(), dst.as_mut_ptr(), n as u32) } as u64;
+                    // context (written by the compiled loop: `first`, `lanes`) and what it
+                    // points to live for the call.
+                    bad +=
+                        unsafe { f(&mut cc, packets.as_ptr(), dst.as_mut_ptr(), n as u32) } as u64;
                 }
                 bad
             }
@@ -564,6 +583,10 @@ fn compile(
             n_lights: 0,
             scene: std::ptr::null(),
             visibility: std::ptr::null(),
+            visibility_x4: std::ptr::null(),
+            first: 0,
+            lanes: LANES as u32,
+            batch_scene: 0,
         };
         // SAFETY: the prelude reads parameters and writes prelude slots of this block, both
         // inside it (the layout sized it); it reads neither fragment nor environment.

@@ -340,23 +340,37 @@ impl<'a, 'b> Lowerer<'a, 'b> {
             .block_params(self.b.func.layout.entry_block().expect("entry"))
             .to_vec();
         let (frag, out, n) = (params[1], params[2], params[3]);
-        let (vf, vo, vn, vbad) = (
+        let (vf, vo, vn, vbad, vfirst) = (
             self.b.declare_var(self.ptr),
             self.b.declare_var(self.ptr),
+            self.b.declare_var(I32),
             self.b.declare_var(I32),
             self.b.declare_var(I32),
         );
         let zero = self.b.ins().iconst(I32, 0);
+        let first = self.b.ins().load(I32, flags(), self.ctx, ctx_offset::FIRST);
         self.b.def_var(vf, frag);
         self.b.def_var(vo, out);
         self.b.def_var(vn, n);
         self.b.def_var(vbad, zero);
+        self.b.def_var(vfirst, first);
         let (body, exit) = (self.b.create_block(), self.b.create_block());
         self.b.ins().jump(body, &[]);
         self.b.switch_to_block(body);
         self.frag = self.b.use_var(vf);
         self.out = self.b.use_var(vo);
         let left = self.b.use_var(vn);
+        // The scene helpers' view of this packet: its first fragment's index in the batch
+        // and how many of its lanes hold fragments.
+        let first = self.b.use_var(vfirst);
+        self.b
+            .ins()
+            .store(flags(), first, self.ctx, ctx_offset::FIRST);
+        let four = self.b.ins().iconst(I32, 4);
+        let lanes = self.b.ins().smin(left, four);
+        self.b
+            .ins()
+            .store(flags(), lanes, self.ctx, ctx_offset::LANES);
         self.push_scope();
         self.block(block)?;
         let bad = self.store_outputs()?;
@@ -370,6 +384,8 @@ impl<'a, 'b> Lowerer<'a, 'b> {
         let f = self.b.ins().iadd_imm_s(self.frag, packet);
         let o = self.b.ins().iadd_imm_s(self.out, outs);
         let rest = self.b.ins().iadd_imm_s(left, -4);
+        let next = self.b.ins().iadd_imm_s(first, 4);
+        self.b.def_var(vfirst, next);
         self.b.def_var(vf, f);
         self.b.def_var(vo, o);
         self.b.def_var(vn, rest);
