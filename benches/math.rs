@@ -1,5 +1,5 @@
 //! The JIT batch entry's math helpers (issue 23): each transcendental op over 2²⁰ inputs
-//! (ordinary shading ranges), four lanes at a time — per lane through the scalar op (what
+//! (ordinary shading ranges; `pow_int`: integer exponents 1–64), four lanes at a time — per lane through the scalar op (what
 //! the batch entry did before `ops::math_x4`), and through `ops::math_x4` on each SIMD path
 //! the CPU has. One thread. `cargo bench --bench math`; `cargo test --benches` runs a quick
 //! check that the paths agree instead.
@@ -35,6 +35,8 @@ fn ops() -> Vec<Op> {
         Op::Un("acos", |t| t.acos, ops::acos, -1.0, 1.0),
         Op::Bin("pow", |t| t.pow, ops::pow, [0.0, 4.0, 0.1, 40.0]),
         Op::Bin("atan2", |t| t.atan2, ops::atan2, [-5.0, 5.0, -5.0, 5.0]),
+        // Integer exponents (a Phong or Blinn lobe's): the squaring loop.
+        Op::Bin("pow_int", |t| t.pow, ops::pow, [0.0, 1.0, 1.0, 65.0]),
     ]
 }
 
@@ -49,6 +51,16 @@ fn uniform(n: usize, lo: f32, hi: f32, seed: u64) -> Vec<f32> {
             lo + (s >> 40) as f32 / (1u64 << 24) as f32 * (hi - lo)
         })
         .collect()
+}
+
+/// The second operand of `op`: `pow_int`'s exponents are whole numbers.
+fn second(name: &str, n: usize, lo: f32, hi: f32, seed: u64) -> Vec<f32> {
+    let v = uniform(n, lo, hi, seed);
+    if name == "pow_int" {
+        v.into_iter().map(f32::floor).collect()
+    } else {
+        v
+    }
 }
 
 fn packets(v: &[f32]) -> Vec<[f32; 4]> {
@@ -122,7 +134,7 @@ fn bench(c: &mut Criterion) {
             }
             Op::Bin(name, pick, scalar, r) => {
                 let a = packets(&uniform(N, r[0], r[1], 0x9E37_79B9));
-                let bb = packets(&uniform(N, r[2], r[3], 0x2545_F491));
+                let bb = packets(&second(name, N, r[2], r[3], 0x2545_F491));
                 g = c.benchmark_group(format!("{name}_1M"));
                 g.sample_size(10);
                 g.bench_function("per_lane_scalar", |b| {
@@ -156,7 +168,7 @@ fn main() {
                 }
                 Op::Bin(name, pick, scalar, r) => {
                     let a = packets(&uniform(4096, r[0], r[1], 7));
-                    let b = packets(&uniform(4096, r[2], r[3], 8));
+                    let b = packets(&second(name, 4096, r[2], r[3], 8));
                     let want = per_lane_bin(scalar, &a, &b);
                     for path in paths() {
                         let got = x4_bin(pick(math_x4::table(path)), &a, &b);

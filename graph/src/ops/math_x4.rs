@@ -149,6 +149,10 @@ impl M4 {
         (self.0[0] | self.0[1] | self.0[2] | self.0[3]) != 0
     }
     #[inline(always)]
+    fn all(self) -> bool {
+        (self.0[0] & self.0[1] & self.0[2] & self.0[3]) == !0
+    }
+    #[inline(always)]
     fn lane(self, l: usize) -> bool {
         self.0[l] != 0
     }
@@ -381,10 +385,10 @@ fn log_body(x: X4) -> X4 {
 }
 
 /// `math::pow` for finite, nonzero `x` and `y` with `|y| < 2⁵¹` or `y` an f32 (every f64 from
-/// 2⁵¹ up is then an even integer), and whether `y` is an integer (where `x < 0` and it is
-/// not, the value is not `math::pow`'s NaN).
+/// 2⁵¹ up is then an even integer), whether `y` is an integer (where `x < 0` and it is not,
+/// the value is not `math::pow`'s NaN) and whether it is an odd one.
 #[inline(always)]
-fn pow_k(xd: D4, yd: D4) -> (D4, M4) {
+fn pow_k(xd: D4, yd: D4) -> (D4, M4, M4) {
     let (ax, ay) = (xd.abs(), yd.abs());
     // math::integer_parity by arithmetic.
     let is_int = ay.ge(pow2(51)).or(round_int(yd).eq(yd));
@@ -401,23 +405,35 @@ fn pow_k(xd: D4, yd: D4) -> (D4, M4) {
         n = n.map(|n| n >> 1);
         base = select(m4(|l| n[l] > 0), base * base, base);
     }
-    let general = exp_k(yd * log_k(ax));
+    // exp(y·ln|x|) where a lane needs it (a packet of integer exponents skips it: its
+    // lanes would discard the value anyway).
+    let general = if squaring.all() {
+        splat(0.0)
+    } else {
+        exp_k(yd * log_k(ax))
+    };
     let r = select(squaring, acc, general);
-    (select(odd.and(xd.lt(0.0)), -r, r), is_int)
+    (select(odd.and(xd.lt(0.0)), -r, r), is_int, odd)
 }
 
 #[inline(always)]
 fn pow_body(x: X4, y: X4) -> X4 {
     let xd = widen(x);
-    let (r, is_int) = pow_k(xd, widen(y));
+    let (r, is_int, odd) = pow_k(xd, widen(y));
+    // A zero base (a clamped dot product's, common in shading): ops::pow gives 0 for y < 0,
+    // math::pow ±0 for y > 0 (-0 for -0 and an odd y).
+    let zero_base = xd.eq(splat(0.0));
+    let at_zero = select(odd.and(xd.negative()), splat(-0.0), splat(0.0));
+    let r = select(zero_base, at_zero, r);
     let out = narrow(r);
-    // ops::pow: a negative base with a non-integer exponent gives 0.
-    let zero = xd.lt(0.0).and(is_int.not());
+    // ops::pow: a negative base with a non-integer exponent gives 0, and so does 0^negative.
+    let zero = xd
+        .lt(0.0)
+        .and(is_int.not())
+        .or(zero_base.and(widen(y).lt(0.0)));
     let out = [0, 1, 2, 3].map(|l| if zero.lane(l) { 0.0 } else { out[l] });
-    let ordinary = |v: f32| v.is_finite() && v != 0.0;
-    patch(out, m4(|l| !(ordinary(x[l]) && ordinary(y[l]))), |l| {
-        super::pow(x[l], y[l])
-    })
+    let rare = m4(|l| !(x[l].is_finite() && y[l].is_finite() && y[l] != 0.0));
+    patch(out, rare, |l| super::pow(x[l], y[l]))
 }
 
 /// `math::sin`, `cos` or `tan` (`pick` combines `n mod 4`, `sin r` and `cos r`) of finite
