@@ -9,8 +9,12 @@
 //! the interpreter agree bit for bit on everything a helper computes.
 //!
 //! Two helper conventions:
-//! - **math**: `extern "C" fn(f32) -> f32` or `fn(f32, f32) -> f32` (sin, pow, …); the batch
-//!   entry calls them once per lane;
+//! - **math**: `extern "C" fn(f32) -> f32` or `fn(f32, f32) -> f32` (sin, pow, …) for the
+//!   scalar entry; the batch entry calls a four-lane form once per packet,
+//!   `unsafe extern "C" fn(args, out)` with the arguments' lanes in a stack slot (structure
+//!   of arrays) and the result's four lanes written to another (`ops::math_x4`: SIMD with
+//!   the scalar bits), or — with `SHADENET_SIMD=lanes`, to measure against — the scalar
+//!   helper once per lane;
 //! - **memory**: `unsafe extern "C" fn(ctx, imm, args, out)`: the arguments are floats (ints
 //!   as their bits) in a stack slot, the results are written to another; `imm` is an
 //!   immediate (a texture or light index). Batch (`_x4`) versions take structure-of-arrays
@@ -21,7 +25,7 @@
 //!   form needs the context: `light` and `texture` find their light or texture once for the
 //!   four lanes, `visible` answers four lanes at once without a scene).
 
-use shadenet_graph::ops::{self, cell_hsv_x4, noise, noise_x4, osl_noise};
+use shadenet_graph::ops::{self, cell_hsv_x4, math_x4, noise, noise_x4, osl_noise};
 use shadenet_runtime::ctx::{Fragment, SceneServices, ShadeEnv};
 use shadenet_runtime::interp;
 use shadenet_runtime::lights;
@@ -222,35 +226,76 @@ extern "C" fn sn_atan2(a: f32, b: f32) -> f32 {
     ops::atan2(a, b)
 }
 
-/// A math helper: symbol name, arity (1 or 2) and address.
+/// A four-lane math helper (see the module documentation): `args` holds the arguments'
+/// lanes, four floats per argument; `out` receives the result's four lanes.
+pub type MathX4 = unsafe extern "C" fn(*const f32, *mut f32);
+
+macro_rules! math_x4_helpers {
+    ($($name:ident: $op:ident / $arity:tt),* $(,)?) => {
+        $(
+            unsafe extern "C" fn $name(a: *const f32, o: *mut f32) {
+                // SAFETY: compiled code passes `4 * arity` readable and 4 writable floats.
+                unsafe {
+                    let a = &*(a as *const [[f32; LANES]; $arity]);
+                    *(o as *mut [f32; LANES]) = math_x4_helpers!(@call $op, a, $arity);
+                }
+            }
+        )*
+    };
+    (@call $op:ident, $a:ident, 1) => { (math_x4::chosen().$op)($a[0]) };
+    (@call $op:ident, $a:ident, 2) => { (math_x4::chosen().$op)($a[0], $a[1]) };
+}
+
+math_x4_helpers! {
+    sn_exp_x4: exp / 1,
+    sn_log_x4: log / 1,
+    sn_sin_x4: sin / 1,
+    sn_cos_x4: cos / 1,
+    sn_tan_x4: tan / 1,
+    sn_asin_x4: asin / 1,
+    sn_acos_x4: acos / 1,
+    sn_pow_x4: pow / 2,
+    sn_atan2_x4: atan2 / 2,
+}
+
+/// A math helper: symbol name, arity (1 or 2), and the scalar and four-lane functions.
 pub struct MathHelper {
-    /// Symbol name.
+    /// Symbol name of the scalar function (`_x4` is appended for the four-lane one).
     pub name: &'static str,
     /// 1 or 2 f32 arguments; one f32 result.
     pub arity: usize,
-    /// The function.
+    /// The scalar function.
     pub ptr: *const u8,
+    /// The four-lane function ([`MathX4`]).
+    pub x4: *const u8,
 }
 
 /// The math helpers, by the op they implement.
 pub fn math_helper(name: &str) -> Option<MathHelper> {
-    let (arity, ptr): (usize, *const u8) = match name {
-        "sn_exp" => (1, sn_exp as *const u8),
-        "sn_log" => (1, sn_log as *const u8),
-        "sn_sin" => (1, sn_sin as *const u8),
-        "sn_cos" => (1, sn_cos as *const u8),
-        "sn_tan" => (1, sn_tan as *const u8),
-        "sn_asin" => (1, sn_asin as *const u8),
-        "sn_acos" => (1, sn_acos as *const u8),
-        "sn_pow" => (2, sn_pow as *const u8),
-        "sn_atan2" => (2, sn_atan2 as *const u8),
+    let (arity, ptr, x4): (usize, *const u8, MathX4) = match name {
+        "sn_exp" => (1, sn_exp as *const u8, sn_exp_x4),
+        "sn_log" => (1, sn_log as *const u8, sn_log_x4),
+        "sn_sin" => (1, sn_sin as *const u8, sn_sin_x4),
+        "sn_cos" => (1, sn_cos as *const u8, sn_cos_x4),
+        "sn_tan" => (1, sn_tan as *const u8, sn_tan_x4),
+        "sn_asin" => (1, sn_asin as *const u8, sn_asin_x4),
+        "sn_acos" => (1, sn_acos as *const u8, sn_acos_x4),
+        "sn_pow" => (2, sn_pow as *const u8, sn_pow_x4),
+        "sn_atan2" => (2, sn_atan2 as *const u8, sn_atan2_x4),
         _ => return None,
     };
     Some(MathHelper {
         name: MATH_NAMES.iter().find(|n| **n == name)?,
         arity,
         ptr,
+        x4: x4 as *const u8,
     })
+}
+
+/// Whether the batch entry calls the four-lane math helpers (else the scalar ones once per
+/// lane: `SHADENET_SIMD=lanes`).
+pub fn math_x4_enabled() -> bool {
+    math_x4::Path::chosen() != math_x4::Path::Lanes
 }
 
 /// Every math helper's symbol name.

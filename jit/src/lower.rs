@@ -124,7 +124,8 @@ fn kind(ty: Type) -> Kind {
 
 /// The helper functions declared in the module, shared by all of its functions.
 pub struct Helpers {
-    math: HashMap<&'static str, FuncId>,
+    /// Scalar and four-lane function of each math helper.
+    math: HashMap<&'static str, (FuncId, FuncId)>,
     mem: HashMap<&'static str, (FuncId, FuncId)>,
 }
 
@@ -133,6 +134,8 @@ impl Helpers {
     pub fn declare(module: &mut JITModule) -> Result<Helpers, String> {
         let ptr = module.target_config().pointer_type();
         let mut math = HashMap::new();
+        let mut x4_sig = module.make_signature();
+        x4_sig.params.extend([AbiParam::new(ptr); 2]);
         for name in abi::MATH_NAMES {
             let h = abi::math_helper(name).ok_or("unknown math helper")?;
             let mut sig = module.make_signature();
@@ -143,7 +146,10 @@ impl Helpers {
             let id = module
                 .declare_function(name, Linkage::Import, &sig)
                 .map_err(|e| e.to_string())?;
-            math.insert(*name, id);
+            let x4 = module
+                .declare_function(&format!("{name}_x4"), Linkage::Import, &x4_sig)
+                .map_err(|e| e.to_string())?;
+            math.insert(*name, (id, x4));
         }
         let mut mem = HashMap::new();
         for h in abi::MEM_HELPERS {
@@ -171,6 +177,7 @@ impl Helpers {
         for name in abi::MATH_NAMES {
             if let Some(h) = abi::math_helper(name) {
                 v.push((name.to_string(), h.ptr));
+                v.push((format!("{name}_x4"), h.x4));
             }
         }
         for h in abi::MEM_HELPERS {
@@ -1151,9 +1158,26 @@ impl<'a, 'b> Lowerer<'a, 'b> {
             .collect()
     }
 
-    /// Calls a math helper: once (scalar) or once per lane (batch).
+    /// Calls a math helper: the scalar function (scalar), or the four-lane one once per
+    /// packet with the arguments' lanes in the scratch slot (batch; with
+    /// `SHADENET_SIMD=lanes` the scalar one once per lane instead).
     fn call_math(&mut self, name: &'static str, args: &[V]) -> V {
-        let f = self.func(self.helpers.math[name]);
+        let (scalar, x4) = self.helpers.math[name];
+        if self.batch() && abi::math_x4_enabled() {
+            let ss = self.scratch();
+            for (k, a) in args.iter().enumerate() {
+                self.b.ins().stack_store(self.ptr, *a, ss, (k * 16) as i32);
+            }
+            let f = self.func(x4);
+            let pa = self.b.ins().stack_addr(self.ptr, ss, 0);
+            let po = self.b.ins().stack_addr(self.ptr, ss, SCRATCH_ARGS as i32);
+            self.b.ins().call(f, &[pa, po]);
+            return self
+                .b
+                .ins()
+                .stack_load(self.ptr, F32X4, ss, SCRATCH_ARGS as i32);
+        }
+        let f = self.func(scalar);
         if !self.batch() {
             let inst = self.b.ins().call(f, args);
             return self.b.inst_results(inst)[0];

@@ -55,6 +55,10 @@
 //! `pow(x, 0) = pow(1, y) = 1` for a quiet NaN, NaN for a signaling one, as glibc; `atan2` of zeros and infinities; signed zeros kept). The
 //! totality rules of DESIGN §7 (`log(x ≤ 0)`, clamping `asin`/`acos`, `pow` of a negative
 //! base) are the ops' wrappers in [`crate::ops`], not these functions.
+//!
+//! [`super::math_x4`] computes the f32 ops four lanes at once with these functions' exact
+//! operations (its constants are this module's): a change here is mirrored there, and its
+//! tests hold the two equal bit for bit.
 
 use std::f64::consts::{FRAC_2_PI, FRAC_PI_2, LOG2_E};
 
@@ -222,15 +226,15 @@ mod big {
 const PI_BIG: big::Big = big::pi();
 const LN2_BIG: big::Big = big::ln2();
 /// π/2 in three parts: 33 + 33 + 53 bits (π's bits 30.. shifted by one).
-const PIO2_1: f64 = big::part(&PI_BIG, 30, 33, -1);
-const PIO2_2: f64 = big::part(&PI_BIG, 63, 33, -1);
-const PIO2_3: f64 = big::part(&PI_BIG, 96, 53, -1);
+pub(super) const PIO2_1: f64 = big::part(&PI_BIG, 30, 33, -1);
+pub(super) const PIO2_2: f64 = big::part(&PI_BIG, 63, 33, -1);
+pub(super) const PIO2_3: f64 = big::part(&PI_BIG, 96, 53, -1);
 /// π/2 as high (53 bits) + low parts, for the `atan` family.
-const PIO2_HI: f64 = big::part(&PI_BIG, 30, 53, -1);
-const PIO2_LO: f64 = big::part(&PI_BIG, 83, 53, -1);
+pub(super) const PIO2_HI: f64 = big::part(&PI_BIG, 30, 53, -1);
+pub(super) const PIO2_LO: f64 = big::part(&PI_BIG, 83, 53, -1);
 /// ln 2 in two parts: 32 bits (so `k·LN2_HI` is exact for `|k| < 2²¹`) + 53 bits.
-const LN2_HI: f64 = big::part(&LN2_BIG, 32, 32, 0);
-const LN2_LO: f64 = big::part(&LN2_BIG, 64, 53, 0);
+pub(super) const LN2_HI: f64 = big::part(&LN2_BIG, 32, 32, 0);
+pub(super) const LN2_LO: f64 = big::part(&LN2_BIG, 64, 53, 0);
 /// 2/π bits for Payne–Hanek: enough for the largest f64 exponent and a 192-bit window.
 const TWO_OVER_PI: [u64; 21] = big::two_over_pi::<21>();
 
@@ -248,7 +252,7 @@ const fn inv_factorials<const N: usize>() -> [f64; N] {
     }
     out
 }
-const INV_FACT: [f64; 22] = inv_factorials::<22>();
+pub(super) const INV_FACT: [f64; 22] = inv_factorials::<22>();
 
 /// Series coefficients: `c[i] = sign(i) / denom(i)` where `denom(i) = (2i + first)!` when
 /// `factorial`, else `2i + first`; `sign(i)` alternates from `first_sign`.
@@ -277,13 +281,13 @@ const fn series<const N: usize>(
     out
 }
 /// `sin`: `−1/3!, 1/5!, …, 1/19!` (the coefficients of `r³ … r¹⁹`, divided by `r³`).
-const SIN_C: [f64; 9] = series::<9>(3, true, -1.0, true);
+pub(super) const SIN_C: [f64; 9] = series::<9>(3, true, -1.0, true);
 /// `cos`: `1/4!, −1/6!, …, 1/20!`.
-const COS_C: [f64; 9] = series::<9>(4, true, 1.0, true);
+pub(super) const COS_C: [f64; 9] = series::<9>(4, true, 1.0, true);
 /// `atanh`: `1/3, 1/5, …, 1/23`.
-const LOG_C: [f64; 11] = series::<11>(3, false, 1.0, false);
+pub(super) const LOG_C: [f64; 11] = series::<11>(3, false, 1.0, false);
 /// `atan`: `−1/3, 1/5, …, 1/43`.
-const ATAN_C: [f64; 21] = series::<21>(3, false, -1.0, true);
+pub(super) const ATAN_C: [f64; 21] = series::<21>(3, false, -1.0, true);
 
 /// Rounds to the nearest integer (ties to even) for `|t| < 2⁵¹`, by arithmetic alone.
 fn round_int(t: f64) -> f64 {

@@ -16,9 +16,11 @@
 
 pub mod cell_hsv_x4;
 pub mod math;
+pub mod math_x4;
 pub mod noise;
 pub mod noise_x4;
 pub mod osl_noise;
+pub mod simd;
 
 use crate::ir::{BinOp, Intrinsic, UnOp, XformKind};
 use crate::types::{ConstValue, Type};

@@ -6,12 +6,12 @@
 //! (branches become selects; no FMA contraction: Rust never fuses `a * b + c`); only the
 //! permutation lookups stay scalar. [`noise3_x4`] and [`fbm3_x4`] pick, once per process, a
 //! copy compiled for AVX2 or SSE4.1 where the CPU has them (`floor` is then one instruction;
-//! without SSE4.1 it is a call per lane), else the baseline copy. Owns no semantics: a change
-//! to the noise goes to [`super::noise`] and is mirrored here; the tests hold the two equal
-//! bit for bit.
+//! without SSE4.1 it is a call per lane), else the baseline copy (the choice: [`Path`], shared
+//! with [`super::math_x4`]). Owns no semantics: a change to the noise goes to [`super::noise`]
+//! and is mirrored here; the tests hold the two equal bit for bit.
 
 use super::noise::PERM;
-use std::sync::OnceLock;
+pub use super::simd::Path;
 
 /// Four values, one per lane.
 pub type X4 = [f32; 4];
@@ -186,106 +186,56 @@ mod x86 {
     }
 }
 
-/// Which copy runs: `SHADENET_SIMD=lanes|base|sse4.1|avx2` forces one (the tests run each
-/// the CPU has), else the widest the CPU has.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Path {
-    /// No four-lane code: the scalar function once per lane (what the batch entry did
-    /// before this module; kept to measure against).
-    Lanes,
-    /// The baseline copy (x86-64: SSE2; `floor` is a call per lane).
-    Base,
-    /// SSE4.1 (`roundps` for `floor`).
-    Sse41,
-    /// AVX2.
-    Avx2,
-}
-
-impl Path {
-    /// Whether this CPU can run the copy.
-    pub fn available(self) -> bool {
-        match self {
-            Path::Lanes | Path::Base => true,
-            #[cfg(target_arch = "x86_64")]
-            Path::Sse41 => std::arch::is_x86_feature_detected!("sse4.1"),
-            #[cfg(target_arch = "x86_64")]
-            Path::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
-            #[cfg(not(target_arch = "x86_64"))]
-            _ => false,
-        }
-    }
-
-    /// The copy chosen for this process (see [`Path`]).
-    pub fn chosen() -> Path {
-        static CHOSEN: OnceLock<Path> = OnceLock::new();
-        *CHOSEN.get_or_init(|| {
-            let forced = match std::env::var("SHADENET_SIMD").ok().as_deref() {
-                Some("lanes") => Some(Path::Lanes),
-                Some("base") => Some(Path::Base),
-                Some("sse4.1") => Some(Path::Sse41),
-                Some("avx2") => Some(Path::Avx2),
-                _ => None,
-            };
-            match forced {
-                Some(p) if p.available() => p,
-                _ => [Path::Avx2, Path::Sse41, Path::Base]
-                    .into_iter()
-                    .find(|p| p.available())
-                    .unwrap_or(Path::Base),
-            }
-        })
-    }
-
-    fn noise3(self) -> Noise3 {
-        match self {
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: `available` checked the feature before this path was chosen.
-            Path::Avx2 => |p| unsafe { x86::noise3_avx2(p) },
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: as above.
-            Path::Sse41 => |p| unsafe { x86::noise3_sse41(p) },
-            Path::Lanes => noise3_lanes,
-            _ => noise3_base,
-        }
-    }
-
-    fn fbm3(self) -> Fbm3 {
-        match self {
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: `available` checked the feature before this path was chosen.
-            Path::Avx2 => |p, o, l, g| unsafe { x86::fbm3_avx2(p, o, l, g) },
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: as above.
-            Path::Sse41 => |p, o, l, g| unsafe { x86::fbm3_sse41(p, o, l, g) },
-            Path::Lanes => fbm3_lanes,
-            _ => fbm3_base,
-        }
+/// The copy for `path`.
+fn noise3_fn(path: Path) -> Noise3 {
+    match path {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `available` checked the feature before this path was chosen.
+        Path::Avx2 => |p| unsafe { x86::noise3_avx2(p) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above.
+        Path::Sse41 => |p| unsafe { x86::noise3_sse41(p) },
+        Path::Lanes => noise3_lanes,
+        _ => noise3_base,
     }
 }
 
+/// The copy for `path`.
+fn fbm3_fn(path: Path) -> Fbm3 {
+    match path {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `available` checked the feature before this path was chosen.
+        Path::Avx2 => |p, o, l, g| unsafe { x86::fbm3_avx2(p, o, l, g) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above.
+        Path::Sse41 => |p, o, l, g| unsafe { x86::fbm3_sse41(p, o, l, g) },
+        Path::Lanes => fbm3_lanes,
+        _ => fbm3_base,
+    }
+}
 /// [`super::noise::noise3`] (f32) of four points, `p[axis][lane]`, on the path `path`
 /// (which must be [`Path::available`]).
 pub fn noise3_x4_on(path: Path, p: [X4; 3]) -> X4 {
     assert!(path.available(), "{path:?} is not available on this CPU");
-    (path.noise3())(p)
+    noise3_fn(path)(p)
 }
 
 /// [`super::noise::fbm3`] (f32) of four points with per-lane parameters, on `path` (which
 /// must be [`Path::available`]).
 pub fn fbm3_x4_on(path: Path, p: [X4; 3], octaves: [i32; 4], lacunarity: X4, gain: X4) -> X4 {
     assert!(path.available(), "{path:?} is not available on this CPU");
-    (path.fbm3())(p, octaves, lacunarity, gain)
+    fbm3_fn(path)(p, octaves, lacunarity, gain)
 }
 
 /// [`super::noise::noise3`] (f32) of four points, `p[axis][lane]`, on [`Path::chosen`].
 pub fn noise3_x4(p: [X4; 3]) -> X4 {
-    (Path::chosen().noise3())(p)
+    noise3_fn(Path::chosen())(p)
 }
 
 /// [`super::noise::fbm3`] (f32) of four points with per-lane parameters, on
 /// [`Path::chosen`].
 pub fn fbm3_x4(p: [X4; 3], octaves: [i32; 4], lacunarity: X4, gain: X4) -> X4 {
-    (Path::chosen().fbm3())(p, octaves, lacunarity, gain)
+    fbm3_fn(Path::chosen())(p, octaves, lacunarity, gain)
 }
 
 #[cfg(test)]
@@ -339,7 +289,7 @@ mod tests {
     }
 
     fn paths() -> Vec<Path> {
-        let all = [Path::Lanes, Path::Base, Path::Sse41, Path::Avx2];
+        let all = Path::ALL;
         for p in all.iter().filter(|p| !p.available()) {
             eprintln!("SKIPPED: the {p:?} copy: this CPU lacks the feature");
         }
