@@ -312,8 +312,8 @@ fn towards<F: Real>(pos: [F; 3], p: [F; 3]) -> ([F; 3], F) {
 /// `p[axis][lane]` and seeds: a point light runs the four lanes together (the scalar
 /// arithmetic — [`towards`]'s dot product from 0, `sqrt`, the total divisions — on four-lane
 /// arrays in the same order, the root and quotients as SSE2 vector instructions, which round
-/// as the scalar ones do: the scalar bits); every other kind samples each lane with
-/// [`sample`].
+/// as the scalar ones do: the scalar bits); a distant light's direction is computed once for
+/// the four; every other kind samples each lane with [`sample`].
 pub fn sample_x4(
     light: &Light,
     index: u32,
@@ -321,13 +321,41 @@ pub fn sample_x4(
     p: [[f32; 4]; 3],
     seed: [u32; 4],
 ) -> [Option<Sample<f32>>; 4] {
-    let LightKind::Point { position } = &light.desc.kind else {
-        return std::array::from_fn(|l| {
-            sample(light, index, k, [p[0][l], p[1][l], p[2][l]], seed[l])
-        });
+    let power: [f32; 3] = v3(light.desc.power);
+    let position = match &light.desc.kind {
+        LightKind::Point { position } => position,
+        LightKind::Distant { direction } => {
+            // The direction is the same for every lane: computed once, as `sample` does.
+            let d: [f32; 3] = v3(*direction);
+            let l = ops::normalize(d.map(|x| -x));
+            let far = FAR as f32;
+            let mut out = [None; 4];
+            for (lane, o) in out.iter_mut().enumerate() {
+                let to = std::array::from_fn(|c| p[c][lane] + l[c] * far);
+                *o = Some(Sample {
+                    l,
+                    cl: power,
+                    to,
+                    pdf: 0.0,
+                });
+            }
+            return out;
+        }
+        _ => {
+            let mut out = [None; 4];
+            for (lane, o) in out.iter_mut().enumerate() {
+                *o = sample(
+                    light,
+                    index,
+                    k,
+                    [p[0][lane], p[1][lane], p[2][lane]],
+                    seed[lane],
+                );
+            }
+            return out;
+        }
     };
     let pos: [f32; 3] = v3(*position);
-    let power: [f32; 3] = v3(light.desc.power);
     let (l, inv_r2) = towards_x4(pos, p);
     std::array::from_fn(|lane| {
         Some(Sample {

@@ -1,35 +1,50 @@
 //! Four-lane forms of cell noise ([`super::noise::cellnoise3`]) and the HSV conversions
 //! ([`super::rgb_to_hsv`], [`super::hsv_to_rgb`]) for the JIT's batch entry (issue 23): the
 //! scalar f32 functions inlined four times into one copy per SIMD path, so the compiler may
-//! run the lanes together (cell noise's floor, conversion and integer hash vectorize;
-//! the HSV conversions' branches become selects where it can) while every lane does exactly
-//! the scalar function's operations — the bits are the scalar ones by construction, and the
-//! tests hold every path to them. The path is [`noise_x4`](super::noise_x4)'s, chosen once
-//! per process. Owns no semantics: a change goes to the scalar functions.
+//! run the lanes together (cell noise's floor, conversion and integer hash vectorize; the HSV
+//! conversions' branches become selects where it can) while every lane does exactly the
+//! scalar function's operations — the bits are the scalar ones by construction, and the tests
+//! hold every path to them. The path is the one every four-lane helper shares
+//! ([`super::simd::Path`], chosen once per process). Owns no semantics: a change goes to the
+//! scalar functions.
 
-use super::noise_x4::{Path, X4};
+use super::noise_x4::X4;
+use super::simd::Path;
 
 #[inline(always)]
 fn cell_body(p: [X4; 3]) -> X4 {
-    std::array::from_fn(|l| super::noise::cellnoise3::<f32>([p[0][l], p[1][l], p[2][l]]))
+    let mut out = [0.0f32; 4];
+    for (l, o) in out.iter_mut().enumerate() {
+        *o = super::noise::cellnoise3::<f32>([p[0][l], p[1][l], p[2][l]]);
+    }
+    out
 }
 
 #[inline(always)]
 fn to_hsv_body(c: [X4; 3]) -> [X4; 3] {
-    soa(std::array::from_fn(|l| {
-        super::rgb_to_hsv::<f32>([c[0][l], c[1][l], c[2][l]])
-    }))
+    let mut out = [[0.0f32; 4]; 3];
+    for l in 0..4 {
+        let v = super::rgb_to_hsv::<f32>([c[0][l], c[1][l], c[2][l]]);
+        for k in 0..3 {
+            out[k][l] = v[k];
+        }
+    }
+    out
 }
 
 #[inline(always)]
 fn to_rgb_body(c: [X4; 3]) -> [X4; 3] {
-    soa(std::array::from_fn(|l| {
-        super::hsv_to_rgb::<f32>([c[0][l], c[1][l], c[2][l]])
-    }))
+    let mut out = [[0.0f32; 4]; 3];
+    for l in 0..4 {
+        let v = super::hsv_to_rgb::<f32>([c[0][l], c[1][l], c[2][l]]);
+        for k in 0..3 {
+            out[k][l] = v[k];
+        }
+    }
+    out
 }
 
 /// Four results of three components, lane-major, as three components of four lanes.
-#[inline(always)]
 fn soa(v: [[f32; 3]; 4]) -> [X4; 3] {
     std::array::from_fn(|k| std::array::from_fn(|l| v[l][k]))
 }

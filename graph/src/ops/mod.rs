@@ -108,63 +108,83 @@ macro_rules! impl_real {
         impl Real for $t {
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
+            #[inline]
             fn from_f64(x: f64) -> Self {
                 x as $t
             }
+            #[inline]
             fn to_f64(self) -> f64 {
                 self as f64
             }
+            #[inline]
             fn sqrt(self) -> Self {
                 <$t>::sqrt(self)
             }
+            #[inline]
             fn exp(self) -> Self {
                 at::$m::exp(self)
             }
+            #[inline]
             fn ln(self) -> Self {
                 at::$m::log(self)
             }
+            #[inline]
             fn sin(self) -> Self {
                 at::$m::sin(self)
             }
+            #[inline]
             fn cos(self) -> Self {
                 at::$m::cos(self)
             }
+            #[inline]
             fn tan(self) -> Self {
                 at::$m::tan(self)
             }
+            #[inline]
             fn asin(self) -> Self {
                 at::$m::asin(self)
             }
+            #[inline]
             fn acos(self) -> Self {
                 at::$m::acos(self)
             }
+            #[inline]
             fn atan2(self, x: Self) -> Self {
                 at::$m::atan2(self, x)
             }
+            #[inline]
             fn powf(self, e: Self) -> Self {
                 at::$m::pow(self, e)
             }
+            #[inline]
             fn floor(self) -> Self {
                 <$t>::floor(self)
             }
+            #[inline]
             fn ceil(self) -> Self {
                 <$t>::ceil(self)
             }
+            #[inline]
             fn abs(self) -> Self {
                 <$t>::abs(self)
             }
+            #[inline]
             fn trunc(self) -> Self {
                 <$t>::trunc(self)
             }
+            #[inline]
             fn is_finite(self) -> bool {
                 <$t>::is_finite(self)
             }
+            #[inline]
             fn is_nan(self) -> bool {
                 <$t>::is_nan(self)
             }
+            #[inline]
             fn to_i32(self) -> i32 {
                 self as i32
             }
+            #[inline]
             fn from_i32(i: i32) -> Self {
                 i as $t
             }
@@ -319,11 +339,13 @@ impl<F: Real> Val<F> {
 // ---- scalar semantics: every back end on the CPU calls these ----
 
 /// `a / b`, 0 where `b == 0`.
+#[inline]
 pub fn div<F: Real>(a: F, b: F) -> F {
     if b == F::ZERO { F::ZERO } else { a / b }
 }
 
 /// `a - b * floor(a / b)`, 0 where `b == 0`.
+#[inline]
 pub fn fmod<F: Real>(a: F, b: F) -> F {
     if b == F::ZERO {
         F::ZERO
@@ -405,16 +427,19 @@ pub fn acos<F: Real>(x: F) -> F {
 }
 
 /// `a < b ? a : b`.
+#[inline]
 pub fn min<F: Real>(a: F, b: F) -> F {
     if a < b { a } else { b }
 }
 
 /// `a > b ? a : b`.
+#[inline]
 pub fn max<F: Real>(a: F, b: F) -> F {
     if a > b { a } else { b }
 }
 
 /// `x - floor(x)`.
+#[inline]
 pub fn fract<F: Real>(x: F) -> F {
     x - x.floor()
 }
@@ -770,6 +795,7 @@ fn osl_intrinsic<F: Real>(i: Intrinsic, args: &[Val<F>]) -> Val<F> {
 
 /// RGB → HSV: hue in [0, 1) (0 for greys), saturation `(max-min)/max` (0 for black), value
 /// `max`.
+#[inline]
 pub fn rgb_to_hsv<F: Real>(c: [F; 3]) -> [F; 3] {
     let [r, g, b] = c;
     let mx = max(r, max(g, b));
@@ -789,6 +815,7 @@ pub fn rgb_to_hsv<F: Real>(c: [F; 3]) -> [F; 3] {
 }
 
 /// HSV → RGB (hue wraps modulo 1, saturation used as given).
+#[inline]
 pub fn hsv_to_rgb<F: Real>(c: [F; 3]) -> [F; 3] {
     let [h, s, v] = c;
     let six = F::from_f64(6.0);

@@ -122,6 +122,7 @@ pub fn fbm3<F: Real>(p: [F; 3], octaves: i32, lacunarity: F, gain: F) -> F {
 
 /// Cell noise: a value in [0, 1) constant over each unit cell `floor(p)`, the same in f32 and
 /// f64 (24 bits of an integer hash).
+#[inline]
 pub fn cellnoise3<F: Real>(p: [F; 3]) -> F {
     let mut h: u32 = 0x9e37_79b9;
     for c in p {
