@@ -312,7 +312,8 @@ fn towards<F: Real>(pos: [F; 3], p: [F; 3]) -> ([F; 3], F) {
 /// `p[axis][lane]` and seeds: a point light runs the four lanes together (the scalar
 /// arithmetic — [`towards`]'s dot product from 0, `sqrt`, the total divisions — on four-lane
 /// arrays in the same order, the root and quotients as SSE2 vector instructions, which round
-/// as the scalar ones do: the scalar bits); a distant light's direction is computed once for
+/// as the scalar ones do: the scalar bits); a spot light adds its cone and dropoff per lane
+/// (the dropoff's `pow` four lanes at once); a distant light's direction is computed once for
 /// the four; every other kind samples each lane with [`sample`].
 pub fn sample_x4(
     light: &Light,
@@ -341,6 +342,12 @@ pub fn sample_x4(
             }
             return out;
         }
+        LightKind::Spot {
+            position,
+            direction,
+            dropoff,
+            ..
+        } => return spot_x4(light, v3(*position), v3(*direction), *dropoff, p),
         _ => {
             let mut out = [None; 4];
             for (lane, o) in out.iter_mut().enumerate() {
@@ -365,6 +372,54 @@ pub fn sample_x4(
             pdf: 0.0,
         })
     })
+}
+
+/// A spot light's samples for four points: [`sample`]'s spot arithmetic per lane in the same
+/// order, the distances by [`towards_x4`] and the dropoff's `pow` by the four-lane math
+/// helpers (`ops::math_x4`, the scalar op's bits).
+fn spot_x4(
+    light: &Light,
+    pos: [f32; 3],
+    direction: [f32; 3],
+    dropoff: f64,
+    p: [[f32; 4]; 3],
+) -> [Option<Sample<f32>>; 4] {
+    let power: [f32; 3] = v3(light.desc.power);
+    let (l, inv_r2) = towards_x4(pos, p);
+    let axis = ops::normalize(direction);
+    let (cos_in, cos_out) = (light.spot_cos.0 as f32, light.spot_cos.1 as f32);
+    let mut cos_a = [0.0f32; 4];
+    let mut cone = [0.0f32; 4];
+    for lane in 0..4 {
+        let lv = [l[0][lane], l[1][lane], l[2][lane]];
+        cos_a[lane] = -ops::dot(&lv, &axis);
+        cone[lane] = if cos_a[lane] >= cos_in {
+            1.0
+        } else if cos_a[lane] <= cos_out {
+            0.0
+        } else {
+            // smoothstep from the dark edge to the lit edge
+            let t = ops::div(cos_a[lane] - cos_out, cos_in - cos_out);
+            t * t * (3.0 - 2.0 * t)
+        };
+    }
+    let fall = if dropoff > 0.0 {
+        let base = cos_a.map(|c| ops::max(c, 0.0));
+        (shadenet_graph::ops::math_x4::chosen().pow)(base, [dropoff as f32; 4])
+    } else {
+        [1.0; 4]
+    };
+    let mut out = [None; 4];
+    for (lane, o) in out.iter_mut().enumerate() {
+        let k = cone[lane] * fall[lane] * inv_r2[lane];
+        *o = Some(Sample {
+            l: [l[0][lane], l[1][lane], l[2][lane]],
+            cl: power.map(|c| c * k),
+            to: pos,
+            pdf: 0.0,
+        });
+    }
+    out
 }
 
 /// [`towards`] for four points at once.
@@ -498,6 +553,8 @@ mod tests {
             points.push([0.5, 1.0, a]);
         }
         points.push([1.0, 1.0, 2.0]); // the point light's position
+        // A sweep across the spot's cone, penumbra and outside (its axis is x = y = 0).
+        points.extend((0..64).map(|i| [i as f32 * 0.05, 0.01, 0.0]));
         for (li, light) in lights.iter().enumerate() {
             for k in 0..sample_count(light).max(1) {
                 for (c, chunk) in points.chunks(4).enumerate() {
