@@ -36,7 +36,7 @@ pub(crate) enum BackendArg {
     Interp,
     /// The Cranelift JIT, scalar entry (one call per fragment or hit).
     Jit,
-    /// The Cranelift JIT, 4-wide batch entry (`shade` only).
+    /// The Cranelift JIT, its batch entry: four-lane packets, a row per call (`shade` only).
     JitBatch,
     /// The GPU (wgpu): `shade` runs the whole grid in one batch; `render` shades camera hits
     /// deferred in batches and the JIT shades secondary hits.

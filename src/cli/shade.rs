@@ -54,8 +54,8 @@ pub(crate) struct ShadeArgs {
     #[arg(long)]
     light: Vec<String>,
     /// Back end: `interp` (the interpreter), `jit` (Cranelift, one call per fragment),
-    /// `jit-batch` (Cranelift, four fragments per call) or `gpu` (wgpu, the whole grid in one
-    /// batch). Default: `jit`, or `interp` with `--precision f64`.
+    /// `jit-batch` (Cranelift, four-lane packets, a row per call) or `gpu` (wgpu, the whole
+    /// grid in one batch). Default: `jit`, or `interp` with `--precision f64`.
     #[arg(long, value_enum)]
     backend: Option<BackendArg>,
     #[command(flatten)]
