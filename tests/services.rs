@@ -1010,27 +1010,6 @@ fn trace_and_occlusion_ops_follow_their_definition() {
 
 // ---- the batch entry with a scene ----
 
-/// Services that answer with a tag: the batch's own (-1) or fragment `i`'s (`i`).
-struct Tagged {
-    tag: f32,
-    parts: Vec<Tagged>,
-}
-
-impl SceneServices for Tagged {
-    fn trace(&self, _: [f32; 3], _: [f32; 3], _: i32, _: i32, _: f32) -> [f32; 3] {
-        [self.tag, 0.5, 0.25]
-    }
-    fn occluded(&self, _: [f32; 3], _: [f32; 3]) -> bool {
-        self.tag < 0.0 || self.tag as u32 % 3 == 1
-    }
-    fn occlusion(&self, _: [f32; 3], _: [f32; 3], _: u32, _: f32, _: u32) -> f32 {
-        self.tag / 1000.0
-    }
-    fn fragment(&self, index: usize) -> Option<&dyn SceneServices> {
-        self.parts.get(index).map(|t| t as &dyn SceneServices)
-    }
-}
-
 /// The JIT's `shade_many` with a scene runs the batch entry, whose lanes ask their own
 /// fragment's services (`SceneServices::fragment(first + lane)`) for traces, occlusion and
 /// light visibility, in every packet — and padding lanes ask nothing: 101 fragments (the
@@ -1061,15 +1040,7 @@ fn the_batch_entry_asks_each_fragment_for_its_own_services() {
             ..Fragment::default()
         })
         .collect();
-    let scene = Tagged {
-        tag: -1.0,
-        parts: (0..frags.len() + 4)
-            .map(|i| Tagged {
-                tag: i as f32,
-                parts: Vec::new(),
-            })
-            .collect(),
-    };
+    let scene = shadenet_runtime::testing::TaggedScene::with_fragments(frags.len() + 4);
     let m = shadenet_jit::JitBackend::new()
         .compile_program(&p, Duration::ZERO)
         .unwrap();

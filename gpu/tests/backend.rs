@@ -644,27 +644,6 @@ fn scene_services_match_the_interpreter() {
     );
 }
 
-/// Services that answer with a tag: the batch's own (-1) or fragment `i`'s (`i`).
-struct Tagged {
-    tag: f32,
-    parts: Vec<Tagged>,
-}
-
-impl SceneServices for Tagged {
-    fn trace(&self, _: [f32; 3], _: [f32; 3], _: i32, _: i32, _: f32) -> [f32; 3] {
-        [self.tag, 0.5, 0.25]
-    }
-    fn occluded(&self, _: [f32; 3], _: [f32; 3]) -> bool {
-        self.tag < 0.0 || self.tag as u32 % 3 == 1
-    }
-    fn occlusion(&self, _: [f32; 3], _: [f32; 3], _: u32, _: f32, _: u32) -> f32 {
-        self.tag / 1000.0
-    }
-    fn fragment(&self, index: usize) -> Option<&dyn SceneServices> {
-        self.parts.get(index).map(|t| t as &dyn SceneServices)
-    }
-}
-
 /// Host steps ask each fragment's own services (`SceneServices::fragment`, the tracer's
 /// per-hit state) for its traces, occlusion and light visibility, in every batch of a call
 /// (fragment `i` of the third batch is fragment `2 × batch + i` of the call).
@@ -682,15 +661,7 @@ fn host_steps_ask_each_fragment_for_its_own_services() {
     );
     let e = env();
     let frags = fragments(100);
-    let scene = Tagged {
-        tag: -1.0,
-        parts: (0..frags.len())
-            .map(|i| Tagged {
-                tag: i as f32,
-                parts: Vec::new(),
-            })
-            .collect(),
-    };
+    let scene = shadenet_runtime::testing::TaggedScene::with_fragments(frags.len());
     let options = GpuOptions {
         batch: 37,
         ..GpuOptions::default()

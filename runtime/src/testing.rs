@@ -175,6 +175,47 @@ impl SceneServices for HashScene {
     }
 }
 
+/// Services that answer with a tag, to tell whose services a question reached: a batch's own
+/// (tag −1) or fragment `i`'s (tag `i`, given by [`SceneServices::fragment`]). A trace returns
+/// `[tag, 0.5, 0.25]`, occlusion `tag / 1000`, and a shadow ray is blocked for the batch's
+/// own services and for the fragments with `i % 3 == 1`.
+pub struct TaggedScene {
+    /// This level's tag.
+    pub tag: f32,
+    /// The fragments' own services.
+    pub parts: Vec<TaggedScene>,
+}
+
+impl TaggedScene {
+    /// The batch's services (tag −1) with `n` fragments' own (tags `0 .. n`).
+    pub fn with_fragments(n: usize) -> TaggedScene {
+        TaggedScene {
+            tag: -1.0,
+            parts: (0..n)
+                .map(|i| TaggedScene {
+                    tag: i as f32,
+                    parts: Vec::new(),
+                })
+                .collect(),
+        }
+    }
+}
+
+impl SceneServices for TaggedScene {
+    fn trace(&self, _: [f32; 3], _: [f32; 3], _: i32, _: i32, _: f32) -> [f32; 3] {
+        [self.tag, 0.5, 0.25]
+    }
+    fn occluded(&self, _: [f32; 3], _: [f32; 3]) -> bool {
+        self.tag < 0.0 || self.tag as u32 % 3 == 1
+    }
+    fn occlusion(&self, _: [f32; 3], _: [f32; 3], _: u32, _: f32, _: u32) -> f32 {
+        self.tag / 1000.0
+    }
+    fn fragment(&self, index: usize) -> Option<&dyn SceneServices> {
+        self.parts.get(index).map(|t| t as &dyn SceneServices)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -153,41 +153,27 @@ pub fn hsv_to_rgb_x4(c: [X4; 3]) -> [X4; 3] {
 mod tests {
     use super::*;
 
-    /// Hard values: zeros, denormals, cell and hue-sector boundaries, negatives, huge, ±inf,
-    /// NaN, values just below integers.
-    const HARD: &[f32] = &[
-        0.0,
-        -0.0,
-        1e-45,
-        -1e-45,
-        f32::MIN_POSITIVE,
-        0.5,
-        -0.5,
-        1.0,
-        -1.0,
-        0.999_999_94,
-        1.000_000_1,
-        1.0 / 6.0,
-        2.0 / 6.0,
-        0.5 + 1.0 / 6.0,
-        5.0 / 6.0,
-        2.5,
-        -7.25,
-        16_777_216.0,
-        3e9,
-        -3e9,
-        f32::MAX,
-        f32::MIN,
-        f32::INFINITY,
-        f32::NEG_INFINITY,
-        f32::NAN,
-    ];
+    /// Hard values: the noise tests' (zeros, denormals, cell boundaries, huge, ±inf, NaN) and
+    /// the hue sectors' boundaries.
+    fn hard() -> Vec<f32> {
+        let mut v = super::super::noise_x4::tests::HARD.to_vec();
+        v.extend([
+            f32::MIN_POSITIVE,
+            1.000_000_1,
+            1.0 / 6.0,
+            2.0 / 6.0,
+            0.5 + 1.0 / 6.0,
+        ]);
+        v.extend([5.0 / 6.0, 2.5, -7.25, 16_777_216.0]);
+        v
+    }
 
     /// Every triple of hard values, then deterministic random triples over a wide range.
     fn triples() -> Vec<[f32; 3]> {
         let mut v = Vec::new();
-        for &a in HARD {
-            for &b in HARD {
+        let hard = hard();
+        for &a in &hard {
+            for &b in &hard {
                 for &c in [0.0f32, 0.25, 1.0, -2.0, f32::NAN, 1e-45].iter() {
                     v.push([a, b, c]);
                     v.push([c, a, b]);

@@ -239,12 +239,13 @@ pub fn fbm3_x4(p: [X4; 3], octaves: [i32; 4], lacunarity: X4, gain: X4) -> X4 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::super::noise;
     use super::*;
 
-    /// Hard and ordinary coordinates: zeros, denormals, cell boundaries, huge, ±inf, NaN.
-    const HARD: &[f32] = &[
+    /// Hard and ordinary coordinates: zeros, denormals, cell boundaries, huge, ±inf, NaN
+    /// (shared with the other four-lane helpers' tests).
+    pub(crate) const HARD: &[f32] = &[
         0.0,
         -0.0,
         1e-45,
