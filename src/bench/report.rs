@@ -72,18 +72,25 @@ pub fn time(reps: usize, budget: f64, mut f: impl FnMut()) -> Timing {
         f();
         ts.push(s.elapsed().as_secs_f64());
     }
-    ts.sort_by(f64::total_cmp);
-    let n = ts.len();
-    let median = if n % 2 == 1 {
-        ts[n / 2]
-    } else {
-        (ts[n / 2 - 1] + ts[n / 2]) / 2.0
-    };
-    Timing {
-        median,
-        min: ts[0],
-        max: ts[n - 1],
-        runs: n,
+    Timing::of(ts).expect("at least one run")
+}
+
+impl Timing {
+    /// The median, extremes and count of some run times (seconds); `None` for no runs.
+    pub fn of(mut ts: Vec<f64>) -> Option<Timing> {
+        ts.sort_by(f64::total_cmp);
+        let n = ts.len();
+        let median = match n {
+            0 => return None,
+            _ if n % 2 == 1 => ts[n / 2],
+            _ => (ts[n / 2 - 1] + ts[n / 2]) / 2.0,
+        };
+        Some(Timing {
+            median,
+            min: ts[0],
+            max: ts[n - 1],
+            runs: n,
+        })
     }
 }
 

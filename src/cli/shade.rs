@@ -5,6 +5,7 @@ use super::print_out;
 use super::{BackendArg, GpuPassesArg, OptArgs, ThreadsArg, check_extension, load, ms, parse_res};
 use anyhow::{Context, Result, bail};
 use clap::ValueEnum;
+use shadenet::bench::report::Timing;
 use shadenet::graph::ir::Program;
 use shadenet::graph::nodes::{LightDesc, LightKind};
 use shadenet::graph::opt::{self, Specialization};
@@ -448,21 +449,14 @@ fn summary(args: &ShadeArgs, s: &Shaded) {
         s.ops,
         s.grid.nonfinite
     );
-    if !s.later.is_empty() {
-        let mut t: Vec<f64> = s.later.iter().map(|d| d.as_secs_f64()).collect();
-        t.sort_by(f64::total_cmp);
-        let median = if t.len() % 2 == 1 {
-            t[t.len() / 2]
-        } else {
-            0.5 * (t[t.len() / 2 - 1] + t[t.len() / 2])
-        };
+    if let Some(t) = Timing::of(s.later.iter().map(|d| d.as_secs_f64()).collect()) {
         say!(
             "frames 2..{}: median {:.3} ms per frame ({:.3}–{:.3}), {:.2} M fragments/s",
-            t.len() + 1,
-            median * 1e3,
-            t[0] * 1e3,
-            t[t.len() - 1] * 1e3,
-            n as f64 / median / 1e6
+            t.runs + 1,
+            t.median * 1e3,
+            t.min * 1e3,
+            t.max * 1e3,
+            n as f64 / t.median / 1e6
         );
     }
     if let Some((_, st)) = &s.stats {
