@@ -232,12 +232,9 @@ pub fn shade_batch(
     frags: &[Fragment],
     out: &mut [f32],
 ) -> u64 {
-    let w = material.width();
-    let packed = Fragments::from_slice(frags);
-    let mut o = vec![0.0f32; packed_len(w, frags.len())];
-    let bad = shade_packets(material, env, mask, &packed, &mut o);
-    out[..w * frags.len()].copy_from_slice(&unpacked(w, frags.len(), &o));
-    bad
+    through_packets(material.width(), frags, out, |packed, o| {
+        shade_packets(material, env, mask, packed, o)
+    })
 }
 
 /// [`Material::shade_many`] for a slice of fragments, its outputs written fragment after
@@ -251,10 +248,22 @@ pub fn shade_many_unpacked(
     frags: &[Fragment],
     out: &mut [f32],
 ) -> BatchResult {
-    let w = material.width();
+    through_packets(material.width(), frags, out, |packed, o| {
+        material.shade_many(env, mask, scene, packed, o)
+    })
+}
+
+/// Packs `frags`, lets `shade` write the packets' layout, and unpacks its `w` floats per
+/// fragment into `out`, fragment after fragment.
+fn through_packets<R>(
+    w: usize,
+    frags: &[Fragment],
+    out: &mut [f32],
+    shade: impl FnOnce(&Fragments, &mut [f32]) -> R,
+) -> R {
     let packed = Fragments::from_slice(frags);
     let mut o = vec![0.0f32; packed_len(w, frags.len())];
-    let r = material.shade_many(env, mask, scene, &packed, &mut o);
+    let r = shade(&packed, &mut o);
     out[..w * frags.len()].copy_from_slice(&unpacked(w, frags.len(), &o));
     r
 }

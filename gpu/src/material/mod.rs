@@ -560,14 +560,14 @@ impl Material for GpuMaterial {
             match ok {
                 Some(bad) => result.nonfinite += bad,
                 None => {
-                    let packed = Fragments::from_slice(chunk);
-                    let mut o = vec![0.0f32; packed_len(w, chunk.len())];
-                    let r = self.companion.shade_many(env, mask, scene, &packed, &mut o);
-                    for (i, px) in dst.chunks_mut(w).enumerate() {
-                        for (c, x) in px.iter_mut().enumerate() {
-                            *x = o[packed_index(w, i, c)];
-                        }
-                    }
+                    let r = shadenet_runtime::shade_many_unpacked(
+                        &*self.companion,
+                        env,
+                        mask,
+                        scene,
+                        chunk,
+                        dst,
+                    );
                     result.nonfinite += r.nonfinite;
                     result.times.add(&r.times);
                 }
