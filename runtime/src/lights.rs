@@ -228,16 +228,7 @@ pub fn sample<F: Real>(
             let (l, inv_r2) = towards(v3(*position), p);
             let axis: [F; 3] = ops::normalize(v3(*direction));
             let cos_a = -ops::dot(&l, &axis);
-            let (cos_in, cos_out) = (F::from_f64(light.spot_cos.0), F::from_f64(light.spot_cos.1));
-            let cone = if cos_a >= cos_in {
-                F::ONE
-            } else if cos_a <= cos_out {
-                F::ZERO
-            } else {
-                // smoothstep from the dark edge to the lit edge
-                let t = ops::div(cos_a - cos_out, cos_in - cos_out);
-                t * t * (F::from_f64(3.0) - F::from_f64(2.0) * t)
-            };
+            let cone = spot_cone(light, cos_a);
             let fall = if *dropoff > 0.0 {
                 ops::pow(ops::max(cos_a, F::ZERO), F::from_f64(*dropoff))
             } else {
@@ -374,9 +365,24 @@ pub fn sample_x4(
     })
 }
 
+/// A spot light's cone at `cos_a` (the cosine to its axis): 1 inside the lit edge, 0 outside
+/// the dark edge, a smoothstep between.
+fn spot_cone<F: Real>(light: &Light, cos_a: F) -> F {
+    let (cos_in, cos_out) = (F::from_f64(light.spot_cos.0), F::from_f64(light.spot_cos.1));
+    if cos_a >= cos_in {
+        F::ONE
+    } else if cos_a <= cos_out {
+        F::ZERO
+    } else {
+        // smoothstep from the dark edge to the lit edge
+        let t = ops::div(cos_a - cos_out, cos_in - cos_out);
+        t * t * (F::from_f64(3.0) - F::from_f64(2.0) * t)
+    }
+}
+
 /// A spot light's samples for four points: [`sample`]'s spot arithmetic per lane in the same
-/// order, the distances by [`towards_x4`] and the dropoff's `pow` by the four-lane math
-/// helpers (`ops::math_x4`, the scalar op's bits).
+/// order ([`spot_cone`] shared), the distances by [`towards_x4`] and the dropoff's `pow` by
+/// the four-lane math helpers (`ops::math_x4`, the scalar op's bits).
 fn spot_x4(
     light: &Light,
     pos: [f32; 3],
@@ -387,21 +393,12 @@ fn spot_x4(
     let power: [f32; 3] = v3(light.desc.power);
     let (l, inv_r2) = towards_x4(pos, p);
     let axis = ops::normalize(direction);
-    let (cos_in, cos_out) = (light.spot_cos.0 as f32, light.spot_cos.1 as f32);
     let mut cos_a = [0.0f32; 4];
     let mut cone = [0.0f32; 4];
     for lane in 0..4 {
         let lv = [l[0][lane], l[1][lane], l[2][lane]];
         cos_a[lane] = -ops::dot(&lv, &axis);
-        cone[lane] = if cos_a[lane] >= cos_in {
-            1.0
-        } else if cos_a[lane] <= cos_out {
-            0.0
-        } else {
-            // smoothstep from the dark edge to the lit edge
-            let t = ops::div(cos_a[lane] - cos_out, cos_in - cos_out);
-            t * t * (3.0 - 2.0 * t)
-        };
+        cone[lane] = spot_cone(light, cos_a[lane]);
     }
     let fall = if dropoff > 0.0 {
         let base = cos_a.map(|c| ops::max(c, 0.0));
