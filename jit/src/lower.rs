@@ -367,17 +367,19 @@ impl<'a, 'b> Lowerer<'a, 'b> {
         self.frag = self.b.use_var(vf);
         self.out = self.b.use_var(vo);
         let left = self.b.use_var(vn);
-        // The scene helpers' view of this packet: its first fragment's index in the batch
-        // and how many of its lanes hold fragments.
+        // The scene helpers' view of this packet, where the program asks the scene: its
+        // first fragment's index in the batch and how many of its lanes hold fragments.
         let first = self.b.use_var(vfirst);
-        self.b
-            .ins()
-            .store(flags(), first, self.ctx, ctx_offset::FIRST);
-        let four = self.b.ins().iconst(I32, 4);
-        let lanes = self.b.ins().smin(left, four);
-        self.b
-            .ins()
-            .store(flags(), lanes, self.ctx, ctx_offset::LANES);
+        if self.asks_scene(block) {
+            self.b
+                .ins()
+                .store(flags(), first, self.ctx, ctx_offset::FIRST);
+            let four = self.b.ins().iconst(I32, 4);
+            let lanes = self.b.ins().smin(left, four);
+            self.b
+                .ins()
+                .store(flags(), lanes, self.ctx, ctx_offset::LANES);
+        }
         self.push_scope();
         self.block(block)?;
         let bad = self.store_outputs()?;
@@ -402,6 +404,18 @@ impl<'a, 'b> Lowerer<'a, 'b> {
         let total = self.b.use_var(vbad);
         self.b.ins().return_(&[total]);
         Ok(())
+    }
+
+    /// Whether the block calls a scene helper (`trace`, `occlusion`, `light.visible`).
+    fn asks_scene(&self, block: &Block) -> bool {
+        let mut asks = false;
+        self.p.walk(block, &mut |v| {
+            asks |= matches!(
+                self.p.op(v),
+                Op::Trace { .. } | Op::Occlusion { .. } | Op::LightVisible
+            )
+        });
+        asks
     }
 
     /// The guard's per-lane counts (`bad`, i32x4) summed over the lanes below `left`.
