@@ -3,7 +3,7 @@
 use anyhow::{Context, Result};
 use clap::{Subcommand, ValueEnum};
 use shadenet::graph::ir::Space;
-use shadenet::output::{OutputError, write_atomic};
+use shadenet::output::write_bytes_atomic;
 use std::path::PathBuf;
 
 /// What `shadenet gen` writes.
@@ -74,12 +74,7 @@ pub(crate) fn run(what: GenCmd) -> Result<()> {
             let net = shadenet::generate::mult_tree(levels, space).context("--levels")?;
             let mut text = serde_json::to_string_pretty(&net)?;
             text.push('\n');
-            write_atomic(&output, |tmp| {
-                std::fs::write(tmp, &text).map_err(|e| OutputError::Write {
-                    path: output.clone(),
-                    message: e.to_string(),
-                })
-            })?;
+            write_bytes_atomic(&output, text.as_bytes())?;
             Ok(())
         }
         GenCmd::Sky {
@@ -100,12 +95,7 @@ pub(crate) fn run(what: GenCmd) -> Result<()> {
                 sun_radiance,
             };
             let bytes = shadenet::generate::sky_hdr(&sky)?;
-            write_atomic(&output, |tmp| {
-                std::fs::write(tmp, &bytes).map_err(|e| OutputError::Write {
-                    path: output.clone(),
-                    message: e.to_string(),
-                })
-            })?;
+            write_bytes_atomic(&output, &bytes)?;
             Ok(())
         }
     }

@@ -81,6 +81,16 @@ pub fn write_atomic(
     result
 }
 
+/// Writes `bytes` to `path` atomically ([`write_atomic`]).
+pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+    write_atomic(path, |tmp| {
+        std::fs::write(tmp, bytes).map_err(|e| OutputError::Write {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })
+    })
+}
+
 /// Linear → sRGB transfer function, clamped to [0, 1] (non-finite → 0).
 pub fn linear_to_srgb(x: f32) -> f32 {
     let x = if x.is_finite() {
