@@ -348,6 +348,10 @@ macro_rules! named_enum {
     };
 }
 
+// Declared after `named_enum!`, which it uses.
+mod texture;
+pub use texture::{ColorSpace, Filter, Sampling, TextureFile, Wrap};
+
 named_enum! {
     /// Unary operations. Component-wise on vectors unless noted; semantics in
     /// [`crate::ops`].
