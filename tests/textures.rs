@@ -28,7 +28,7 @@ fn texel_centres_and_srgb_decoding() {
     let p = d.join("t.png");
     write_png(&p);
     let t = Texture::load(&p).unwrap();
-    assert_eq!((t.width, t.height), (2, 2));
+    assert_eq!((t.width(), t.height()), (2, 2));
     // Texel centres: (0.25, 0.75) is the top-left texel (uv origin is the bottom-left).
     assert_eq!(t.sample([0.25f64, 0.75]), [1.0, 0.0, 0.0, 1.0]);
     assert_eq!(t.sample([0.75f64, 0.75]), [0.0, 1.0, 0.0, 1.0]);

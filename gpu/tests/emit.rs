@@ -1173,19 +1173,21 @@ fn texture_lookups_match_the_cpu() {
     let mut rng = Rng(4242);
     let textures: Vec<Texture> = [(3u32, 2u32), (1, 1), (5, 7)]
         .iter()
-        .map(|&(width, height)| Texture {
-            width,
-            height,
-            texels: (0..width * height)
-                .map(|_| [rng.unit(), rng.unit(), 2.0 * rng.unit() - 0.5, rng.unit()])
-                .collect(),
+        .map(|&(width, height)| {
+            Texture::from_texels(
+                width,
+                height,
+                (0..width * height)
+                    .map(|_| [rng.unit(), rng.unit(), 2.0 * rng.unit() - 0.5, rng.unit()])
+                    .collect(),
+            )
         })
         .collect();
     let mut texels: Vec<[f32; 4]> = Vec::new();
     let mut info: Vec<[u32; 4]> = Vec::new();
     for t in &textures {
-        info.push([texels.len() as u32, t.width, t.height, 0]);
-        texels.extend(&t.texels);
+        info.push([texels.len() as u32, t.width(), t.height(), 0]);
+        texels.extend(t.texels());
     }
     let mut uvs: Vec<[f32; 2]> = Vec::new();
     for a in HARD {

@@ -6,7 +6,8 @@
 //! reference every other back end is tested against, and the back-end traits with the
 //! material cache ([`backend`]), the four-lane fragment packets batches are made of
 //! ([`packets`]), the fixtures of the back ends' parity tests
-//! ([`testing`]), and the bounded gate every input file passes ([`input`]). It depends on `shadenet-graph` for the IR and the op
+//! ([`testing`]), the bounded gate every input file passes ([`input`]), and the Radiance
+//! RGBE format ([`rgbe`]). It depends on `shadenet-graph` for the IR and the op
 //! semantics and must not know about networks' file formats, Cranelift, wgpu or the tracer.
 
 pub mod backend;
@@ -16,6 +17,7 @@ pub mod input;
 pub mod interp;
 pub mod lights;
 pub mod packets;
+pub mod rgbe;
 pub mod testing;
 pub mod texture;
 
@@ -28,4 +30,4 @@ pub use ctx::{Fragment, SceneServices, ShadeCtx, ShadeEnv, Transform, fragment_s
 pub use interp::{Interpreter, OutputSlot, Scratch, ShadeOut, output_layout};
 pub use lights::Light;
 pub use packets::{FragmentX4, Fragments, LANES, packed_index, packed_len, unpacked};
-pub use texture::{Texture, TextureError, TextureSet};
+pub use texture::{Texture, TextureError, TextureSet, TextureStats};

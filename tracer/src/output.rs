@@ -237,36 +237,11 @@ pub fn read_exr(path: &Path) -> Result<ExrImage, OutputError> {
     })
 }
 
-/// The most pixel data an EXR file may decode to per byte of file: ZIP's deflate tops out
-/// near 1032:1 and RLE at 64:1, so a header that promises more than this lies about its size.
-const EXR_MAX_EXPANSION: u64 = 1100;
-
 /// Refuses an EXR whose headers promise more decoded f32 samples than the image limit allows
-/// or than the file's bytes could hold, before the decoder allocates for them (a corrupt
-/// 600-byte header asked for 8 GiB).
+/// or than the file's bytes could hold (the texture decoder's check, shared).
 fn check_exr_size(bytes: &[u8]) -> Result<(), String> {
-    let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
-        .map_err(|e| e.to_string())?;
-    let mut decoded: u64 = 0;
-    for h in meta.headers.iter() {
-        let (w, ht) = (h.layer_size.0 as u64, h.layer_size.1 as u64);
-        let channels = h.channels.list.len() as u64;
-        decoded = w
-            .checked_mul(ht)
-            .and_then(|p| p.checked_mul(channels.max(1) * 4))
-            .and_then(|b| b.checked_add(decoded))
-            .unwrap_or(u64::MAX);
-    }
     let limit = FileKind::Image.limit().map_err(|e| e.to_string())?;
-    let plausible = (bytes.len() as u64).saturating_mul(EXR_MAX_EXPANSION);
-    if decoded > limit || decoded > plausible {
-        return Err(format!(
-            "the headers promise {decoded} bytes of pixels: more than the {limit}-byte image \
-             limit or than {} bytes of file can hold ({EXR_MAX_EXPANSION}:1 at most)",
-            bytes.len()
-        ));
-    }
-    Ok(())
+    shadenet_runtime::texture::decode::check_exr_header(bytes, limit).map(|_| ())
 }
 
 /// How two images' channel groups differ (`shadenet diff`).

@@ -368,8 +368,8 @@ fn upload_textures(
     for i in 0..program.textures.len() {
         match textures.get(i as u32) {
             Some(t) => {
-                info.push([texels.len() as u32, t.width, t.height, 0]);
-                texels.extend_from_slice(&t.texels);
+                info.push([texels.len() as u32, t.width(), t.height(), 0]);
+                texels.extend_from_slice(t.texels());
             }
             None => info.push([0, 0, 0, 0]),
         }

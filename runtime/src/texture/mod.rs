@@ -1,13 +1,36 @@
-//! The texture system: loads the image files a program's needs name, and samples them.
+//! The texture system: opens the image files a program's needs name, decodes them to the
+//! working space, builds their mipmaps, caches them across materials, and filters lookups.
 //!
-//! Only the textures a specialized program still references are loaded: a texture on a dead
-//! branch is removed by the optimizer before this code ever sees its file name. 8-bit and
-//! 16-bit PNGs are decoded from sRGB to linear RGB (alpha stays linear). Lookups are
-//! bilinear with repeat wrapping; `uv = (0, 0)` is the bottom-left corner of the image.
+//! Only the textures a specialized program still references are opened: a texture on a dead
+//! branch is removed by the optimizer before this code ever sees its file name. The parts,
+//! one file each:
+//!
+//! - [`decode`]: PNG (8/16 bit), JPEG, Radiance HDR, OpenEXR; sizes checked before any
+//!   allocation;
+//! - [`colorspace`]: stored values → linear Rec.709 by the file's [`ColorSpace`];
+//! - [`mip`]: the pyramid, exact box averages for any size;
+//! - [`filter`]: closest, bilinear, trilinear, anisotropic; wraps periodic, clamp, mirror,
+//!   black;
+//! - [`udim`]: `<UDIM>` tile sets;
+//! - [`cache`]: the process-wide cache, its memory budget and statistics.
+//!
+//! `docs/textures.md` is the user's description, with measured speeds.
 
+pub mod cache;
+pub mod colorspace;
+pub mod decode;
+pub mod filter;
+pub mod mip;
+pub mod udim;
+
+pub use cache::{TextureStats, stats};
+pub use mip::{Level, Pyramid};
+
+use shadenet_graph::ir::{ColorSpace, Filter, Sampling, TextureFile, Wrap};
 use shadenet_graph::ops::Real;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use udim::Udim;
 
 /// A texture that could not be loaded.
 #[derive(Debug, thiserror::Error)]
@@ -20,110 +43,157 @@ pub enum TextureError {
         /// Why.
         reason: String,
     },
+    /// `SHADENET_TEXTURE_MEMORY_MB` is not a positive number of MiB.
+    #[error("SHADENET_TEXTURE_MEMORY_MB=`{value}`: expected a positive number of MiB such as 4096")]
+    Budget {
+        /// Its value.
+        value: String,
+    },
 }
 
-/// One decoded image: linear RGBA, rows top to bottom.
-#[derive(Clone, Debug, PartialEq)]
+/// What a texture's lookups read: one image or a UDIM set.
+#[derive(Clone, Debug)]
+enum Image {
+    Single(Arc<Pyramid>),
+    Udim(Arc<Udim>),
+}
+
+/// One opened texture: a mipmap pyramid of linear RGBA texels (rows top to bottom), or a
+/// UDIM set of them, shared with every other material that opened the same file.
+#[derive(Clone, Debug)]
 pub struct Texture {
-    /// Width in texels.
-    pub width: u32,
-    /// Height in texels.
-    pub height: u32,
-    /// `width * height` texels.
-    pub texels: Vec<[f32; 4]>,
-}
-
-fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        shadenet_graph::ops::math::pow_f32((c + 0.055) / 1.055, 2.4)
-    }
+    image: Image,
 }
 
 impl Texture {
-    /// Loads an image file.
-    pub fn load(path: &Path) -> Result<Texture, TextureError> {
-        let err = |reason: String| TextureError::Load {
-            path: path.to_path_buf(),
-            reason,
+    /// Opens a texture file (a `<UDIM>` pattern opens its tiles) through the process-wide
+    /// cache.
+    pub fn open(file: &TextureFile) -> Result<Texture, TextureError> {
+        let image = if udim::is_udim(&file.path) {
+            Image::Udim(Arc::new(Udim::open(
+                Path::new(&file.path),
+                file.colorspace,
+            )?))
+        } else {
+            Image::Single(cache::open(Path::new(&file.path), file.colorspace)?)
         };
-        // A device, a FIFO or an oversized file never reaches the decoder.
-        crate::input::check(path, crate::input::FileKind::Image, "texture").map_err(
-            |e| match e {
-                // The path is this error's own: only the cause goes into the reason.
-                crate::input::InputError::Io { source, .. } => err(source.to_string()),
-                other => err(other.to_string()),
-            },
-        )?;
-        let img = image::open(path).map_err(|e| err(e.to_string()))?;
-        let rgba = img.to_rgba32f();
-        let (width, height) = rgba.dimensions();
-        if width == 0 || height == 0 {
-            return Err(err("the image is empty".into()));
+        Ok(Texture { image })
+    }
+
+    /// Opens an image file in its format's default color space ([`ColorSpace::Auto`]).
+    pub fn load(path: &Path) -> Result<Texture, TextureError> {
+        Texture::open(&TextureFile {
+            path: path.to_string_lossy().into_owned(),
+            colorspace: ColorSpace::Auto,
+        })
+    }
+
+    /// A texture of an image already in the working space (`texels.len() == width ×
+    /// height`, both at least 1; tests and generated textures).
+    pub fn from_texels(width: u32, height: u32, texels: Vec<[f32; 4]>) -> Texture {
+        Texture {
+            image: Image::Single(Arc::new(Pyramid::build(width, height, texels))),
         }
-        let texels = rgba
-            .pixels()
-            .map(|p| {
-                let [r, g, b, a] = p.0;
-                [srgb_to_linear(r), srgb_to_linear(g), srgb_to_linear(b), a]
-            })
-            .collect();
-        Ok(Texture {
-            width,
-            height,
-            texels,
-        })
     }
 
-    fn texel<F: Real>(&self, x: i64, y: i64) -> [F; 4] {
-        let x = x.rem_euclid(self.width as i64) as usize;
-        let y = y.rem_euclid(self.height as i64) as usize;
-        self.texels[y * self.width as usize + x].map(|c| F::from_f64(c as f64))
+    /// The pyramid of a single image, or of a UDIM set's lowest tile.
+    pub fn pyramid(&self) -> &Pyramid {
+        match &self.image {
+            Image::Single(p) => p,
+            Image::Udim(u) => u.tiles().next().expect("a UDIM set has a tile").1,
+        }
     }
 
-    /// Bilinear lookup at `uv` with repeat wrapping (non-finite coordinates read texel 0).
+    /// The UDIM tiles, by number; `None` for a single image.
+    pub fn udim_tiles(&self) -> Option<Vec<(u32, &Pyramid)>> {
+        match &self.image {
+            Image::Single(_) => None,
+            Image::Udim(u) => Some(u.tiles().collect()),
+        }
+    }
+
+    /// Level 0's width ([`Texture::pyramid`]).
+    pub fn width(&self) -> u32 {
+        self.pyramid().levels()[0].width
+    }
+
+    /// Level 0's height ([`Texture::pyramid`]).
+    pub fn height(&self) -> u32 {
+        self.pyramid().levels()[0].height
+    }
+
+    /// Level 0's texels ([`Texture::pyramid`]), rows top to bottom.
+    pub fn texels(&self) -> &[[f32; 4]] {
+        &self.pyramid().levels()[0].texels
+    }
+
+    /// A filtered lookup at `uv` with screen-space derivatives `duv` (`duv[0]` = ∂uv/∂x,
+    /// `duv[1]` = ∂uv/∂y; zero, NaN or huge allowed): see [`filter`]. A UDIM set reads the
+    /// tile under `uv`, black where there is none.
+    pub fn lookup<F: Real>(&self, uv: [F; 2], duv: [[F; 2]; 2], sampling: Sampling) -> [F; 4] {
+        match &self.image {
+            Image::Single(p) => filter::lookup(p.levels(), uv, duv, sampling),
+            Image::Udim(u) => match u.locate(uv) {
+                Some((p, local)) => filter::lookup(p.levels(), local, duv, sampling),
+                None => [F::ZERO; 4],
+            },
+        }
+    }
+
+    /// Bilinear lookup at `uv` with periodic wrapping in level 0 (non-finite coordinates
+    /// read a fixed texel): [`Texture::lookup`] with zero derivatives.
     pub fn sample<F: Real>(&self, uv: [F; 2]) -> [F; 4] {
-        let half = F::from_f64(0.5);
-        let x = uv[0] * F::from_f64(self.width as f64) - half;
-        let y = (F::ONE - uv[1]) * F::from_f64(self.height as f64) - half;
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        let (fx, fy) = (
-            if fx.is_finite() { fx } else { F::ZERO },
-            if fy.is_finite() { fy } else { F::ZERO },
-        );
-        let (xi, yi) = (x0.to_i32() as i64, y0.to_i32() as i64);
-        let t00 = self.texel::<F>(xi, yi);
-        let t10 = self.texel::<F>(xi + 1, yi);
-        let t01 = self.texel::<F>(xi, yi + 1);
-        let t11 = self.texel::<F>(xi + 1, yi + 1);
-        std::array::from_fn(|c| {
-            let top = t00[c] + fx * (t10[c] - t00[c]);
-            let bottom = t01[c] + fx * (t11[c] - t01[c]);
-            top + fy * (bottom - top)
-        })
+        let sampling = Sampling {
+            filter: Filter::Bilinear,
+            wrap: [Wrap::Periodic; 2],
+        };
+        self.lookup(uv, [[F::ZERO; 2]; 2], sampling)
     }
 }
 
 /// The loaded textures of one program, by index.
 #[derive(Clone, Debug, Default)]
 pub struct TextureSet {
-    textures: Vec<Arc<Texture>>,
+    textures: Vec<Texture>,
 }
 
 impl TextureSet {
-    /// Loads every file, in order; the first failure is returned.
-    pub fn load(files: &[String]) -> Result<TextureSet, TextureError> {
+    /// Opens every file, in order, through the process-wide cache; the first failure is
+    /// returned.
+    pub fn load<T: TextureSource>(files: &[T]) -> Result<TextureSet, TextureError> {
         let textures = files
             .iter()
-            .map(|f| Texture::load(Path::new(f)).map(Arc::new))
+            .map(|f| Texture::open(&f.texture_file()))
             .collect::<Result<_, _>>()?;
         Ok(TextureSet { textures })
     }
 
+    /// A set of textures already opened.
+    pub fn from_textures(textures: Vec<Texture>) -> TextureSet {
+        TextureSet { textures }
+    }
+
     /// The texture at `index`.
     pub fn get(&self, index: u32) -> Option<&Texture> {
-        self.textures.get(index as usize).map(|t| &**t)
+        self.textures.get(index as usize)
+    }
+}
+
+/// What a texture table entry may be while the IR moves from file names to [`TextureFile`]s:
+/// a [`TextureFile`], or a path (opened in [`ColorSpace::Auto`]).
+pub trait TextureSource {
+    /// The file and its color space.
+    fn texture_file(&self) -> TextureFile;
+}
+
+impl TextureSource for TextureFile {
+    fn texture_file(&self) -> TextureFile {
+        self.clone()
+    }
+}
+
+impl TextureSource for String {
+    fn texture_file(&self) -> TextureFile {
+        TextureFile::auto(self.clone())
     }
 }
