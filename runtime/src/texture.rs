@@ -5,6 +5,7 @@
 //! 16-bit PNGs are decoded from sRGB to linear RGB (alpha stays linear). Lookups are
 //! bilinear with repeat wrapping; `uv = (0, 0)` is the bottom-left corner of the image.
 
+use shadenet_graph::ir::{ColorSpace, Sampling, TextureFile};
 use shadenet_graph::ops::Real;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -42,8 +43,19 @@ fn srgb_to_linear(c: f32) -> f32 {
 }
 
 impl Texture {
-    /// Loads an image file.
-    pub fn load(path: &Path) -> Result<Texture, TextureError> {
+    /// Loads an image file, converting its values from the file's color space.
+    pub fn load(file: &TextureFile) -> Result<Texture, TextureError> {
+        let path = Path::new(&file.path);
+        let srgb = match file.colorspace {
+            ColorSpace::Auto | ColorSpace::SrgbTexture => true,
+            ColorSpace::Raw | ColorSpace::LinRec709 => false,
+            other => {
+                return Err(TextureError::Load {
+                    path: path.to_path_buf(),
+                    reason: format!("color space {} is not built yet", other.name()),
+                });
+            }
+        };
         let err = |reason: String| TextureError::Load {
             path: path.to_path_buf(),
             reason,
@@ -66,7 +78,11 @@ impl Texture {
             .pixels()
             .map(|p| {
                 let [r, g, b, a] = p.0;
-                [srgb_to_linear(r), srgb_to_linear(g), srgb_to_linear(b), a]
+                if srgb {
+                    [srgb_to_linear(r), srgb_to_linear(g), srgb_to_linear(b), a]
+                } else {
+                    [r, g, b, a]
+                }
             })
             .collect();
         Ok(Texture {
@@ -80,6 +96,13 @@ impl Texture {
         let x = x.rem_euclid(self.width as i64) as usize;
         let y = y.rem_euclid(self.height as i64) as usize;
         self.texels[y * self.width as usize + x].map(|c| F::from_f64(c as f64))
+    }
+
+    /// A lookup at `uv` over the footprint `duv` (∂uv/∂x, ∂uv/∂y). This version reads the
+    /// finest level bilinearly with repeat wrapping whatever the sampling (the filtered
+    /// texture system replaces it).
+    pub fn lookup<F: Real>(&self, uv: [F; 2], _duv: [[F; 2]; 2], _s: Sampling) -> [F; 4] {
+        self.sample(uv)
     }
 
     /// Bilinear lookup at `uv` with repeat wrapping (non-finite coordinates read texel 0).
@@ -114,10 +137,10 @@ pub struct TextureSet {
 
 impl TextureSet {
     /// Loads every file, in order; the first failure is returned.
-    pub fn load(files: &[String]) -> Result<TextureSet, TextureError> {
+    pub fn load(files: &[TextureFile]) -> Result<TextureSet, TextureError> {
         let textures = files
             .iter()
-            .map(|f| Texture::load(Path::new(f)).map(Arc::new))
+            .map(|f| Texture::load(f).map(Arc::new))
             .collect::<Result<_, _>>()?;
         Ok(TextureSet { textures })
     }
