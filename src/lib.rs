@@ -64,11 +64,7 @@ pub fn load_network(path: &Path) -> Result<Compiled, LoadError> {
         compiled.program.name = stem.to_string_lossy().into_owned();
     }
     let dir = path.parent().unwrap_or(Path::new(""));
-    for t in &mut compiled.program.textures {
-        if Path::new(t.as_str()).is_relative() {
-            *t = dir.join(&*t).to_string_lossy().into_owned();
-        }
-    }
+    compiled.program.resolve_textures(dir);
     Ok(compiled)
 }
 pub use shadenet_runtime::{Fragment, Interpreter, ShadeCtx, ShadeEnv};

@@ -183,10 +183,6 @@ pub fn compile_mtlx(path: &Path, opts: &MtlxOptions) -> Result<Compiled, MtlxLoa
         c.program.name = stem.to_string_lossy().into_owned();
     }
     let dir = path.parent().unwrap_or(Path::new(""));
-    for t in &mut c.program.textures {
-        if Path::new(t.as_str()).is_relative() {
-            *t = dir.join(&*t).to_string_lossy().into_owned();
-        }
-    }
+    c.program.resolve_textures(dir);
     Ok(c)
 }

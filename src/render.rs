@@ -282,11 +282,7 @@ pub fn compile_material(
     shadenet_graph::ir::validate(&program)
         .map_err(|e| fail(format!("internal error: invalid IR: {e}")))?;
     program.name = m.name.clone();
-    for t in &mut program.textures {
-        if Path::new(t.as_str()).is_relative() {
-            *t = dir.join(&*t).to_string_lossy().into_owned();
-        }
-    }
+    program.resolve_textures(&dir);
     Ok(CompiledMaterial {
         program,
         ignored_lights: linked.lights.len(),

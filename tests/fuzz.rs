@@ -11,6 +11,7 @@
 mod fuzzing;
 
 use fuzzing::{HOSTILE_FLOATS, HOSTILE_INTS, Rng, Target};
+use shadenet::graph::ir::TextureFile;
 use shadenet::graph::nodes::{LightDesc, LightKind};
 use shadenet::graph::opt::{self, Specialization};
 use shadenet::graph::{NodeLibrary, compile_json};
@@ -186,9 +187,11 @@ fn exec_image(bytes: &[u8]) {
     let dir = scratch();
     let png = dir.join("fuzz.png");
     std::fs::write(&png, bytes).unwrap();
-    let _ = shadenet::runtime::Texture::load(&png);
+    let _ = shadenet::runtime::Texture::load(&TextureFile::auto(png.to_string_lossy()));
     let exr = dir.join("fuzz.exr");
     std::fs::write(&exr, bytes).unwrap();
+    // The same bytes as an EXR texture (the texture decoder's reader, not the film's).
+    let _ = shadenet::runtime::Texture::load(&TextureFile::auto(exr.to_string_lossy()));
     let _ = shadenet::output::read_exr(&exr);
 }
 

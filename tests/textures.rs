@@ -3,6 +3,7 @@
 
 use shadenet::load_network;
 use shadenet::shade::{grid_env, shade_grid};
+use shadenet_graph::ir::TextureFile;
 use shadenet_runtime::{Fragment, Interpreter, ShadeCtx, ShadeEnv, Texture};
 use std::path::PathBuf;
 
@@ -27,7 +28,7 @@ fn texel_centres_and_srgb_decoding() {
     let d = dir("centres");
     let p = d.join("t.png");
     write_png(&p);
-    let t = Texture::load(&p).unwrap();
+    let t = Texture::load(&TextureFile::auto(p.to_string_lossy())).unwrap();
     assert_eq!((t.width(), t.height()), (2, 2));
     // Texel centres: (0.25, 0.75) is the top-left texel (uv origin is the bottom-left).
     assert_eq!(t.sample([0.25f64, 0.75]), [1.0, 0.0, 0.0, 1.0]);
@@ -48,7 +49,7 @@ fn srgb_mid_grey_decodes_to_linear() {
     let d = dir("grey");
     let p = d.join("g.png");
     image::save_buffer(&p, &[128u8, 128, 128], 1, 1, image::ExtendedColorType::Rgb8).unwrap();
-    let t = Texture::load(&p).unwrap();
+    let t = Texture::load(&TextureFile::auto(p.to_string_lossy())).unwrap();
     let c = t.sample([0.5f64, 0.5]);
     let want = ((128.0 / 255.0 + 0.055) / 1.055f64).powf(2.4);
     assert!((c[0] - want).abs() < 1e-6, "{c:?} vs {want}");
@@ -69,7 +70,7 @@ fn file_node_reads_relative_to_the_network_and_missing_files_are_named() {
     let c = load_network(&net).unwrap();
     assert_eq!(
         c.program.textures,
-        vec![d.join("tex.png").to_string_lossy().into_owned()]
+        vec![TextureFile::auto(d.join("tex.png").to_string_lossy())]
     );
     let interp = Interpreter::<f32>::new(&c.program).unwrap();
     let env = ShadeEnv::default();

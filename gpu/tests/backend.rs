@@ -712,12 +712,7 @@ fn examples() -> Vec<(String, shadenet_graph::Compiled)> {
                 .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
             let name = path.file_stem().unwrap().to_string_lossy().into_owned();
             c.program.name = name.clone();
-            let base = path.parent().unwrap().to_path_buf();
-            for t in &mut c.program.textures {
-                if PathBuf::from(&*t).is_relative() {
-                    *t = base.join(&*t).to_string_lossy().into_owned();
-                }
-            }
+            c.program.resolve_textures(path.parent().unwrap());
             out.push((name, c));
         }
     }

@@ -25,6 +25,7 @@
 //!   form needs the context: `light` and `texture` find their light or texture once for the
 //!   four lanes, `visible` answers four lanes at once without a scene).
 
+use shadenet_graph::ir::Sampling;
 use shadenet_graph::ops::{self, cell_hsv_x4, math_x4, noise, noise_x4, osl_noise};
 use shadenet_runtime::ctx::{Fragment, SceneServices, ShadeEnv};
 use shadenet_runtime::interp;
@@ -418,20 +419,42 @@ fn rgb_to_hsv_x4(a: &[[f32; LANES]; 3], o: &mut [[f32; LANES]; 3]) {
 fn hsv_to_rgb_x4(a: &[[f32; LANES]; 3], o: &mut [[f32; LANES]; 3]) {
     *o = cell_hsv_x4::hsv_to_rgb_x4(*a);
 }
+/// The texture index and the sampling packed in a texture helper's immediate
+/// ([`texture_imm`]).
+fn texture_of(imm: u32) -> (u32, Sampling) {
+    (imm & TEXTURE_INDEX_MASK, Sampling::from_bits(imm >> 24))
+}
+
+/// Texture indices a texture helper's immediate can carry (below bit 24).
+pub const TEXTURE_INDEX_MASK: u32 = (1 << 24) - 1;
+
+/// The immediate of a texture helper call: the texture index, and the sampling's bits
+/// above bit 24; `None` for an index that does not fit.
+pub fn texture_imm(texture: u32, sampling: Sampling) -> Option<u32> {
+    (texture <= TEXTURE_INDEX_MASK).then(|| texture | sampling.bits() << 24)
+}
+
+/// A texture lookup: `a` = uv, ∂uv/∂x, ∂uv/∂y; `o` = RGBA.
 fn texture(ctx: &CallCtx, imm: u32, a: &[f32], o: &mut [f32]) {
     // SAFETY: the material keeps its texture set alive while its code runs.
     let set = unsafe { &*ctx.textures };
-    let t = set.get(imm).map_or([0.0; 4], |t| t.sample([a[0], a[1]]));
+    let (index, s) = texture_of(imm);
+    let duv = [[a[2], a[3]], [a[4], a[5]]];
+    let t = set
+        .get(index)
+        .map_or([0.0; 4], |t| t.lookup([a[0], a[1]], duv, s));
     o.copy_from_slice(&t);
 }
 /// The batch form of `texture`: the texture is looked up once for the four lanes, then
 /// sampled per lane as the scalar form does.
-fn texture_x4(ctx: &CallCtx, imm: u32, a: &[[f32; LANES]; 2], o: &mut [[f32; LANES]; 4]) {
+fn texture_x4(ctx: &CallCtx, imm: u32, a: &[[f32; LANES]; 6], o: &mut [[f32; LANES]; 4]) {
     // SAFETY: the material keeps its texture set alive while its code runs.
     let set = unsafe { &*ctx.textures };
-    let tex = set.get(imm);
+    let (index, s) = texture_of(imm);
+    let tex = set.get(index);
     for lane in 0..LANES {
-        let t = tex.map_or([0.0; 4], |t| t.sample([a[0][lane], a[1][lane]]));
+        let duv = [[a[2][lane], a[3][lane]], [a[4][lane], a[5][lane]]];
+        let t = tex.map_or([0.0; 4], |t| t.lookup([a[0][lane], a[1][lane]], duv, s));
         for (dst, x) in o.iter_mut().zip(t) {
             dst[lane] = x;
         }
@@ -750,7 +773,7 @@ mem_helpers! {
     mx_worley3: 6 -> 1,
     mx_worley3_v2: 6 -> 2,
     mx_worley3_v3: 6 -> 3,
-    texture: 2 -> 4 => ctx texture_x4,
+    texture: 6 -> 4 => ctx texture_x4,
     light: 4 -> 11 => ctx light_x4,
     trace: 8 -> 3 => ctx trace_x4,
     occlusion: 9 -> 1 => ctx occlusion_x4,

@@ -816,9 +816,24 @@ impl<'a, 'b> Lowerer<'a, 'b> {
                 let imm = self.b.ins().iconst(I32, 0);
                 Ok(self.call_mem(name, imm, &xs, outs))
             }
-            Op::Texture { texture, uv, alpha } => {
-                let xs = self.get(*uv)?;
-                let imm = self.b.ins().iconst(I32, *texture as i64);
+            Op::Texture {
+                texture,
+                uv,
+                derivs,
+                sampling,
+                alpha,
+            } => {
+                let mut xs = self.get(*uv)?;
+                match derivs {
+                    Some([dx, dy]) => {
+                        xs.extend(self.get(*dx)?);
+                        xs.extend(self.get(*dy)?);
+                    }
+                    None => xs.extend([self.fconst(0.0); 4]),
+                }
+                let imm = abi::texture_imm(*texture, *sampling)
+                    .ok_or_else(|| self.unsupported(v, "more than 2^24 textures"))?;
+                let imm = self.b.ins().iconst(I32, imm as i64);
                 let t = self.call_mem("sn_texture", imm, &xs, 4);
                 Ok(if *alpha { vec![t[3]] } else { t[..3].to_vec() })
             }

@@ -407,13 +407,23 @@ impl<F: Real> Interpreter<F> {
             Op::LightPdf => Val::Float(s.light.map_or(F::ZERO, |l| l.0.pdf)),
             Op::Ambient => Val::Vec3(lights::ambient(&ctx.env.lights)),
             Op::Proj(..) => s.regs[v.index()],
-            Op::Texture { texture, uv, alpha } => {
-                let uv = reg(uv);
-                let uv = uv.floats();
+            Op::Texture {
+                texture,
+                uv,
+                derivs,
+                sampling,
+                alpha,
+            } => {
+                let v2 = |v: &Value| {
+                    let r = reg(v);
+                    let f = r.floats();
+                    [f[0], f[1]]
+                };
+                let duv = derivs.map_or([[F::ZERO; 2]; 2], |[dx, dy]| [v2(&dx), v2(&dy)]);
                 let t = self
                     .textures
                     .get(*texture)
-                    .map_or([F::ZERO; 4], |t| t.sample([uv[0], uv[1]]));
+                    .map_or([F::ZERO; 4], |t| t.lookup(v2(uv), duv, *sampling));
                 if *alpha {
                     Val::Float(t[3])
                 } else {

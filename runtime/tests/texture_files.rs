@@ -18,7 +18,7 @@ fn dir(name: &str) -> PathBuf {
 }
 
 fn open(path: &Path, colorspace: ColorSpace) -> Texture {
-    Texture::open(&TextureFile {
+    Texture::load(&TextureFile {
         path: path.to_string_lossy().into_owned(),
         colorspace,
     })
@@ -26,7 +26,7 @@ fn open(path: &Path, colorspace: ColorSpace) -> Texture {
 }
 
 fn open_err(path: &Path, colorspace: ColorSpace) -> String {
-    Texture::open(&TextureFile {
+    Texture::load(&TextureFile {
         path: path.to_string_lossy().into_owned(),
         colorspace,
     })

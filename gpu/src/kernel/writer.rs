@@ -299,11 +299,22 @@ impl Writer<'_> {
                 }
                 e
             }
-            Op::Texture { texture, uv, alpha } => {
+            Op::Texture {
+                texture,
+                uv,
+                derivs,
+                sampling,
+                alpha,
+            } => {
                 self.uses_textures = true;
                 let uv = self.arg(*uv);
+                let (dx, dy) = match derivs {
+                    Some([dx, dy]) => (self.arg(*dx), self.arg(*dy)),
+                    None => ("vec2<f32>(0.0f)".into(), "vec2<f32>(0.0f)".into()),
+                };
                 let sw = if *alpha { "w" } else { "xyz" };
-                format!("sn_texture({texture}u, {uv}).{sw}")
+                let bits = sampling.bits();
+                format!("sn_texture({texture}u, {bits}u, {uv}, {dx}, {dy}).{sw}")
             }
             Op::Trace { .. } | Op::Occlusion { .. } | Op::Illuminance { .. } | Op::If { .. } => {
                 return Err(self.codegen(format!(

@@ -21,7 +21,9 @@ fn sn_texel(info: vec4<u32>, x: i32, y: i32) -> vec4<f32> {
     return sn_texels[info.x + i];
 }
 
-fn sn_texture(tex: u32, uv: vec2<f32>) -> vec4<f32> {
+// The sampling bits (ir::Sampling::bits) and the footprint (dx, dy) are read by the filtered
+// lookup; this version reads the finest level bilinearly, as the CPU's does.
+fn sn_texture(tex: u32, sampling: u32, uv: vec2<f32>, dx: vec2<f32>, dy: vec2<f32>) -> vec4<f32> {
     let info = sn_tex_info[tex];
     let x = uv.x * f32(info.y) - 0.5f;
     let y = (1.0f - uv.y) * f32(info.z) - 0.5f;

@@ -14,8 +14,8 @@
 //! which nodes an override changes.
 
 use super::{
-    BinOp, Block, Expr, Intrinsic, Op, Output, Program, Space, Stream, UnOp, Value,
-    is_traceable_ray_type,
+    BinOp, Block, Expr, Filter, Intrinsic, Op, Output, Program, Sampling, Space, Stream,
+    TextureFile, UnOp, Value, is_traceable_ray_type,
 };
 use crate::ops;
 use crate::transport::LightStrategy;
@@ -394,22 +394,38 @@ impl Builder {
         self.push(Op::Call(i, args.to_vec()), Some(ty))
     }
 
-    /// Registers a texture file (once per distinct name) and returns its index.
-    pub fn texture_index(&mut self, file: &str) -> u32 {
+    /// Registers a texture file (once per distinct file and color space) and returns its
+    /// index.
+    pub fn texture_index(&mut self, file: &TextureFile) -> u32 {
         if let Some(i) = self.program.textures.iter().position(|t| t == file) {
             return i as u32;
         }
-        self.program.textures.push(file.to_string());
+        self.program.textures.push(file.clone());
         (self.program.textures.len() - 1) as u32
     }
 
-    /// A lookup of texture `texture` at `uv`: color, or alpha (float) if `alpha`.
-    pub fn texture(&mut self, texture: u32, uv: Value, alpha: bool) -> Value {
+    /// A filtered lookup of texture `texture` at `uv` over the footprint of uv's
+    /// screen-space derivatives ([`Builder::derivs`]): color, or alpha (float) if `alpha`.
+    pub fn texture(&mut self, texture: u32, uv: Value, sampling: Sampling, alpha: bool) -> Value {
         if self.ty(uv) != Type::Vec2 {
             self.fail("texture coordinates must be a vec2");
+            return self.zero(if alpha { Type::Float } else { Type::Color });
         }
+        let derivs = match sampling.filter {
+            Filter::Closest | Filter::Bilinear => None,
+            Filter::Trilinear | Filter::Anisotropic => self.derivs(uv),
+        };
         let ty = if alpha { Type::Float } else { Type::Color };
-        self.push(Op::Texture { texture, uv, alpha }, Some(ty))
+        self.push(
+            Op::Texture {
+                texture,
+                uv,
+                derivs,
+                sampling,
+                alpha,
+            },
+            Some(ty),
+        )
     }
 
     /// Sum of the ambient lights (color).

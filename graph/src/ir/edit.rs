@@ -28,7 +28,14 @@ impl Op {
             Op::If { cond, .. } => vec![cond],
             Op::Illuminance { p, .. } => vec![p],
             Op::Proj(r, _) => vec![r],
-            Op::Texture { uv, .. } => vec![uv],
+            Op::Texture { uv, derivs, .. } => {
+                let mut v = vec![uv];
+                if let Some([dx, dy]) = derivs {
+                    v.push(dx);
+                    v.push(dy);
+                }
+                v
+            }
             Op::Trace { dir, pdf, .. } => {
                 let mut v = vec![dir];
                 v.extend(pdf.as_mut());

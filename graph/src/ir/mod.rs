@@ -29,6 +29,7 @@
 //! that a program is well formed; passes and back ends may rely on what it checks.
 
 mod builder;
+mod derivs;
 mod edit;
 mod text;
 mod validate;
@@ -589,14 +590,21 @@ pub enum Op {
     Ambient,
     /// Result `index` of a region (`If` or `Illuminance`).
     Proj(Value, u8),
-    /// A bilinear lookup of texture `texture` (index into `Program::textures`) at `uv`
-    /// (wrapping): its linear RGB color (type color) or its alpha (type float). Evaluated by
-    /// the runtime's texture system; never folded.
+    /// A filtered lookup of texture `texture` (index into `Program::textures`) at `uv`: its
+    /// linear RGB color (type color) or its alpha (type float). The footprint is the
+    /// parallelogram spanned by the screen-space derivatives of `uv`; `sampling` says how
+    /// it is filtered and what lies outside [0, 1]. Evaluated by the runtime's texture
+    /// system (`Texture::lookup`); never folded.
     Texture {
         /// Index into `Program::textures`.
         texture: u32,
         /// Texture coordinates (vec2).
         uv: Value,
+        /// ∂uv/∂x and ∂uv/∂y (vec2 each): the footprint. `None`: a point lookup (the finest
+        /// level, as for a zero footprint).
+        derivs: Option<[Value; 2]>,
+        /// Filter and wrap modes.
+        sampling: Sampling,
         /// Alpha (float) instead of color.
         alpha: bool,
     },
@@ -692,7 +700,13 @@ impl Op {
             Op::If { cond, .. } => f(*cond),
             Op::Illuminance { p, .. } => f(*p),
             Op::Proj(r, _) => f(*r),
-            Op::Texture { uv, .. } => f(*uv),
+            Op::Texture { uv, derivs, .. } => {
+                f(*uv);
+                if let Some([dx, dy]) = derivs {
+                    f(*dx);
+                    f(*dy)
+                }
+            }
             Op::Trace { dir, pdf, .. } => {
                 f(*dir);
                 if let Some(p) = pdf {
@@ -770,11 +784,21 @@ pub struct Program {
     /// Uniform parameters.
     pub params: Vec<ParamDecl>,
     /// Texture files, by index (paths as the network gave them, made absolute by the loader
-    /// when the network came from a file).
-    pub textures: Vec<String>,
+    /// when the network came from a file), each with its color space.
+    pub textures: Vec<TextureFile>,
 }
 
 impl Program {
+    /// Makes the relative paths of the texture table relative to `dir` (the folder of the
+    /// file the program came from).
+    pub fn resolve_textures(&mut self, dir: &std::path::Path) {
+        for t in &mut self.textures {
+            if std::path::Path::new(&t.path).is_relative() {
+                t.path = dir.join(&t.path).to_string_lossy().into_owned();
+            }
+        }
+    }
+
     /// The expr of a value.
     pub fn expr(&self, v: Value) -> &Expr {
         &self.exprs[v.index()]

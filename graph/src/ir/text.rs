@@ -67,6 +67,8 @@
 //! - `components A B …`: the render component names (`Program::components`), all on the
 //!   `components` line (omitted when there are none);
 //! - `param "NAME" TYPE = LITERAL`: one line per uniform parameter, in index order;
+//! - `texture "FILE" [COLORSPACE]`: one line per texture-table entry, in index order (the
+//!   color space, a [`ColorSpace`] name, is omitted when it is `auto`);
 //! - the values of the top-level block (below);
 //! - `output NAME %v` or `output NAME[COMPONENT] %v`: the outputs, in order.
 //!
@@ -95,7 +97,7 @@
 //! | `illuminance %p { … }` | [`Op::Illuminance`] |
 //! | `light.L`, `light.Cl`, `light.visible`, `light.pdf`, `ambient` | [`Op::LightL`], [`Op::LightCl`], [`Op::LightVisible`], [`Op::LightPdf`], [`Op::Ambient`] |
 //! | `proj %r, 0` | [`Op::Proj`] |
-//! | `texture #0 %uv`, `texture.alpha #0 %uv` | [`Op::Texture`] (index into the texture table) |
+//! | `texture #0 %uv`, `texture.alpha #0 trilinear clamp mirror %uv, %dudx, %dvdx` | [`Op::Texture`] (index into the texture table; then the filter if not `anisotropic`, the u and v wrap modes if not both `periodic`, uv and its optional derivatives ∂uv/∂x, ∂uv/∂y) |
 //! | `trace reflection %d` or `trace reflection %d, %pdf` | [`Op::Trace`] (the ray type by name, [`super::ray_type_name`], or `#K` for any other code `K`; the optional second operand is the BSDF sample's density) |
 //! | `occlusion %n, %samples, %maxdist` | [`Op::Occlusion`] |
 //!
@@ -129,8 +131,8 @@
 //! the parser rejects.
 
 use super::{
-    BinOp, Block, Expr, Intrinsic, Op, Output, ParamDecl, Program, Space, Stream, UnOp, Value,
-    XformKind, ray_type_from_name, ray_type_name,
+    BinOp, Block, ColorSpace, Expr, Filter, Intrinsic, Op, Output, ParamDecl, Program, Sampling,
+    Space, Stream, TextureFile, UnOp, Value, Wrap, XformKind, ray_type_from_name, ray_type_name,
 };
 use crate::types::{ConstValue, Type, fmt_float};
 use std::collections::HashMap;
@@ -262,7 +264,10 @@ impl<W: fmt::Write> Printer<'_, W> {
             writeln!(self.out, "  param {name:?} {ty} = {lit}")?;
         }
         for t in &p.textures {
-            writeln!(self.out, "  texture {t:?}")?;
+            match t.colorspace {
+                ColorSpace::Auto => writeln!(self.out, "  texture {:?}", t.path)?,
+                cs => writeln!(self.out, "  texture {:?} {}", t.path, cs.name())?,
+            }
         }
         if !p.prelude.body.is_empty() || !p.prelude.yields.is_empty() {
             writeln!(self.out, "  prelude {{")?;
@@ -359,11 +364,30 @@ impl<W: fmt::Write> Printer<'_, W> {
             Op::LightPdf => "light.pdf".to_string(),
             Op::Ambient => "ambient".to_string(),
             Op::Proj(r, i) => format!("proj {}, {i}", self.val(*r)),
-            Op::Texture { texture, uv, alpha } => format!(
-                "{} #{texture} {}",
-                if *alpha { "texture.alpha" } else { "texture" },
-                self.val(*uv)
-            ),
+            Op::Texture {
+                texture,
+                uv,
+                derivs,
+                sampling,
+                alpha,
+            } => {
+                let mut s = format!(
+                    "{} #{texture} ",
+                    if *alpha { "texture.alpha" } else { "texture" }
+                );
+                let def = Sampling::default();
+                if sampling.filter != def.filter {
+                    s += &format!("{} ", sampling.filter.name());
+                }
+                if sampling.wrap != def.wrap {
+                    s += &format!("{} {} ", sampling.wrap[0].name(), sampling.wrap[1].name());
+                }
+                s += &self.val(*uv);
+                if let Some([dx, dy]) = derivs {
+                    s += &format!(", {}, {}", self.val(*dx), self.val(*dy));
+                }
+                s
+            }
             Op::Trace { dir, ray_type, pdf } => {
                 let ty = match ray_type_name(*ray_type) {
                     Some(name) => name.to_string(),
@@ -944,7 +968,14 @@ impl Parser {
                     let Tok::Str(name) = t.tok.clone() else {
                         return Err(Self::expected(&t, "a texture file name (a quoted string)"));
                     };
-                    self.prog.textures.push(name);
+                    let mut file = TextureFile::auto(name);
+                    if let Tok::Ident(w) = &self.peek().tok
+                        && let Some(cs) = ColorSpace::from_name(w)
+                    {
+                        file.colorspace = cs;
+                        self.next();
+                    }
+                    self.prog.textures.push(file);
                 }
                 Tok::Ident(w) if top && w == "prelude" => {
                     self.next();
@@ -1228,10 +1259,19 @@ impl Parser {
             "texture" | "texture.alpha" => {
                 self.expect_punct('#')?;
                 let texture = self.index("a texture index")?;
+                let sampling = self.sampling()?;
                 let uv = self.operand()?;
+                let derivs = if self.eat_punct(',') {
+                    let [dx, dy] = self.operands()?;
+                    Some([dx, dy])
+                } else {
+                    None
+                };
                 Op::Texture {
                     texture,
                     uv,
+                    derivs,
+                    sampling,
                     alpha: word == "texture.alpha",
                 }
             }
@@ -1278,6 +1318,27 @@ impl Parser {
     }
 
     /// A ray type: its name, or `#CODE` (any i32).
+    /// A lookup's filter and wrap modes, each optional (defaults: [`Sampling::default`]):
+    /// `[FILTER] [WRAP_U WRAP_V]`.
+    fn sampling(&mut self) -> PResult<Sampling> {
+        let mut s = Sampling::default();
+        if let Tok::Ident(w) = &self.peek().tok
+            && let Some(f) = Filter::from_name(w)
+        {
+            s.filter = f;
+            self.next();
+        }
+        if let Tok::Ident(w) = &self.peek().tok
+            && let Some(u) = Wrap::from_name(w)
+        {
+            self.next();
+            let (w, t) = self.ident("the v axis's wrap mode")?;
+            let v = Wrap::from_name(&w).ok_or_else(|| Self::expected(&t, "a wrap mode"))?;
+            s.wrap = [u, v];
+        }
+        Ok(s)
+    }
+
     fn ray_type(&mut self) -> PResult<i32> {
         if self.eat_punct('#') {
             let t = self.next();
@@ -1486,9 +1547,17 @@ mod tests {
                 body: remap_block(body, m),
             },
             Op::Proj(r, i) => Op::Proj(m(*r), *i),
-            Op::Texture { texture, uv, alpha } => Op::Texture {
+            Op::Texture {
+                texture,
+                uv,
+                derivs,
+                sampling,
+                alpha,
+            } => Op::Texture {
                 texture: *texture,
                 uv: m(*uv),
+                derivs: derivs.map(|d| d.map(m)),
+                sampling: *sampling,
                 alpha: *alpha,
             },
             Op::Trace { dir, ray_type, pdf } => Op::Trace {
@@ -1708,6 +1777,38 @@ mod tests {
         b.call(Intrinsic::CellNoise3, &[pos]);
         let hsv = b.call(Intrinsic::RgbToHsv, &[c]);
         b.call(Intrinsic::HsvToRgb, &[hsv]);
+        let uv = streams[4];
+        let t0 = b.texture_index(&TextureFile::auto("tex/\"a\" é.png"));
+        let t1 = b.texture_index(&TextureFile {
+            path: "b.exr".into(),
+            colorspace: ColorSpace::AcesCg,
+        });
+        b.push(
+            Op::Texture {
+                texture: t0,
+                uv,
+                derivs: None,
+                sampling: Sampling::default(),
+                alpha: false,
+            },
+            Some(Type::Color),
+        );
+        for (filter, wrap) in [
+            (Filter::Closest, [Wrap::Clamp, Wrap::Mirror]),
+            (Filter::Trilinear, [Wrap::Periodic; 2]),
+            (Filter::Anisotropic, [Wrap::Black, Wrap::Periodic]),
+        ] {
+            b.push(
+                Op::Texture {
+                    texture: t1,
+                    uv,
+                    derivs: Some([v2, uv]),
+                    sampling: Sampling { filter, wrap },
+                    alpha: true,
+                },
+                Some(Type::Float),
+            );
+        }
         let diffuse = b.component_enabled("diffuse");
         let mine = b.component_enabled("my pass");
         // Nested ifs, with an empty region in the middle.

@@ -123,3 +123,60 @@ impl Default for Sampling {
         }
     }
 }
+
+impl Sampling {
+    /// The sampling in six bits (filter, then u and v wrap modes, two bits each): what the
+    /// back ends pass beside a texture index.
+    pub fn bits(self) -> u32 {
+        let f = Filter::ALL
+            .iter()
+            .position(|x| *x == self.filter)
+            .unwrap_or(0) as u32;
+        let w = |m: Wrap| Wrap::ALL.iter().position(|x| *x == m).unwrap_or(0) as u32;
+        f | w(self.wrap[0]) << 2 | w(self.wrap[1]) << 4
+    }
+
+    /// The sampling of [`Sampling::bits`]; bits above the sixth are ignored.
+    pub fn from_bits(bits: u32) -> Sampling {
+        let f = Filter::ALL[(bits & 3) as usize];
+        let w = |k: u32| Wrap::ALL[((bits >> k) & 3) as usize];
+        Sampling {
+            filter: f,
+            wrap: [w(2), w(4)],
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sampling_bits_round_trip() {
+        let mut seen = std::collections::HashSet::new();
+        for &filter in Filter::ALL {
+            for &u in Wrap::ALL {
+                for &v in Wrap::ALL {
+                    let s = Sampling {
+                        filter,
+                        wrap: [u, v],
+                    };
+                    assert!(s.bits() < 64);
+                    assert!(seen.insert(s.bits()), "{s:?} shares its bits");
+                    assert_eq!(Sampling::from_bits(s.bits()), s);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn colorspace_names_and_aliases_parse() {
+        for &c in ColorSpace::ALL {
+            assert_eq!(ColorSpace::parse(c.name()), Some(c));
+        }
+        assert_eq!(ColorSpace::parse("lin_ap1"), Some(ColorSpace::AcesCg));
+        assert_eq!(ColorSpace::parse("srgb"), Some(ColorSpace::SrgbTexture));
+        assert_eq!(ColorSpace::parse("none"), Some(ColorSpace::Raw));
+        assert_eq!(ColorSpace::parse("lin_rec2020"), None);
+    }
+}

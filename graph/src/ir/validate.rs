@@ -451,7 +451,13 @@ impl Validator<'_> {
                 }
             },
             Op::Stream(s) => Some(s.ty()),
-            Op::Texture { texture, uv, alpha } => {
+            Op::Texture {
+                texture,
+                uv,
+                derivs,
+                alpha,
+                ..
+            } => {
                 if *texture as usize >= p.textures.len() {
                     return Err(ValidationError::TextureIndex {
                         value,
@@ -462,6 +468,12 @@ impl Validator<'_> {
                 let t = self.operand(value, *uv)?;
                 if t != Type::Vec2 {
                     return Err(ill(format!("texture coordinates are {t}, not vec2")));
+                }
+                for d in derivs.iter().flatten() {
+                    let t = self.operand(value, *d)?;
+                    if t != Type::Vec2 {
+                        return Err(ill(format!("texture derivatives are {t}, not vec2")));
+                    }
                 }
                 Some(if *alpha { Type::Float } else { Type::Color })
             }

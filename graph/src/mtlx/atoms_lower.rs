@@ -6,7 +6,10 @@
 //! is broadcast; angles are in degrees, as MaterialX writes them.
 
 use super::atoms_matrix as mx;
-use crate::ir::{BinOp, Builder, Intrinsic, Space, Stream, UnOp, Value, XformKind};
+use crate::ir::{
+    BinOp, Builder, ColorSpace, Filter, Intrinsic, Sampling, Space, Stream, TextureFile, UnOp,
+    Value, Wrap, XformKind,
+};
 use crate::nodes::{LowVal, NodeInputs};
 use crate::types::{ConstValue, Type};
 
@@ -955,22 +958,97 @@ pub fn worleynoise3d(b: &mut Builder, inp: &NodeInputs) -> Out {
     ];
     worley(b, inp, p, i)
 }
-/// A texture lookup of `file` at `texcoord` (today's texture path: wrap and filtering are
-/// the texture system's); `default` where no file is named. Float and vector outputs take
-/// the color's first channels.
+/// A filtered texture lookup of `file` at `texcoord`, the file decoded from its
+/// `colorspace` (none: the working space, linear Rec.709), filtered by `filtertype`
+/// (`closest`; `linear` and `cubic` are the texture system's anisotropic filter) and
+/// wrapped by `uaddressmode`/`vaddressmode` (`constant` reads `default` outside [0, 1]);
+/// `default` where no file is named. Float and vector outputs take the color's first
+/// channels.
 pub fn image(b: &mut Builder, inp: &NodeInputs) -> Out {
     let ty = out_ty(inp);
     let file = inp.string("file").to_string();
     if file.is_empty() {
         return Ok(vec![inp.low("default").clone()]);
     }
-    let t = b.texture_index(&file);
+    let cs = inp.string(&super::library::colorspace_port("file"));
+    let colorspace = match cs {
+        "" => ColorSpace::LinRec709,
+        name => ColorSpace::parse(name).ok_or_else(|| {
+            let known: Vec<&str> = ColorSpace::ALL.iter().map(|c| c.name()).collect();
+            format!(
+                "input `file`: unknown colorspace `{name}`; known: {}",
+                known.join(", ")
+            )
+        })?,
+    };
+    let t = b.texture_index(&TextureFile {
+        path: file,
+        colorspace,
+    });
+    let filter = match inp.string("filtertype") {
+        "closest" => Filter::Closest,
+        "linear" | "cubic" | "" => Filter::Anisotropic,
+        other => {
+            return Err(format!(
+                "input `filtertype`: `{other}` is not closest, linear or cubic"
+            ));
+        }
+    };
+    let mut constant = [false; 2];
+    let mut wrap = [Wrap::Periodic; 2];
+    for (k, port) in ["uaddressmode", "vaddressmode"].into_iter().enumerate() {
+        wrap[k] = match inp.string(port) {
+            "periodic" | "" => Wrap::Periodic,
+            "clamp" => Wrap::Clamp,
+            "mirror" => Wrap::Mirror,
+            "constant" => {
+                constant[k] = true;
+                Wrap::Black
+            }
+            other => {
+                return Err(format!(
+                    "input `{port}`: `{other}` is not constant, clamp, periodic or mirror"
+                ));
+            }
+        };
+    }
+    let sampling = Sampling { filter, wrap };
     let uv = inp.get("texcoord");
-    let c = b.texture(t, uv, false);
-    one(match ty {
+    let looked = image_lookup(b, t, uv, sampling, ty)?;
+    if !constant.contains(&true) {
+        return one(looked);
+    }
+    // `constant`: the default outside [0, 1] along the axes that say so.
+    let default = get(b, inp, "default", ty);
+    let mut outside = None;
+    for (k, _) in constant.iter().enumerate().filter(|(_, c)| **c) {
+        let x = b.extract(uv, k);
+        let (zero, one_) = (b.float(0.0), b.float(1.0));
+        let lo = b.binary(BinOp::Lt, x, zero);
+        let hi = b.binary(BinOp::Gt, x, one_);
+        let o = b.binary(BinOp::Or, lo, hi);
+        outside = Some(match outside {
+            Some(p) => b.binary(BinOp::Or, p, o),
+            None => o,
+        });
+    }
+    let outside = outside.expect("an axis is constant");
+    one(b.select(outside, default, looked))
+}
+
+/// The lookup of [`image`] for an output of type `ty`.
+fn image_lookup(
+    b: &mut Builder,
+    t: u32,
+    uv: Value,
+    sampling: Sampling,
+    ty: Type,
+) -> Result<Value, String> {
+    let c = b.texture(t, uv, sampling, false);
+    Ok(match ty {
         Type::Color => c,
         Type::Color4 | Type::Vec4 => {
-            let a = b.texture(t, uv, true);
+            let a = b.texture(t, uv, sampling, true);
             let mut parts = components(b, c);
             parts.push(a);
             b.construct(ty, &parts)

@@ -165,6 +165,12 @@ fn leak(s: &str) -> &'static str {
     Box::leak(s.to_string().into_boxed_str())
 }
 
+/// The name of the string port that carries a filename input's `colorspace` to an atom's
+/// lowering (`file` → `file_colorspace`).
+pub fn colorspace_port(input: &str) -> String {
+    format!("{input}_colorspace")
+}
+
 /// Our node definition for an atom nodedef: its ports typed and defaulted from the nodedef,
 /// its lowering from the table. `None` when the table has no lowering or a port's type has
 /// no IR type.
@@ -195,6 +201,15 @@ fn atom_def(nd: &NodeDefElem) -> Option<NodeDef> {
             options: &[],
             doc: "",
         });
+        if i.ty == "filename" {
+            inputs.push(PortDef {
+                name: leak(&colorspace_port(&i.name)),
+                ty: PortType::Simple(Type::String),
+                default: PortDefault::Value(ConstValue::String(String::new())),
+                options: &[],
+                doc: "The file's `colorspace` attribute (own or inherited); empty: none.",
+            });
+        }
     }
     let mut outputs = Vec::new();
     for o in &nd.outputs {

@@ -223,6 +223,17 @@ impl<'a> Tr<'a> {
                 if let Some(v) = v {
                     spec.inputs.insert(i.name.clone(), v);
                 }
+                // A file's color space travels to the atom's lowering as a string port of
+                // its own (`file_colorspace`, added by the library for filename inputs).
+                if di.ty == "filename"
+                    && i.nodename.is_none()
+                    && i.interfacename.is_none()
+                    && !matches!(self.implementation(nd), Impl::Graph(_))
+                    && let Some(cs) = &i.colorspace
+                {
+                    let key = super::library::colorspace_port(&i.name);
+                    spec.inputs.insert(key, Json::String(cs.clone()));
+                }
             }
             if matches!(self.implementation(nd), Impl::Graph(_)) {
                 geomprops(&mut spec, nd, &mut out);

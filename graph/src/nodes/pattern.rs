@@ -19,7 +19,9 @@
 
 use super::port::{self, out};
 use super::{LowVal, NodeDef, NodeInputs, NodeKind, NodeLibrary, PortDef, PortDefault, PortType};
-use crate::ir::{BinOp, Builder, Intrinsic, Op, Stream, UnOp, Value};
+use crate::ir::{
+    BinOp, Builder, ColorSpace, Filter, Intrinsic, Op, Sampling, Stream, TextureFile, UnOp, Value,
+};
 use crate::types::{ConstValue, Type};
 use std::cmp::Ordering;
 
@@ -614,13 +616,15 @@ fn file_def() -> NodeDef {
     NodeDef {
         name: "file",
         category: "pattern",
-        doc: "An image file (Maya `file`): a bilinear lookup with repeat wrapping.\n\n\
-              `uv = (0, 0)` is the image's bottom-left corner. 8- and 16-bit PNGs are \
-              decoded from sRGB to linear RGB; alpha is linear (1 where the image has none). \
-              A relative path is relative to the network file. The file is loaded when the \
-              material is prepared, and only if the optimized program still reads it: a \
-              texture on a dead branch is never opened, a missing file on a live one is an \
-              error naming the file.",
+        doc: "An image file (Maya `file`): a filtered lookup with repeat wrapping.\n\n\
+              `uv = (0, 0)` is the image's bottom-left corner. The file's values are \
+              converted from `colorSpace` to linear Rec.709 (`auto`: 8- and 16-bit images \
+              are sRGB, EXR and HDR linear); alpha is linear (1 where the image has none). \
+              `filterType` filters over the footprint of uv's screen-space derivatives \
+              (docs/textures.md). A relative path is relative to the network file. The file \
+              is loaded when the material is prepared, and only if the optimized program \
+              still reads it: a texture on a dead branch is never opened, a missing file on \
+              a live one is an error naming the file.",
         generic: &[],
         inputs: vec![
             PortDef {
@@ -628,7 +632,23 @@ fn file_def() -> NodeDef {
                 ty: PortType::Simple(Type::String),
                 default: PortDefault::Value(ConstValue::String(String::new())),
                 options: &[],
-                doc: "Path of the image file (PNG).",
+                doc: "Path of the image file (PNG, JPEG, EXR, HDR; `<UDIM>` for tiles).",
+            },
+            PortDef {
+                name: "colorSpace",
+                ty: PortType::Simple(Type::String),
+                default: PortDefault::Value(ConstValue::String(String::new())),
+                options: &[],
+                doc: "The color space of the file's values: a MaterialX name (`srgb_texture`, \
+                      `lin_rec709`, `acescg`, …), `raw`, or empty for `auto`.",
+            },
+            PortDef {
+                name: "filterType",
+                ty: PortType::Simple(Type::String),
+                default: PortDefault::Value(ConstValue::String(String::new())),
+                options: &[],
+                doc: "`closest`, `bilinear`, `trilinear` or `anisotropic` (empty: \
+                      `anisotropic`).",
             },
             port::stream("uvCoord", Type::Vec2, Stream::Uv, "Texture coordinates."),
         ],
@@ -646,9 +666,29 @@ fn lower_file(b: &mut Builder, inp: &NodeInputs) -> Result<Vec<LowVal>, String> 
     if name.is_empty() {
         return Err("`fileTextureName` is empty: name an image file".into());
     }
+    let colorspace = match inp.string("colorSpace") {
+        "" => ColorSpace::Auto,
+        cs => ColorSpace::parse(cs).ok_or_else(|| {
+            let known: Vec<&str> = ColorSpace::ALL.iter().map(|c| c.name()).collect();
+            format!("`colorSpace`: unknown `{cs}`; known: {}", known.join(", "))
+        })?,
+    };
+    let filter = match inp.string("filterType") {
+        "" => Filter::Anisotropic,
+        f => Filter::from_name(f).ok_or_else(|| {
+            format!("`filterType`: `{f}` is not closest, bilinear, trilinear or anisotropic")
+        })?,
+    };
+    let sampling = Sampling {
+        filter,
+        ..Sampling::default()
+    };
     let uv = inp.get("uvCoord");
-    let t = b.texture_index(name);
-    let color = b.texture(t, uv, false);
-    let alpha = b.texture(t, uv, true);
+    let t = b.texture_index(&TextureFile {
+        path: name.to_string(),
+        colorspace,
+    });
+    let color = b.texture(t, uv, sampling, false);
+    let alpha = b.texture(t, uv, sampling, true);
     Ok(vec![LowVal::plain(color), LowVal::plain(alpha)])
 }

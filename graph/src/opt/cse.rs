@@ -33,7 +33,9 @@
 //! only disappear, so results stay bit-identical.
 
 use super::Specialization;
-use crate::ir::{BinOp, Block, Intrinsic, Op, Program, Space, Stream, UnOp, Value, XformKind};
+use crate::ir::{
+    BinOp, Block, Intrinsic, Op, Program, Sampling, Space, Stream, UnOp, Value, XformKind,
+};
 use crate::types::{ConstValue, Type};
 use std::collections::HashMap;
 
@@ -92,7 +94,7 @@ enum Key {
     Occlusion(Value, Value, Value),
     Ambient,
     Proj(Value, u8),
-    Texture(u32, Value, bool),
+    Texture(u32, Value, Option<[Value; 2]>, Sampling, bool),
 }
 
 /// A constant by exact bits (the type, kept beside the key, tells vectors from colors).
@@ -237,7 +239,19 @@ impl Numbering<'_> {
             } => Key::Occlusion(r(n), r(samples), r(max_distance)),
             Op::Ambient => Key::Ambient,
             Op::Proj(region, i) => Key::Proj(r(region), *i),
-            Op::Texture { texture, uv, alpha } => Key::Texture(*texture, r(uv), *alpha),
+            Op::Texture {
+                texture,
+                uv,
+                derivs,
+                sampling,
+                alpha,
+            } => Key::Texture(
+                *texture,
+                r(uv),
+                derivs.map(|[dx, dy]| [r(&dx), r(&dy)]),
+                *sampling,
+                *alpha,
+            ),
             Op::If { .. } | Op::Illuminance { .. } => return None,
         })
     }

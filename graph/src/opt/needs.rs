@@ -6,7 +6,7 @@
 //! say whether the material asks the scene for secondary rays at all (a renderer without
 //! them, or a pass that wants none, can tell).
 
-use crate::ir::{Intrinsic, Op, Program, Space, Stream};
+use crate::ir::{Intrinsic, Op, Program, Space, Stream, TextureFile};
 use std::collections::BTreeSet;
 use std::fmt;
 
@@ -20,7 +20,7 @@ pub struct Needs {
     /// Intrinsic functions called.
     pub intrinsics: BTreeSet<Intrinsic>,
     /// Texture files read (after optimization: only live ones).
-    pub textures: Vec<String>,
+    pub textures: Vec<TextureFile>,
     /// Whether the light loop runs (non-ambient lights are sampled).
     pub lights: bool,
     /// Whether ambient light is read.
@@ -124,7 +124,7 @@ impl fmt::Display for Needs {
         writeln!(
             f,
             "       textures: {}",
-            list(self.textures.iter().map(|s| s.as_str()).collect())
+            list(self.textures.iter().map(|t| t.path.as_str()).collect())
         )
     }
 }

@@ -7,7 +7,7 @@
 //!
 //! - [`decode`]: PNG (8/16 bit), JPEG, Radiance HDR, OpenEXR; sizes checked before any
 //!   allocation;
-//! - [`colorspace`]: stored values → linear Rec.709 by the file's [`ColorSpace`];
+//! - [`colorspace`]: stored values → linear Rec.709 by the file's color space;
 //! - [`mip`]: the pyramid, exact box averages for any size;
 //! - [`filter`]: closest, bilinear, trilinear, anisotropic; wraps periodic, clamp, mirror,
 //!   black;
@@ -26,7 +26,7 @@ pub mod udim;
 pub use cache::{TextureStats, stats};
 pub use mip::{Level, Pyramid};
 
-use shadenet_graph::ir::{ColorSpace, Filter, Sampling, TextureFile, Wrap};
+use shadenet_graph::ir::{Filter, Sampling, TextureFile, Wrap};
 use shadenet_graph::ops::Real;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -67,8 +67,8 @@ pub struct Texture {
 
 impl Texture {
     /// Opens a texture file (a `<UDIM>` pattern opens its tiles) through the process-wide
-    /// cache.
-    pub fn open(file: &TextureFile) -> Result<Texture, TextureError> {
+    /// cache, converting its values from the file's color space.
+    pub fn load(file: &TextureFile) -> Result<Texture, TextureError> {
         let image = if udim::is_udim(&file.path) {
             Image::Udim(Arc::new(Udim::open(
                 Path::new(&file.path),
@@ -78,14 +78,6 @@ impl Texture {
             Image::Single(cache::open(Path::new(&file.path), file.colorspace)?)
         };
         Ok(Texture { image })
-    }
-
-    /// Opens an image file in its format's default color space ([`ColorSpace::Auto`]).
-    pub fn load(path: &Path) -> Result<Texture, TextureError> {
-        Texture::open(&TextureFile {
-            path: path.to_string_lossy().into_owned(),
-            colorspace: ColorSpace::Auto,
-        })
     }
 
     /// A texture of an image already in the working space (`texels.len() == width ×
@@ -160,11 +152,8 @@ pub struct TextureSet {
 impl TextureSet {
     /// Opens every file, in order, through the process-wide cache; the first failure is
     /// returned.
-    pub fn load<T: TextureSource>(files: &[T]) -> Result<TextureSet, TextureError> {
-        let textures = files
-            .iter()
-            .map(|f| Texture::open(&f.texture_file()))
-            .collect::<Result<_, _>>()?;
+    pub fn load(files: &[TextureFile]) -> Result<TextureSet, TextureError> {
+        let textures = files.iter().map(Texture::load).collect::<Result<_, _>>()?;
         Ok(TextureSet { textures })
     }
 
@@ -176,24 +165,5 @@ impl TextureSet {
     /// The texture at `index`.
     pub fn get(&self, index: u32) -> Option<&Texture> {
         self.textures.get(index as usize)
-    }
-}
-
-/// What a texture table entry may be while the IR moves from file names to [`TextureFile`]s:
-/// a [`TextureFile`], or a path (opened in [`ColorSpace::Auto`]).
-pub trait TextureSource {
-    /// The file and its color space.
-    fn texture_file(&self) -> TextureFile;
-}
-
-impl TextureSource for TextureFile {
-    fn texture_file(&self) -> TextureFile {
-        self.clone()
-    }
-}
-
-impl TextureSource for String {
-    fn texture_file(&self) -> TextureFile {
-        TextureFile::auto(self.clone())
     }
 }
