@@ -243,7 +243,7 @@ struct Run<'a> {
 }
 
 /// The summary: size, samples, threads, back end and mode; the time split; rays and shading
-/// calls; the deferred batches.
+/// calls; the texture cache; the deferred batches.
 fn summary(run: &Run, film: &Film, s: &RenderStats) {
     let render_s = s.render_time.as_secs_f64();
     let load = run.setup_time.saturating_sub(s.bvh_time + s.compile_time);
@@ -277,6 +277,11 @@ fn summary(run: &Run, film: &Film, s: &RenderStats) {
         s.shading_calls,
         s.nonfinite
     );
+    // The texture cache's files, hits, evictions and resident bytes (when any were opened).
+    let textures = shadenet_runtime::texture::stats();
+    if textures.files_opened + textures.cache_hits > 0 {
+        say!("{textures}");
+    }
     let rate = |n: u64| n as f64 / render_s.max(1e-9) / 1e6;
     say!(
         "rays by kind: camera {} ({:.2} M/s), shadow {} ({:.2} M/s), secondary {} ({:.2} M/s)",

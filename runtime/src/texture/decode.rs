@@ -225,17 +225,17 @@ fn decode_exr(bytes: &[u8], budget: u64) -> Result<Decoded, String> {
         },
     };
     let n = width as usize * height as usize;
-    let data: Vec<Vec<f32>> = picked
-        .iter()
-        .map(|&c| list[c].sample_data.values_as_f32().collect::<Vec<f32>>())
-        .collect();
-    if data.iter().any(|d| d.len() != n) {
+    if picked.iter().any(|&c| list[c].sample_data.len() != n) {
         return Err("a channel's sample count does not match the image size".into());
     }
+    // Interleaved straight from the channels (half or float), no per-channel copy.
     let channels = picked.len();
-    let mut samples = Vec::with_capacity(n * channels);
-    for i in 0..n {
-        samples.extend(data.iter().map(|d| d[i]));
+    let mut samples = vec![0.0f32; n * channels];
+    for (k, &c) in picked.iter().enumerate() {
+        let dst = samples[k..].iter_mut().step_by(channels);
+        for (d, v) in dst.zip(list[c].sample_data.values_as_f32()) {
+            *d = v;
+        }
     }
     Ok(Decoded {
         width,
