@@ -85,12 +85,21 @@ pub fn log2<F: Real>(x: F) -> F {
 /// 2²⁴ or more is already an integer); elsewhere, and for NaN, the platform's.
 #[inline(always)]
 fn floor<F: Real>(x: F) -> F {
+    floor_i(x).0
+}
+
+/// [`floor`] and the same value as an i32 (`floor(x).to_i32()`: saturating, NaN → 0).
+#[inline(always)]
+fn floor_i<F: Real>(x: F) -> (F, i32) {
     let limit = F::from_f64(2_147_483_648.0);
     if x < limit && x > -limit {
-        let t = F::from_i32(x.to_i32());
-        if t > x { t - F::ONE } else { t }
+        let i = x.to_i32();
+        let t = F::from_i32(i);
+        // x > −2³¹, so i − 1 ≥ −2³¹.
+        if t > x { (t - F::ONE, i - 1) } else { (t, i) }
     } else {
-        x.floor()
+        let t = x.floor();
+        (t, t.to_i32())
     }
 }
 
@@ -113,6 +122,16 @@ fn periodic(i: i64, n: i64) -> i64 {
     } else {
         i.rem_euclid(n)
     }
+}
+
+/// `i` modulo `n` (`n > 0`) in i32: no division when `i` is in `[0, n)` already.
+#[inline(always)]
+fn periodic32(i: i32, n: i32) -> i32 {
+    if (i as u32) < n as u32 {
+        return i;
+    }
+    let r = i % n;
+    if r < 0 { r + n } else { r }
 }
 
 /// A texel index along one axis of `n` texels under a wrap mode; `None` reads black.
@@ -166,7 +185,7 @@ pub fn bilinear<F: Real>(level: &Level, uv: [F; 2], wrap: [Wrap; 2]) -> [F; 4] {
     let half = F::from_f64(0.5);
     let x = uv[0] * F::from_f64(level.width as f64) - half;
     let y = (F::ONE - uv[1]) * F::from_f64(level.height as f64) - half;
-    let (x0, y0) = (floor(x), floor(y));
+    let ((x0, xi), (y0, yi)) = (floor_i(x), floor_i(y));
     let (fx, fy) = (x - x0, y - y0);
     let (fx, fy) = (
         if fx.is_finite() { fx } else { F::ZERO },
@@ -177,9 +196,9 @@ pub fn bilinear<F: Real>(level: &Level, uv: [F; 2], wrap: [Wrap; 2]) -> [F; 4] {
         // lattice coordinates come from `to_i32`; `i + 1` is never formed, so it cannot
         // overflow).
         let (w, h) = (level.width as i32, level.height as i32);
-        let xa = x0.to_i32().rem_euclid(w);
+        let xa = periodic32(xi, w);
         let xb = if xa + 1 == w { 0 } else { xa + 1 };
-        let ya = y0.to_i32().rem_euclid(h);
+        let ya = periodic32(yi, h);
         let yb = if ya + 1 == h { 0 } else { ya + 1 };
         let (ra, rb) = ((ya * w) as usize, (yb * w) as usize);
         let t = |i: usize| -> [F; 4] {
@@ -195,8 +214,8 @@ pub fn bilinear<F: Real>(level: &Level, uv: [F; 2], wrap: [Wrap; 2]) -> [F; 4] {
             t(rb + xb as usize),
         ]
     } else {
-        let (xa, xb) = wrap2(x0.to_i32() as i64, level.width as i64, wrap[0]);
-        let (ya, yb) = wrap2(y0.to_i32() as i64, level.height as i64, wrap[1]);
+        let (xa, xb) = wrap2(xi as i64, level.width as i64, wrap[0]);
+        let (ya, yb) = wrap2(yi as i64, level.height as i64, wrap[1]);
         [
             fetch::<F>(level, xa, ya),
             fetch::<F>(level, xb, ya),
@@ -204,11 +223,13 @@ pub fn bilinear<F: Real>(level: &Level, uv: [F; 2], wrap: [Wrap; 2]) -> [F; 4] {
             fetch::<F>(level, xb, yb),
         ]
     };
-    std::array::from_fn(|c| {
+    let mut out = [F::ZERO; 4];
+    for c in 0..4 {
         let top = t00[c] + fx * (t10[c] - t00[c]);
         let bottom = t01[c] + fx * (t11[c] - t01[c]);
-        top + fy * (bottom - top)
-    })
+        out[c] = top + fy * (bottom - top);
+    }
+    out
 }
 
 /// A level of detail resolved: the finer level and the weight of the next one.
@@ -242,7 +263,11 @@ fn trilinear<F: Real>(levels: &[Level], uv: [F; 2], lod: Lod<F>, wrap: [Wrap; 2]
         return a;
     }
     let b = bilinear(&levels[lod.level + 1], uv, wrap);
-    std::array::from_fn(|c| a[c] + lod.t * (b[c] - a[c]))
+    let mut out = a;
+    for c in 0..4 {
+        out[c] = a[c] + lod.t * (b[c] - a[c]);
+    }
+    out
 }
 
 /// The level for a footprint `width` level-0 texels wide: `log2(width)` within
