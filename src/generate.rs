@@ -173,7 +173,7 @@ pub const TEST_TEXTURE_SIZE: u32 = 2048;
 /// dark lines every 128 texels. High frequencies at every scale: unfiltered at a grazing
 /// angle it aliases into moiré, filtered it fades to each block's mean.
 pub fn test_texel(x: u32, y: u32) -> [u8; 3] {
-    if x % 128 == 0 || y % 128 == 0 {
+    if x.is_multiple_of(128) || y.is_multiple_of(128) {
         return [20, 20, 24];
     }
     let (bx, by) = (x / 256, y / 256);
@@ -190,7 +190,7 @@ pub fn test_texel(x: u32, y: u32) -> [u8; 3] {
         [220, 90, 170],
     ];
     let hue = HUES[k as usize];
-    if (x / 16 + y / 16) % 2 == 0 {
+    if (x / 16 + y / 16).is_multiple_of(2) {
         hue
     } else {
         hue.map(|c| (c as u32 * 2 / 5) as u8)
