@@ -37,6 +37,9 @@ pub enum GenError {
     /// A sky parameter is out of range (the message names it).
     #[error("{0}")]
     Sky(String),
+    /// The test texture could not be encoded.
+    #[error("cannot encode the test texture: {0}")]
+    Texture(String),
 }
 
 /// The parameters of [`sky`]; the defaults make the committed `examples/scenes/pbr_sky.hdr`.
@@ -160,6 +163,59 @@ pub fn sky_hdr(p: &Sky) -> Result<Vec<u8>, GenError> {
     Ok(shadenet_tracer::envmap::write_hdr(
         p.width, p.height, &texels,
     ))
+}
+
+/// The side of [`test_texture`] in texels.
+pub const TEST_TEXTURE_SIZE: u32 = 2048;
+
+/// The texel `(x, y)` (row 0 at the top) of [`test_texture`], sRGB-encoded: 16-texel checks
+/// of two shades whose hue changes every 256 texels (an 8 × 8 palette), crossed by one-texel
+/// dark lines every 128 texels. High frequencies at every scale: unfiltered at a grazing
+/// angle it aliases into moiré, filtered it fades to each block's mean.
+pub fn test_texel(x: u32, y: u32) -> [u8; 3] {
+    if x.is_multiple_of(128) || y.is_multiple_of(128) {
+        return [20, 20, 24];
+    }
+    let (bx, by) = (x / 256, y / 256);
+    // A hue per block: the 8 × 8 blocks walk the colour wheel in a scrambled order.
+    let k = (bx * 5 + by * 3) % 8;
+    const HUES: [[u8; 3]; 8] = [
+        [230, 80, 60],
+        [240, 170, 50],
+        [200, 220, 70],
+        [80, 200, 90],
+        [60, 190, 200],
+        [70, 110, 230],
+        [150, 80, 220],
+        [220, 90, 170],
+    ];
+    let hue = HUES[k as usize];
+    if (x / 16 + y / 16).is_multiple_of(2) {
+        hue
+    } else {
+        hue.map(|c| (c as u32 * 2 / 5) as u8)
+    }
+}
+
+/// The texture of `examples/scenes/texture_plane.toml`: [`test_texel`] over a
+/// [`TEST_TEXTURE_SIZE`]² image, as PNG bytes (8-bit sRGB).
+pub fn test_texture() -> Result<Vec<u8>, GenError> {
+    let n = TEST_TEXTURE_SIZE;
+    let mut px = Vec::with_capacity((n * n * 3) as usize);
+    for y in 0..n {
+        for x in 0..n {
+            px.extend(test_texel(x, y));
+        }
+    }
+    let mut out = Vec::new();
+    let enc = image::codecs::png::PngEncoder::new_with_quality(
+        &mut out,
+        image::codecs::png::CompressionType::Best,
+        image::codecs::png::FilterType::Adaptive,
+    );
+    image::ImageEncoder::write_image(enc, &px, n, n, image::ExtendedColorType::Rgb8)
+        .map_err(|e| GenError::Texture(e.to_string()))?;
+    Ok(out)
 }
 
 /// The multiplication-tree network of `levels` levels (benchmark B1), as network JSON

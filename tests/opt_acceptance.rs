@@ -96,8 +96,16 @@ fn specular_only_keeps_no_op_of_other_components() {
 
 #[test]
 fn needs_list_no_tangents_or_differentials_unless_read() {
-    let p = compile(PHONG);
-    let (_, r) = opt::run(&p, &Specialization::default());
+    // The checker filters over uv's footprint, which reads the frame and the differentials;
+    // with its filter off nothing reads them.
+    let (_, r) = opt::run(&compile(PHONG), &Specialization::default());
+    assert!(r.needs.tangents() && r.needs.differentials(), "{}", r.needs);
+    let unfiltered = PHONG.replace(
+        r#""inputs": {"color1": [0.8, 0.2, 0.1]}"#,
+        r#""inputs": {"color1": [0.8, 0.2, 0.1], "filter": 0}"#,
+    );
+    assert_ne!(unfiltered, PHONG);
+    let (_, r) = opt::run(&compile(&unfiltered), &Specialization::default());
     assert!(
         !r.needs.tangents() && !r.needs.differentials(),
         "{}",
@@ -151,11 +159,15 @@ fn texture_on_a_dead_branch_is_never_opened() {
         let loaded = shadenet_runtime::Interpreter::<f32>::new(&o);
         if live {
             assert_eq!(r.needs.textures.len(), 1);
+            // The filtered lookup reads uv's footprint: the ray differentials.
+            assert!(r.needs.differentials(), "{}", r.needs);
             let e = loaded.unwrap_err().to_string();
             assert!(e.contains("missing.png"), "{e}");
         } else {
             assert!(r.needs.textures.is_empty(), "{}", r.needs);
             assert!(o.textures.is_empty());
+            // Its derivative ops died with it: nothing asks for ray differentials.
+            assert!(!r.needs.differentials(), "{}", r.needs);
             let i = loaded.expect("nothing to load");
             let env = shadenet_runtime::ShadeEnv::default();
             let out = i.shade(&shadenet_runtime::ShadeCtx::new(Default::default(), &env));

@@ -103,3 +103,26 @@ fn empty_file_name_is_a_link_error() {
         "{err}"
     );
 }
+
+#[test]
+fn the_test_texture_is_the_generator_s_output() {
+    // examples/scenes/textures/grid.png is `shadenet gen texture`'s output, byte for byte.
+    let committed = std::fs::read(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/scenes/textures/grid.png"),
+    )
+    .unwrap();
+    let generated = shadenet::generate::test_texture().unwrap();
+    assert!(
+        committed == generated,
+        "regenerate it with `shadenet gen texture`"
+    );
+    let img = image::load_from_memory(&committed).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), (2048, 2048));
+    for (x, y) in [(0, 0), (1, 1), (17, 3), (300, 900), (2047, 2047), (1280, 5)] {
+        assert_eq!(
+            img.get_pixel(x, y).0,
+            shadenet::generate::test_texel(x, y),
+            "({x}, {y})"
+        );
+    }
+}

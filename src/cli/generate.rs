@@ -1,4 +1,5 @@
-//! `shadenet gen`: generated networks for the benchmarks, and the procedural sky map.
+//! `shadenet gen`: generated networks for the benchmarks, the procedural sky map and the
+//! test texture.
 
 use anyhow::{Context, Result};
 use clap::{Subcommand, ValueEnum};
@@ -45,6 +46,13 @@ pub(crate) enum GenCmd {
         #[arg(long, default_value_t = 1000.0)]
         sun_radiance: f64,
         /// The map file to write (.hdr).
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// The 2048² test texture of examples/scenes/texture_plane.toml (sRGB PNG: checks, hues
+    /// and thin lines at every scale); the default makes examples/scenes/textures/grid.png.
+    Texture {
+        /// The image file to write (.png).
         #[arg(short, long)]
         output: PathBuf,
     },
@@ -95,6 +103,11 @@ pub(crate) fn run(what: GenCmd) -> Result<()> {
                 sun_radiance,
             };
             let bytes = shadenet::generate::sky_hdr(&sky)?;
+            write_bytes_atomic(&output, &bytes)?;
+            Ok(())
+        }
+        GenCmd::Texture { output } => {
+            let bytes = shadenet::generate::test_texture()?;
             write_bytes_atomic(&output, &bytes)?;
             Ok(())
         }

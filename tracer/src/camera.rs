@@ -22,6 +22,26 @@ pub struct RayDiffs {
     pub dddy: Vec3,
 }
 
+impl RayDiffs {
+    /// The differentials scaled by `s` (the footprint of one of several samples in a pixel).
+    pub fn scaled(self, s: f32) -> RayDiffs {
+        RayDiffs {
+            dodx: self.dodx * s,
+            dddx: self.dddx * s,
+            dody: self.dody * s,
+            dddy: self.dddy * s,
+        }
+    }
+
+    /// The scale of a camera sample's differentials at `spp` samples per pixel:
+    /// `max(1/8, 1/√spp)` (pbrt-v4's rule). Each sample's texture footprint shrinks to its
+    /// share of the pixel, so filtered textures add little blur to the pixel filter and an
+    /// image converges to the unfiltered one as `spp` grows.
+    pub fn sample_scale(spp: u32) -> f32 {
+        (1.0 / (spp.max(1) as f32).sqrt()).max(0.125)
+    }
+}
+
 /// A camera ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CameraRay {
@@ -89,5 +109,30 @@ impl Camera {
             d,
             diffs,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sample_footprints_shrink_with_the_sample_count_down_to_an_eighth() {
+        let s = RayDiffs::sample_scale;
+        assert_eq!(
+            [s(0), s(1), s(4), s(16), s(64), s(1024)],
+            [1.0, 1.0, 0.5, 0.25, 0.125, 0.125]
+        );
+        let d = RayDiffs {
+            dodx: Vec3::X,
+            dddx: Vec3::Y,
+            dody: Vec3::Z,
+            dddy: Vec3::ONE,
+        };
+        let h = d.scaled(0.5);
+        assert_eq!(
+            [h.dodx, h.dddx, h.dody, h.dddy],
+            [Vec3::X * 0.5, Vec3::Y * 0.5, Vec3::Z * 0.5, Vec3::ONE * 0.5]
+        );
     }
 }

@@ -20,6 +20,7 @@
 //! offset `uv` this way). The lowering driver provides it through [`Upstream`].
 
 pub mod env_image;
+pub mod filtered;
 pub mod geometry;
 pub mod math;
 pub mod pattern;

@@ -94,13 +94,16 @@ fn even_cell(b: &mut Builder, cells: Value) -> Value {
     b.binary(BinOp::Eq, parity, zero)
 }
 
-/// The checker outputs: `color1` where `even` holds, else `color2`, pulled towards the
-/// average of the two by `contrast`; `outAlpha` is the luminance of the result.
-fn checker_outputs(b: &mut Builder, inp: &NodeInputs, even: Value) -> Vec<LowVal> {
+/// The checker outputs: `color1` where `even` holds, else `color2` — box-filtered over the
+/// footprint of the cell coordinates `cells` — pulled towards the average of the two by
+/// `contrast`; `outAlpha` is the luminance of the result.
+fn checker_outputs(b: &mut Builder, inp: &NodeInputs, cells: Value, even: Value) -> Vec<LowVal> {
     let c1 = inp.get("color1");
     let c2 = inp.get("color2");
     let contrast = inp.get("contrast");
-    let c = b.select(even, c1, c2);
+    let scale = inp.get("filter");
+    let w = super::filtered::checker_weight(b, cells, even, scale);
+    let c = b.mix(c2, c1, w);
     let sum = b.add(c1, c2);
     let half = b.float(0.5);
     let avg = scale_by(b, sum, half);
@@ -123,6 +126,12 @@ fn checker_color_ports() -> Vec<super::PortDef> {
             1.0,
             "Blend from the average color (0) to the full checks (1); not clamped, so values \
              above 1 exaggerate and below 0 invert.",
+        ),
+        port::float(
+            "filter",
+            1.0,
+            "Scale of the filter footprint (Maya's `filter`): 1 box-filters each check over \
+             the pixel's footprint, larger values blur more, 0 or less turns filtering off.",
         ),
     ]
 }
@@ -166,7 +175,13 @@ fn checker_def() -> NodeDef {
               The result is `mix(avg, check, contrast)` with `avg = (color1 + color2) / 2`. \
               Cells are half-open: a point exactly on an edge belongs to the check above / to \
               the right of it (`u = 0.5` is in cell `i = 1`), and negative coordinates continue \
-              the pattern (`u` in `[-0.5, 0)` is cell `i = -1`). No filtering is applied.\n\n\
+              the pattern (`u` in `[-0.5, 0)` is cell `i = -1`).\n\n\
+              Filtering: the checks are box-filtered over the pixel's footprint (the \
+              screen-space derivatives of `2·uvCoord`, width `√(∂x² + ∂y²)·filter` per \
+              axis, analytically: the result blends the two colors by the even checks' share \
+              of the box), so far checks fade to the average instead of aliasing. Where the \
+              footprint is narrower than 1/1000 of a check on every axis (or there are no \
+              ray differentials, or `filter = 0`) the result is exactly the unfiltered one.\n\n\
               Hard inputs: the cell index is converted to an int (saturating, NaN → 0), so a NaN \
               coordinate falls in cell 0, ±inf and huge coordinates in the saturated cell; the \
               output is always one of the two (finite) colors.",
@@ -184,7 +199,7 @@ fn lower_checker(b: &mut Builder, inp: &NodeInputs) -> Result<Vec<LowVal>, Strin
     let scaled = b.mul(uv, two);
     let cells = b.unary(UnOp::Floor, scaled);
     let even = even_cell(b, cells);
-    Ok(checker_outputs(b, inp, even))
+    Ok(checker_outputs(b, inp, scaled, even))
 }
 
 // ---- checker3d ----
@@ -212,7 +227,8 @@ fn checker3d_def() -> NodeDef {
               where `i + j + k` is even (the cube `[0, 1/scale)³` is `color1`) and `color2` \
               elsewhere; the result is `mix(avg, check, contrast)` with `avg = (color1 + \
               color2) / 2`. Cells are half-open (a point on a face belongs to the cell on its \
-              positive side).\n\n\
+              positive side). Filtered like `checker`, over the footprint of \
+              `point · scale` (the derivatives of `P` are the ray differentials).\n\n\
               Hard inputs: as `checker` — cell indices are ints (saturating, NaN → 0), so every \
               coordinate, finite or not, gives one of the two colors. `scale = 0` puts every \
               point in cell 0 (`color1`).",
@@ -230,7 +246,7 @@ fn lower_checker3d(b: &mut Builder, inp: &NodeInputs) -> Result<Vec<LowVal>, Str
     let q = scale_by(b, p, s);
     let cells = b.unary(UnOp::Floor, q);
     let even = even_cell(b, cells);
-    Ok(checker_outputs(b, inp, even))
+    Ok(checker_outputs(b, inp, q, even))
 }
 
 // ---- ramp ----

@@ -4,6 +4,7 @@
 use super::pixel::{hash3, pixel_seeds};
 use super::setup::Renderer;
 use super::trace::RayState;
+use crate::camera::RayDiffs;
 use crate::passes::RayMatch;
 
 /// Four uniform numbers in [0, 1) for a shading point's BSDF sample (the `rand` stream),
@@ -21,9 +22,11 @@ impl Renderer {
     pub(super) fn camera_rays(&self, x: u32, y: u32, rays: &mut Vec<RayState>) {
         let spp = self.scene.settings.spp;
         let seeds = pixel_seeds(x, y);
+        let scale = RayDiffs::sample_scale(spp);
         rays.extend((0..spp).map(|k| {
             let (px, py) = self.sampler.position(x, y, seeds, k, spp);
-            let ray = self.camera.ray(px, py, self.differentials);
+            let mut ray = self.camera.ray(px, py, self.differentials);
+            ray.diffs = ray.diffs.map(|d| d.scaled(scale));
             RayState {
                 o: ray.o,
                 d: ray.d,

@@ -1,0 +1,118 @@
+//! Filtered procedurals: patterns averaged over the footprint of their coordinates, so a
+//! far surface shows the pattern's mean instead of aliasing.
+//!
+//! The footprint comes from the screen-space derivatives of the pattern's coordinates
+//! ([`Builder::derivs`]); where they are zero (no ray differentials, or a coordinate that
+//! does not change across the pixel) the pattern is the unfiltered one, bit for bit. This
+//! module lowers onto ordinary IR ops; it owns the filter formulas, not the nodes.
+
+use crate::ir::{BinOp, Builder, UnOp, Value};
+use crate::types::Type;
+
+/// Footprints narrower than this (in cells) are not filtered: the box average differs from
+/// the point value only within this distance of an edge, and f32 cannot resolve a narrower
+/// difference of the integrals far from the origin.
+const NARROW: f64 = 1e-3;
+
+/// The weight of the "even" checks (cells whose integer coordinates have an even sum) in
+/// the box average of a checkerboard of unit cells over the footprint of `s` (a float or
+/// vector of cell coordinates), with the footprint's width scaled by `scale` (a float; 0
+/// turns filtering off): 1 or 0 where the footprint is narrow, the analytic average
+/// elsewhere (`(1 + Π gₖ) / 2`, with `gₖ` the box average of the ±1 square wave along axis
+/// `k`). `even` is the unfiltered parity (a bool), used where the footprint is narrow and
+/// where `scale ≤ 0`.
+pub fn checker_weight(b: &mut Builder, s: Value, even: Value, scale: Value) -> Value {
+    let (one, zero) = (b.float(1.0), b.float(0.0));
+    let hard = b.select(even, one, zero);
+    let Some([dx, dy]) = b.derivs(s) else {
+        return hard;
+    };
+    let ty = b.ty(s);
+    let n = ty.width();
+    let comp = |b: &mut Builder, v: Value, k: usize| {
+        if ty.is_vector() { b.extract(v, k) } else { v }
+    };
+    let mut product: Option<Value> = None;
+    let mut all_narrow: Option<Value> = None;
+    for k in 0..n {
+        let x = comp(b, s, k);
+        let (ax, ay) = (comp(b, dx, k), comp(b, dy, k));
+        let w = footprint_width(b, ax, ay, scale);
+        let narrow = {
+            let eps = b.float(NARROW);
+            // NaN widths count as narrow: the point value is always defined.
+            let wide = b.binary(BinOp::Gt, w, eps);
+            b.unary(UnOp::Not, wide)
+        };
+        let g = box_square_wave(b, x, w);
+        // The point value of the square wave where the footprint is narrow.
+        let sq = {
+            let f = b.unary(UnOp::Floor, x);
+            let i = b.convert(Type::Int, f);
+            let two = b.int(2);
+            let parity = b.binary(BinOp::Mod, i, two);
+            let z = b.int(0);
+            let ev = b.binary(BinOp::Eq, parity, z);
+            let m = b.float(-1.0);
+            b.select(ev, one, m)
+        };
+        let gk = b.select(narrow, sq, g);
+        product = Some(match product {
+            Some(p) => b.mul(p, gk),
+            None => gk,
+        });
+        all_narrow = Some(match all_narrow {
+            Some(a) => b.binary(BinOp::And, a, narrow),
+            None => narrow,
+        });
+    }
+    let (Some(product), Some(all_narrow)) = (product, all_narrow) else {
+        return hard;
+    };
+    let half = b.float(0.5);
+    let hp = b.mul(half, product);
+    let soft = b.add(half, hp);
+    // Where every axis is narrow the parity is exact (and NaN-proof) as unfiltered.
+    let filtered = b.select(all_narrow, hard, soft);
+    // A scale ≤ 0 (or NaN) turns filtering off; a constant one folds this select, and the
+    // derivative ops die with the filtered arm.
+    let z = b.float(0.0);
+    let on = b.binary(BinOp::Gt, scale, z);
+    b.select(on, filtered, hard)
+}
+
+/// The width of the footprint along one coordinate, `√(∂x² + ∂y²)·scale` (OSL's
+/// `filterwidth`).
+fn footprint_width(b: &mut Builder, ax: Value, ay: Value, scale: Value) -> Value {
+    let (xx, yy) = (b.mul(ax, ax), b.mul(ay, ay));
+    let sum = b.add(xx, yy);
+    let w = b.unary(UnOp::Sqrt, sum);
+    b.mul(w, scale)
+}
+
+/// The box average over `[x − w/2, x + w/2]` of the square wave that is +1 on `[0, 1)` and
+/// −1 on `[1, 2)` (period 2), clamped to [−1, 1] against rounding: `(I(x + w/2) − I(x −
+/// w/2)) / w` with its integral `I(t) = 1 − |t mod 2 − 1|`.
+fn box_square_wave(b: &mut Builder, x: Value, w: Value) -> Value {
+    let half = b.float(0.5);
+    let hw = b.mul(w, half);
+    let hi = b.add(x, hw);
+    let lo = b.sub(x, hw);
+    let (ih, il) = (square_wave_integral(b, hi), square_wave_integral(b, lo));
+    let d = b.sub(ih, il);
+    let g = b.div(d, w);
+    let (m, p) = (b.float(-1.0), b.float(1.0));
+    b.clamp(g, m, p)
+}
+
+/// `I(t) = 1 − |t − 2·floor(t/2) − 1|`, the integral from 0 of the period-2 square wave.
+fn square_wave_integral(b: &mut Builder, t: Value) -> Value {
+    let (half, two, one) = (b.float(0.5), b.float(2.0), b.float(1.0));
+    let h = b.mul(t, half);
+    let f = b.unary(UnOp::Floor, h);
+    let f2 = b.mul(f, two);
+    let m = b.sub(t, f2);
+    let c = b.sub(m, one);
+    let a = b.unary(UnOp::Abs, c);
+    b.sub(one, a)
+}

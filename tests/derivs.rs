@@ -1,0 +1,345 @@
+//! Screen-space derivatives built into the IR (`Builder::derivs`) and the filtered checker
+//! that reads them: chain rules against central differences, uv's derivatives from the
+//! surface frame, intrinsics by a difference over the footprint, and the box-filtered
+//! checker against a supersampled box.
+
+use shadenet::graph::ir::{BinOp, Builder, Intrinsic, Program, Stream, UnOp, Value};
+use shadenet::graph::types::{ConstValue, Type};
+use shadenet_runtime::{Fragment, Interpreter, ShadeCtx, ShadeEnv};
+
+/// A surface frame whose uv derivatives are known exactly: dP/du = (2, 0, 0), dP/dv =
+/// (0, 3, 0), so dP/dx = (0.02, 0.03, 0) is (du, dv) = (0.01, 0.01) and dP/dy = (−0.01,
+/// 0.06, 0.5) — off the tangent plane by 0.5 along z, which the projection ignores — is
+/// (−0.005, 0.02).
+const DUV: [[f64; 2]; 2] = [[0.01, 0.01], [-0.005, 0.02]];
+
+fn fragment(uv: [f64; 2], p: [f64; 3]) -> Fragment {
+    Fragment {
+        p: p.map(|x| x as f32),
+        uv: uv.map(|x| x as f32),
+        dpdu: [2.0, 0.0, 0.0],
+        dpdv: [0.0, 3.0, 0.0],
+        dpdx: [0.02, 0.03, 0.0],
+        dpdy: [-0.01, 0.06, 0.5],
+        ..Fragment::default()
+    }
+}
+
+/// Values of every output of `p` at `f`, in f64.
+fn eval(p: &Program, f: Fragment) -> Vec<f64> {
+    let i = Interpreter::<f64>::new(p).unwrap();
+    let env = ShadeEnv::default();
+    i.shade(&ShadeCtx::new(f, &env)).values
+}
+
+/// Builds `f(b, uv, p)` for each case, outputs each value with its two derivatives, and
+/// checks the derivatives against central differences along the screen axes (uv moved by
+/// `h·DUV[axis]`, P by `h·dPdaxis`).
+/// A case: builds a value from uv and P.
+type Case = fn(&mut Builder, Value, Value) -> Value;
+
+fn check_against_differences(cases: &[(&str, Case)]) {
+    let mut b = Builder::new("derivs");
+    let mut widths = Vec::new();
+    for (name, f) in cases {
+        let uv = b.stream(Stream::Uv);
+        let p = b.stream(Stream::P);
+        let v = f(&mut b, uv, p);
+        let ty = b.ty(v);
+        assert!(ty.is_float_based(), "{name}: {ty}");
+        let [dx, dy] = b
+            .derivs(v)
+            .unwrap_or_else(|| panic!("{name}: no derivatives"));
+        b.output(name, None, v);
+        b.output(&format!("{name}_dx"), None, dx);
+        b.output(&format!("{name}_dy"), None, dy);
+        widths.push((*name, ty.width()));
+    }
+    let prog = b.finish().unwrap();
+    shadenet::graph::ir::validate(&prog).unwrap();
+    let (uv0, p0) = ([0.3125, 0.40625], [0.25, 0.5, 0.75]);
+    let at = eval(&prog, fragment(uv0, p0));
+    let h = 1.0 / 64.0;
+    let dp = [[0.02, 0.03, 0.0], [-0.01, 0.06, 0.5]];
+    for axis in 0..2 {
+        let moved = |s: f64| {
+            let uv = [0, 1].map(|k| uv0[k] + s * h * DUV[axis][k]);
+            let p = [0, 1, 2].map(|k| p0[k] + s * h * dp[axis][k]);
+            eval(&prog, fragment(uv, p))
+        };
+        let (plus, minus) = (moved(1.0), moved(-1.0));
+        let mut offset = 0;
+        for (name, w) in &widths {
+            let d = &at[offset + w * (1 + axis)..offset + w * (2 + axis)];
+            for c in 0..*w {
+                let fd = (plus[offset + c] - minus[offset + c]) / (2.0 * h);
+                let tol = 2e-3 * (1.0 + fd.abs());
+                assert!(
+                    (d[c] - fd).abs() <= tol,
+                    "{name}[{c}] d/d{}: {} vs central difference {fd}",
+                    ["x", "y"][axis],
+                    d[c]
+                );
+            }
+            offset += 3 * w;
+        }
+    }
+}
+
+#[test]
+fn chain_rules_match_central_differences() {
+    check_against_differences(&[
+        ("uv", |_, uv, _| uv),
+        ("p", |_, _, p| p),
+        ("scaled", |b, uv, _| {
+            let s = b.constant(ConstValue::Vec2([4.0, -2.5]));
+            b.mul(uv, s)
+        }),
+        ("rotated", |b, uv, _| {
+            // place2d-style: rotate by 0.7 rad around (0.5, 0.5), then offset and repeat.
+            let c = b.constant(ConstValue::Vec2([0.5, 0.5]));
+            let q = b.sub(uv, c);
+            let (x, y) = (b.extract(q, 0), b.extract(q, 1));
+            let (cs, sn) = (b.float(0.7f64.cos()), b.float(0.7f64.sin()));
+            let (xc, ys) = (b.mul(x, cs), b.mul(y, sn));
+            let (xs, yc) = (b.mul(x, sn), b.mul(y, cs));
+            let rx = b.sub(xc, ys);
+            let ry = b.add(xs, yc);
+            let r = b.construct(Type::Vec2, &[rx, ry]);
+            let r = b.add(r, c);
+            let rep = b.constant(ConstValue::Vec2([3.0, 5.0]));
+            b.mul(r, rep)
+        }),
+        ("fract", |b, uv, _| {
+            let s = b.constant(ConstValue::Vec2([1.5, 1.5]));
+            let t = b.mul(uv, s);
+            b.unary(UnOp::Fract, t)
+        }),
+        ("div", |b, uv, _| {
+            let (x, y) = (b.extract(uv, 0), b.extract(uv, 1));
+            b.div(x, y)
+        }),
+        ("mod", |b, uv, _| {
+            let (x, y) = (b.extract(uv, 0), b.extract(uv, 1));
+            let k = b.float(0.17);
+            let y2 = b.add(y, k);
+            b.binary(BinOp::Mod, x, y2)
+        }),
+        ("pow", |b, uv, _| {
+            let (x, y) = (b.extract(uv, 0), b.extract(uv, 1));
+            let e = b.float(2.0);
+            let ye = b.add(y, e);
+            b.binary(BinOp::Pow, x, ye)
+        }),
+        ("smooth", |b, uv, _| {
+            let x = b.extract(uv, 0);
+            let fs = [
+                UnOp::Sqrt,
+                UnOp::Exp,
+                UnOp::Log,
+                UnOp::Sin,
+                UnOp::Cos,
+                UnOp::Tan,
+            ];
+            let mut acc = b.float(0.0);
+            for f in fs {
+                let y = b.unary(f, x);
+                acc = b.add(acc, y);
+            }
+            let (s, c) = (b.unary(UnOp::Asin, x), b.unary(UnOp::Acos, x));
+            let sc = b.mul(s, c);
+            let a = b.unary(UnOp::Abs, sc);
+            let n = b.unary(UnOp::Neg, a);
+            b.add(acc, n)
+        }),
+        ("vector", |b, uv, p| {
+            let len = b.unary(UnOp::Length, p);
+            let n = b.unary(UnOp::Normalize, p);
+            let k = b.vec3([0.3, -0.2, 0.9]);
+            let cr = b.binary(BinOp::Cross, n, k);
+            let d = b.dot(cr, p);
+            let dist = b.binary(BinOp::Distance, p, k);
+            let (x, y) = (b.extract(uv, 0), b.extract(uv, 1));
+            let at = b.binary(BinOp::Atan2, y, x);
+            let s = b.add(len, d);
+            let s = b.add(s, dist);
+            let s = b.add(s, at);
+            let sp = b.splat(Type::Vec3, s);
+            // x < y at the test point: the select takes the min/max arm.
+            let sel = b.binary(BinOp::Lt, x, y);
+            let m = b.min(sp, n);
+            let m2 = b.max(m, k);
+            let picked = b.select(sel, m2, sp);
+            let rc = b.retype(Type::Color, picked);
+            let sc = b.splat(Type::Color, s);
+            b.mul(rc, sc)
+        }),
+        ("normalize", |b, _, p| {
+            let q = b.vec3([0.1, -0.3, 0.2]);
+            let t = b.add(p, q);
+            b.unary(UnOp::Normalize, t)
+        }),
+        ("matrix", |b, _, p| {
+            let m: Vec<f64> = (0..16).map(|k| ((k * 7) % 5) as f64 - 1.5).collect();
+            let m = b.constant(ConstValue::from_floats(Type::Matrix44, &m).unwrap());
+            b.binary(BinOp::MulPoint, m, p)
+        }),
+    ]);
+}
+
+#[test]
+fn uv_derivatives_come_from_the_surface_frame() {
+    let mut b = Builder::new("uv");
+    let uv = b.stream(Stream::Uv);
+    let [dx, dy] = b.derivs(uv).unwrap();
+    b.output("dx", None, dx);
+    b.output("dy", None, dy);
+    let p = b.finish().unwrap();
+    let got = eval(&p, fragment([0.5, 0.5], [0.0; 3]));
+    let want = [DUV[0][0], DUV[0][1], DUV[1][0], DUV[1][1]];
+    for (g, w) in got.iter().zip(want) {
+        // The frame is given in f32: exact to its rounding.
+        assert!((g - w).abs() < 1e-8, "{got:?} vs {want:?}");
+    }
+    // A degenerate frame (dP/du ∥ dP/dv) gives no footprint rather than inf or NaN.
+    let flat = Fragment {
+        dpdv: [4.0, 0.0, 0.0],
+        ..fragment([0.5, 0.5], [0.0; 3])
+    };
+    assert_eq!(eval(&p, flat), vec![0.0; 4]);
+}
+
+#[test]
+fn values_without_a_path_from_the_streams_have_no_derivatives() {
+    let mut b = Builder::new("consts");
+    let c = b.float(2.0);
+    let n = b.stream(Stream::N);
+    let uv = b.stream(Stream::Uv);
+    let f = b.unary(UnOp::Floor, uv);
+    let i = b.int(3);
+    assert!(b.derivs(c).is_none());
+    assert!(
+        b.derivs(n).is_none(),
+        "N is taken as constant across the pixel"
+    );
+    assert!(b.derivs(f).is_none(), "floor is piecewise constant");
+    assert!(b.derivs(i).is_none(), "ints have no derivatives");
+}
+
+#[test]
+fn intrinsics_differ_over_the_footprint() {
+    // d noise = noise(p + ∂p) − noise(p): the change across the pixel, every octave seen.
+    let mut b = Builder::new("noise");
+    let p = b.stream(Stream::P);
+    let s = b.vec3([7.0, 7.0, 7.0]);
+    let q = b.mul(p, s);
+    let oct = b.int(6);
+    let (lac, gain) = (b.float(2.0), b.float(0.5));
+    let n = b.call(Intrinsic::Fbm3, &[q, oct, lac, gain]);
+    let [dx, _] = b.derivs(n).unwrap();
+    b.output("n", None, n);
+    b.output("dx", None, dx);
+    let prog = b.finish().unwrap();
+    let p0 = [0.25, 0.5, 0.75];
+    let at = eval(&prog, fragment([0.0; 2], p0));
+    let moved = [p0[0] + 0.02, p0[1] + 0.03, p0[2]];
+    let there = eval(&prog, fragment([0.0; 2], moved));
+    assert!(at[1] != 0.0);
+    assert!(
+        (at[1] - (there[0] - at[0])).abs() < 1e-6,
+        "{at:?} {there:?}"
+    );
+}
+
+/// A checker network on uv with the footprint of `fragment`, scaled by `filter`.
+fn checker(filter: f64) -> Program {
+    let src = format!(
+        r#"{{"nodes": [{{"name": "c", "type": "checker",
+              "inputs": {{"color1": [1, 1, 1], "color2": [0, 0, 0], "filter": {filter}}}}}],
+            "outputs": {{"c": "c.outColor"}}}}"#
+    );
+    shadenet::compile_json(&src, &shadenet::NodeLibrary::standard())
+        .unwrap()
+        .program
+}
+
+#[test]
+fn filtered_checker_is_the_box_average_of_the_checks() {
+    // An axis-aligned footprint: uv moves by (w, 0) along x and (0, w) along y, so with
+    // filterwidth √(∂x² + ∂y²) the box is w·2 wide (checks are 1/2 wide in uv) per axis.
+    let prog = checker(1.0);
+    for (w, uv) in [
+        (0.1, [0.47, 0.21]),
+        (0.3, [0.52, 0.49]),
+        (0.05, [0.24, 0.26]),
+        (1.7, [0.1, 0.9]),
+    ] {
+        let f = Fragment {
+            uv: [uv[0] as f32, uv[1] as f32],
+            dpdu: [1.0, 0.0, 0.0],
+            dpdv: [0.0, 1.0, 0.0],
+            dpdx: [w as f32, 0.0, 0.0],
+            dpdy: [0.0, w as f32, 0.0],
+            ..Fragment::default()
+        };
+        let got = eval(&prog, f)[0];
+        // Brute force: the share of color1 over the box of side w (in uv) around uv.
+        let n = 400;
+        let mut even = 0usize;
+        for i in 0..n {
+            for j in 0..n {
+                let u = uv[0] + w * ((i as f64 + 0.5) / n as f64 - 0.5);
+                let v = uv[1] + w * ((j as f64 + 0.5) / n as f64 - 0.5);
+                let cell = (2.0 * u).floor() as i64 + (2.0 * v).floor() as i64;
+                even += (cell.rem_euclid(2) == 0) as usize;
+            }
+        }
+        let want = even as f64 / (n * n) as f64;
+        assert!(
+            (got - want).abs() < 5e-3,
+            "w {w} uv {uv:?}: {got} vs {want}"
+        );
+    }
+}
+
+#[test]
+fn checker_without_a_footprint_is_unfiltered_bit_for_bit() {
+    for prog in [checker(1.0), checker(0.0)] {
+        for (uv, want) in [
+            ([0.25f32, 0.25], 1.0),
+            ([0.75, 0.25], 0.0),
+            ([0.5, 0.5], 1.0),
+        ] {
+            let f = Fragment {
+                uv,
+                ..Fragment::default()
+            };
+            assert_eq!(eval(&prog, f), vec![want; 3], "uv {uv:?}");
+        }
+    }
+    // filter = 0 turns filtering off even with a footprint.
+    let f = Fragment {
+        uv: [0.49, 0.2],
+        dpdu: [1.0, 0.0, 0.0],
+        dpdv: [0.0, 1.0, 0.0],
+        dpdx: [0.3, 0.0, 0.0],
+        dpdy: [0.0, 0.3, 0.0],
+        ..Fragment::default()
+    };
+    assert_eq!(eval(&checker(0.0), f), vec![1.0; 3]);
+    let blurred = eval(&checker(1.0), f)[0];
+    assert!(blurred > 0.2 && blurred < 0.8, "{blurred}");
+    // A huge footprint is the average; NaN differentials fall back to the point value.
+    let wide = Fragment {
+        dpdx: [1e6, 0.0, 0.0],
+        dpdy: [0.0, 1e6, 0.0],
+        ..f
+    };
+    assert!((eval(&checker(1.0), wide)[0] - 0.5).abs() < 1e-3);
+    let nan = Fragment {
+        dpdx: [f32::NAN, 0.0, 0.0],
+        dpdy: [0.0, f32::NAN, 0.0],
+        ..f
+    };
+    assert_eq!(eval(&checker(1.0), nan), vec![1.0; 3]);
+}
