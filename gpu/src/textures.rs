@@ -6,14 +6,14 @@
 
 use shadenet_runtime::texture::TextureSet;
 
+/// The contents of `sn_texels` and `sn_tex_info`.
+pub type TextureBuffers = (Vec<[f32; 4]>, Vec<[u32; 4]>);
+
 /// `sn_texels` and `sn_tex_info` for `count` texture-table entries of `set` (entries the set
 /// does not hold become an empty one-texel image): rows `0..count` of the info are `(first
 /// level row, level count, 0, 0)`, the level rows `(first texel, width, height, 0)`. An
 /// error names what the GPU back end does not read yet (UDIM tile sets).
-pub fn texture_buffers(
-    count: usize,
-    set: &TextureSet,
-) -> Result<(Vec<[f32; 4]>, Vec<[u32; 4]>), String> {
+pub fn texture_buffers(count: usize, set: &TextureSet) -> Result<TextureBuffers, String> {
     let mut texels: Vec<[f32; 4]> = Vec::new();
     let mut heads: Vec<[u32; 4]> = Vec::with_capacity(count);
     let mut levels: Vec<[u32; 4]> = Vec::new();
