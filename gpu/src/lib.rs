@@ -22,6 +22,7 @@ pub mod options;
 pub mod plan;
 pub mod planner;
 pub mod testing;
+pub mod textures;
 
 pub use context::{GpuContext, GpuError};
 pub use material::{GpuBackend, GpuMaterial};

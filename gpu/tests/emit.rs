@@ -20,9 +20,11 @@ use shadenet_gpu::testing::{
     Bound, Transcendental as Trans, device_or_skip, documented_bound, ulps, within,
 };
 use shadenet_graph::ir::{BinOp, Expr, Intrinsic, Op, Program, UnOp, Value};
+use shadenet_graph::ir::{Filter, Sampling, Wrap};
 use shadenet_graph::ops::{self, Val};
 use shadenet_graph::types::{ConstValue, Type};
 use shadenet_runtime::Texture;
+use shadenet_runtime::texture::TextureSet;
 use std::fmt::Write as _;
 use wgpu::util::DeviceExt;
 
@@ -1165,69 +1167,98 @@ fn main() {{
     }
 }
 
+/// Every filter and wrap mode of `sn_texture` against the texture system's `lookup`, over
+/// textures of several sizes (mip pyramids of one to five levels), hard and random uv, and
+/// footprints from none to huge, anisotropic and non-finite: closest and bilinear bit for
+/// bit, trilinear and anisotropic within 1e-4 (the level of detail takes WGSL's log2, the
+/// CPU its own series).
 #[test]
 fn texture_lookups_match_the_cpu() {
     let Some(ctx) = device_or_skip("texture_lookups_match_the_cpu") else {
         return;
     };
     let mut rng = Rng(4242);
-    let textures: Vec<Texture> = [(3u32, 2u32), (1, 1), (5, 7)]
+    let textures: Vec<Texture> = [(3u32, 2u32), (1, 1), (5, 7), (16, 9)]
         .iter()
         .map(|&(width, height)| {
-            Texture::from_texels(
-                width,
-                height,
-                (0..width * height)
-                    .map(|_| [rng.unit(), rng.unit(), 2.0 * rng.unit() - 0.5, rng.unit()])
-                    .collect(),
-            )
+            let texels = (0..width * height)
+                .map(|_| [rng.unit(), rng.unit(), 2.0 * rng.unit() - 0.5, rng.unit()])
+                .collect();
+            Texture::from_texels(width, height, texels)
         })
         .collect();
-    let mut texels: Vec<[f32; 4]> = Vec::new();
-    let mut info: Vec<[u32; 4]> = Vec::new();
-    for t in &textures {
-        info.push([texels.len() as u32, t.width(), t.height(), 0]);
-        texels.extend(t.texels());
-    }
-    let mut uvs: Vec<[f32; 2]> = Vec::new();
+    let set = TextureSet::from_textures(textures);
+    let nt = 4usize;
+    let (texels, info) = shadenet_gpu::textures::texture_buffers(nt, &set).unwrap();
+    let samplings: Vec<Sampling> = Filter::ALL
+        .iter()
+        .flat_map(|&filter| {
+            [
+                [Wrap::Periodic, Wrap::Periodic],
+                [Wrap::Clamp, Wrap::Mirror],
+                [Wrap::Mirror, Wrap::Black],
+                [Wrap::Black, Wrap::Clamp],
+            ]
+            .map(|wrap| Sampling { filter, wrap })
+        })
+        .collect();
+    // Each case: uv, ∂uv/∂x, ∂uv/∂y.
+    let mut cases: Vec<[f32; 6]> = Vec::new();
     for a in HARD {
         for b in HARD {
-            uvs.push([*a, *b]);
+            cases.push([*a, *b, 0.0, 0.0, 0.0, 0.0]);
         }
     }
-    for _ in 0..3000 {
-        uvs.push([rng.float(), rng.float()]);
-        uvs.push([3.0 * rng.unit() - 1.0, 3.0 * rng.unit() - 1.0]);
+    for k in 0..1500 {
+        let uv = [3.0 * rng.unit() - 1.0, 3.0 * rng.unit() - 1.0];
+        let scale = [0.0, 1e-3, 0.03, 0.2, 1.5][k % 5];
+        let d: [f32; 4] = std::array::from_fn(|_| scale * (2.0 * rng.unit() - 1.0));
+        // Every third footprint is stretched 10:1 along x.
+        let d = if k % 3 == 0 {
+            [d[0] * 10.0, d[1], d[2], d[3] * 0.1]
+        } else {
+            d
+        };
+        cases.push([uv[0], uv[1], d[0], d[1], d[2], d[3]]);
     }
-    let n = uvs.len();
+    for bad in [f32::NAN, f32::INFINITY, -f32::INFINITY, 3e38] {
+        cases.push([0.3, 0.6, bad, 0.01, 0.02, bad]);
+    }
+    let n = cases.len();
+    let ns = samplings.len();
+    let bits: Vec<String> = samplings.iter().map(|s| format!("{}u", s.bits())).collect();
     let src = format!(
         "@group(0) @binding(0) var<storage, read> sn_in: array<f32>;
 @group(0) @binding(1) var<storage, read_write> sn_res: array<f32>;
 {TEXTURE_BINDINGS}
 {}
 {}
+const SAMPLINGS = array<u32, {ns}>({});
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {{
     let i = gid.x;
     if (i >= {n}u) {{
         return;
     }}
-    let uv = vec2<f32>(sn_in[2u * i], sn_in[2u * i + 1u]);
-    for (var t = 0u; t < {}u; t++) {{
-        let c = sn_texture(t, uv);
-        for (var k = 0u; k < 4u; k++) {{
-            sn_res[(i * {}u + t) * 4u + k] = c[k];
+    let uv = vec2<f32>(sn_in[6u * i], sn_in[6u * i + 1u]);
+    let dx = vec2<f32>(sn_in[6u * i + 2u], sn_in[6u * i + 3u]);
+    let dy = vec2<f32>(sn_in[6u * i + 4u], sn_in[6u * i + 5u]);
+    for (var s = 0u; s < {ns}u; s++) {{
+        for (var t = 0u; t < {nt}u; t++) {{
+            let c = sn_texture(t, SAMPLINGS[s], uv, dx, dy);
+            for (var k = 0u; k < 4u; k++) {{
+                sn_res[((i * {ns}u + s) * {nt}u + t) * 4u + k] = c[k];
+            }}
         }}
     }}
 }}
 ",
         emit::library(),
         emit::TEXTURE_LIBRARY,
-        textures.len(),
-        textures.len()
+        bits.join(", "),
     );
-    let input: Vec<f32> = uvs.iter().flatten().copied().collect();
-    let out_len = n * textures.len() * 4;
+    let input: Vec<f32> = cases.iter().flatten().copied().collect();
+    let out_len = n * ns * nt * 4;
     let got = run(
         &ctx,
         &src,
@@ -1240,17 +1271,26 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {{
         n,
     );
     let mut bad = Vec::new();
-    for (i, uv) in uvs.iter().enumerate() {
-        for (t, tex) in textures.iter().enumerate() {
-            let want = tex.sample::<f32>(*uv);
-            for k in 0..4 {
-                let g = got[(i * textures.len() + t) * 4 + k];
-                if !exact_eq(Type::Float, g, want[k], false) {
-                    bad.push(format!(
-                        "texture {t} at {uv:?}: channel {k}: got {:?}, want {:?}",
-                        f32::from_bits(g),
-                        want[k]
-                    ));
+    for (i, c) in cases.iter().enumerate() {
+        let (uv, duv) = ([c[0], c[1]], [[c[2], c[3]], [c[4], c[5]]]);
+        for (s, sampling) in samplings.iter().enumerate() {
+            for t in 0..nt {
+                let want = set.get(t as u32).unwrap().lookup::<f32>(uv, duv, *sampling);
+                for k in 0..4 {
+                    let g = got[((i * ns + s) * nt + t) * 4 + k];
+                    let ok = match sampling.filter {
+                        Filter::Closest | Filter::Bilinear => {
+                            exact_eq(Type::Float, g, want[k], false)
+                        }
+                        _ => (f32::from_bits(g) - want[k]).abs() <= 1e-4,
+                    };
+                    if !ok {
+                        bad.push(format!(
+                            "texture {t} {sampling:?} at {uv:?} d {duv:?}: channel {k}: got {:?}, want {:?}",
+                            f32::from_bits(g),
+                            want[k]
+                        ));
+                    }
                 }
             }
         }

@@ -363,23 +363,14 @@ fn upload_textures(
     if !plan.layout.textures {
         return Ok(None);
     }
-    let mut texels: Vec<[f32; 4]> = Vec::new();
-    let mut info: Vec<[u32; 4]> = Vec::new();
-    for i in 0..program.textures.len() {
-        match textures.get(i as u32) {
-            Some(t) => {
-                info.push([texels.len() as u32, t.width(), t.height(), 0]);
-                texels.extend_from_slice(t.texels());
-            }
-            None => info.push([0, 0, 0, 0]),
-        }
-    }
-    if texels.is_empty() {
-        texels.push([0.0; 4]);
-    }
-    if info.is_empty() {
-        info.push([0; 4]);
-    }
+    let unsupported = |reason: String| BackendError::Unsupported {
+        backend: "gpu",
+        material: program.name.clone(),
+        op: "texture".into(),
+        reason,
+    };
+    let (texels, info) =
+        crate::textures::texture_buffers(program.textures.len(), textures).map_err(unsupported)?;
     let bytes = (texels.len() * 16) as u64;
     if bytes > plan.binding_size {
         return Err(BackendError::Unsupported {
