@@ -23,7 +23,8 @@ named_enum! {
         G22Rec709 = "g22_rec709",
         /// A pure 1.8 gamma over Rec.709 primaries.
         G18Rec709 = "g18_rec709",
-        /// The Rec.709 (BT.1886-style) display transfer over Rec.709 primaries.
+        /// The Rec.709 display transfer over Rec.709 primaries: a 2.4 power (BT.1886 with a
+        /// zero black level, as MaterialX's cmlib).
         Rec709Display = "rec709_display",
         /// Linear AP1 primaries with the ACES white point (ACEScg).
         AcesCg = "acescg",

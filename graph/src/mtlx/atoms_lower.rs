@@ -970,7 +970,7 @@ pub fn image(b: &mut Builder, inp: &NodeInputs) -> Out {
     if file.is_empty() {
         return Ok(vec![inp.low("default").clone()]);
     }
-    let cs = inp.string(&super::library::colorspace_port("file"));
+    let cs = inp.string(&super::value::colorspace_port("file"));
     let colorspace = match cs {
         "" => ColorSpace::LinRec709,
         name => ColorSpace::parse(name).ok_or_else(|| {

@@ -7,7 +7,7 @@
 
 use super::atoms;
 use super::document::{Document, Graph, NodeDefElem};
-use super::value::{MxType, classify};
+use super::value::{MxType, classify, colorspace_port};
 use crate::lower::convert_const;
 use crate::nodes::{NodeDef, NodeKind, NodeLibrary, OutDef, PortDef, PortDefault, PortType};
 use crate::types::{ConstValue, Type};
@@ -163,12 +163,6 @@ impl Library {
 /// bounded amount, once.
 fn leak(s: &str) -> &'static str {
     Box::leak(s.to_string().into_boxed_str())
-}
-
-/// The name of the string port that carries a filename input's `colorspace` to an atom's
-/// lowering (`file` → `file_colorspace`).
-pub fn colorspace_port(input: &str) -> String {
-    format!("{input}_colorspace")
 }
 
 /// Our node definition for an atom nodedef: its ports typed and defaulted from the nodedef,

@@ -231,7 +231,7 @@ impl<'a> Tr<'a> {
                     && !matches!(self.implementation(nd), Impl::Graph(_))
                     && let Some(cs) = &i.colorspace
                 {
-                    let key = super::library::colorspace_port(&i.name);
+                    let key = super::value::colorspace_port(&i.name);
                     spec.inputs.insert(key, Json::String(cs.clone()));
                 }
             }

@@ -144,6 +144,13 @@ pub fn literal(text: &str, ty: Type) -> Result<Json, String> {
     })
 }
 
+/// The name of the string port that carries a filename input's `colorspace` to an atom's
+/// lowering (`file` → `file_colorspace`): the translator sets it, the library declares it,
+/// the `image` lowering reads it.
+pub fn colorspace_port(input: &str) -> String {
+    format!("{input}_colorspace")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

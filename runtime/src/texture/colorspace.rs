@@ -13,7 +13,7 @@
 //! | `lin_rec709` | Rec.709 (0.64, 0.33) (0.30, 0.60) (0.15, 0.06) | D65 (0.3127, 0.3290) | none |
 //! | `srgb_texture` | Rec.709 | D65 | IEC 61966-2-1: `c/12.92` below 0.04045, else `((c+0.055)/1.055)^2.4` |
 //! | `g22_rec709`, `g18_rec709` | Rec.709 | D65 | `c^2.2`, `c^1.8` |
-//! | `rec709_display` | Rec.709 | D65 | inverse BT.709 OETF: `c/4.5` below 0.081, else `((c+0.099)/1.099)^(1/0.45)` |
+//! | `rec709_display` | Rec.709 | D65 | `c^2.4` (BT.1886 with a zero black level, as MaterialX's cmlib) |
 //! | `acescg`, `g22_ap1` | AP1 (0.713, 0.293) (0.165, 0.830) (0.128, 0.044) | ACES (0.32168, 0.33767) | none, `c^2.2` |
 //! | `lin_adobergb`, `adobergb` | Adobe RGB (1998) (0.64, 0.33) (0.21, 0.71) (0.15, 0.06) | D65 | none, `c^(563/256)` |
 //! | `lin_displayp3`, `srgb_displayp3` | Display P3 (0.680, 0.320) (0.265, 0.690) (0.150, 0.060) | D65 | none, sRGB's |
@@ -71,8 +71,6 @@ pub enum Transfer {
     Srgb,
     /// A pure power `c^γ`.
     Gamma(f32),
-    /// The inverse of the BT.709 camera OETF.
-    Rec709,
 }
 
 impl Transfer {
@@ -91,13 +89,6 @@ impl Transfer {
                 }
             }
             Transfer::Gamma(g) => pow_f32(c, g),
-            Transfer::Rec709 => {
-                if c < 0.081 {
-                    c / 4.5
-                } else {
-                    pow_f32((c + 0.099) / 1.099, 1.0 / 0.45)
-                }
-            }
         }
     }
 
@@ -116,13 +107,6 @@ impl Transfer {
                 }
             }
             Transfer::Gamma(g) => pow_f32(l, 1.0 / g),
-            Transfer::Rec709 => {
-                if l < 0.018 {
-                    l * 4.5
-                } else {
-                    1.099 * pow_f32(l, 0.45) - 0.099
-                }
-            }
         }
     }
 }
@@ -148,7 +132,8 @@ impl Conversion {
             ColorSpace::SrgbTexture => (Transfer::Srgb, None),
             ColorSpace::G22Rec709 => (Transfer::Gamma(2.2), None),
             ColorSpace::G18Rec709 => (Transfer::Gamma(1.8), None),
-            ColorSpace::Rec709Display => (Transfer::Rec709, None),
+            // MaterialX's cmlib: a 2.4 power (BT.1886 with a zero black level).
+            ColorSpace::Rec709Display => (Transfer::Gamma(2.4), None),
             ColorSpace::AcesCg => (Transfer::Linear, Some(AP1)),
             ColorSpace::G22Ap1 => (Transfer::Gamma(2.2), Some(AP1)),
             ColorSpace::LinAdobeRgb => (Transfer::Linear, Some(ADOBE_RGB)),
@@ -415,7 +400,7 @@ mod tests {
         assert_eq!(Transfer::Srgb.decode(-0.5), -Transfer::Srgb.decode(0.5));
         for t in [
             Transfer::Gamma(2.2),
-            Transfer::Rec709,
+            Transfer::Gamma(2.4),
             Transfer::Gamma(563.0 / 256.0),
         ] {
             for i in 0..=100 {
