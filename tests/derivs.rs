@@ -174,6 +174,28 @@ fn chain_rules_match_central_differences() {
             let sc = b.splat(Type::Color, s);
             b.mul(rc, sc)
         }),
+        ("if_outside", |b, uv, _| {
+            // Both arms yield values from outside: a select of their derivatives.
+            let (x, y) = (b.extract(uv, 0), b.extract(uv, 1));
+            let k = b.float(3.0);
+            let t = b.mul(x, k);
+            let e = b.mul(y, y);
+            let c = b.binary(BinOp::Lt, x, y);
+            b.if_(c, |_| vec![t], |_| vec![e])[0]
+        }),
+        ("if_inside", |b, uv, _| {
+            // The taken arm computes its yield inside: rebuilt in a new if.
+            let (x, y) = (b.extract(uv, 0), b.extract(uv, 1));
+            let c = b.binary(BinOp::Lt, x, y);
+            b.if_(
+                c,
+                |b| {
+                    let s = b.unary(UnOp::Sin, x);
+                    vec![b.mul(s, y)]
+                },
+                |b| vec![b.add(x, y)],
+            )[0]
+        }),
         ("normalize", |b, _, p| {
             let q = b.vec3([0.1, -0.3, 0.2]);
             let t = b.add(p, q);
@@ -342,4 +364,113 @@ fn checker_without_a_footprint_is_unfiltered_bit_for_bit() {
         ..f
     };
     assert_eq!(eval(&checker(1.0), nan), vec![1.0; 3]);
+}
+
+/// The first texture lookup of `p` with outputs added for its uv and footprint operands.
+fn with_lookup_operands(mut p: Program) -> Program {
+    use shadenet::graph::ir::{Op, Output};
+    let (uv, [dx, dy]) = p
+        .body
+        .body
+        .iter()
+        .find_map(|v| match p.op(*v) {
+            Op::Texture { uv, derivs, .. } => Some((*uv, derivs.expect("a footprint"))),
+            _ => None,
+        })
+        .expect("a texture lookup in the top-level block");
+    for (name, value) in [("uv", uv), ("dx", dx), ("dy", dy)] {
+        p.outputs.push(Output {
+            name: name.into(),
+            component: None,
+            value,
+        });
+    }
+    p
+}
+
+/// Checks the lookup's footprint operands against central differences of its uv operand
+/// (the last three outputs, two floats each).
+fn check_lookup_footprint(p: &Program, what: &str) {
+    let n = eval(p, fragment([0.3, 0.4], [0.0; 3])).len();
+    let at = |uv: [f64; 2]| eval(p, fragment(uv, [0.0; 3]))[n - 6..].to_vec();
+    let base = at([0.3, 0.4]);
+    let h = 1.0 / 64.0;
+    for axis in 0..2 {
+        let plus = at([0.3 + h * DUV[axis][0], 0.4 + h * DUV[axis][1]]);
+        let minus = at([0.3 - h * DUV[axis][0], 0.4 - h * DUV[axis][1]]);
+        for c in 0..2 {
+            let fd = (plus[c] - minus[c]) / (2.0 * h);
+            let d = base[2 + 2 * axis + c];
+            assert!(
+                (d - fd).abs() <= 2e-3 * (1.0 + fd.abs()),
+                "{what}: d{}uv[{c}] = {d}, central difference {fd}",
+                ["x", "y"][axis]
+            );
+        }
+    }
+}
+
+fn png_in_temp(name: &str) -> String {
+    let d = std::env::temp_dir().join(format!("shadenet-derivs-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let p = d.join("t.png");
+    image::save_buffer(
+        &p,
+        &[200u8, 100, 50, 25],
+        2,
+        2,
+        image::ExtendedColorType::L8,
+    )
+    .unwrap();
+    p.to_string_lossy().into_owned()
+}
+
+#[test]
+fn texture_footprints_follow_place2d_rotation_and_scale() {
+    let file = png_in_temp("maya");
+    let src = format!(
+        r#"{{"nodes": [
+              {{"name": "uvs", "type": "place2d",
+                "inputs": {{"repeatU": 7, "repeatV": 3, "offsetU": 0.25, "rotateUV": 0.6}}}},
+              {{"name": "img", "type": "file",
+                "inputs": {{"fileTextureName": "{file}", "uvCoord": "uvs.outUV"}}}}],
+            "outputs": {{"c": "img.outColor"}}}}"#
+    );
+    let c = shadenet::compile_json(&src, &shadenet::NodeLibrary::standard()).unwrap();
+    check_lookup_footprint(&with_lookup_operands(c.program), "Maya place2d");
+}
+
+#[test]
+fn texture_footprints_follow_materialx_place2d() {
+    let lib = match shadenet::mtlx::locate(None).and_then(|d| shadenet::mtlx::library(&d)) {
+        Ok(l) => l,
+        Err(e) if std::env::var_os("CI").is_some() => panic!("CI needs the libraries: {e}"),
+        Err(_) => return,
+    };
+    let file = png_in_temp("mtlx");
+    let doc = format!(
+        r#"<?xml version="1.0"?>
+<materialx version="1.39">
+  <texcoord name="tc" type="vector2"/>
+  <place2d name="pl" type="vector2">
+    <input name="texcoord" type="vector2" nodename="tc"/>
+    <input name="scale" type="vector2" value="0.2, 0.5"/>
+    <input name="rotate" type="float" value="35"/>
+    <input name="offset" type="vector2" value="0.1, -0.3"/>
+  </place2d>
+  <image name="img" type="color3">
+    <input name="file" type="filename" value="{file}"/>
+    <input name="texcoord" type="vector2" nodename="pl"/>
+  </image>
+  <output name="out" type="color3" nodename="img"/>
+</materialx>"#
+    );
+    let c = shadenet::graph::mtlx::compile(
+        "t.mtlx",
+        &doc,
+        lib,
+        &shadenet::graph::mtlx::Selection::default(),
+    )
+    .unwrap();
+    check_lookup_footprint(&with_lookup_operands(c.program), "MaterialX place2d");
 }

@@ -17,8 +17,9 @@
 //! - Intrinsics (noise, fractals, cell noise, HSV) by a one-sided difference over the
 //!   footprint, `f(x + ∂x) − f(x)`: what a filter needs is the size of the change, and the
 //!   difference sees every octave.
-//! - Results of regions (`If`, `Illuminance`), texture lookups and scene queries are taken as
-//!   constant: derivatives do not flow out of a region.
+//! - Results of an `If`: a select of the arms' derivatives, the arms' computation rebuilt in a
+//!   new `If` on the same condition where it lies inside them (not through regions nested in
+//!   an arm). Illuminance sums, texture lookups and scene queries are taken as constant.
 //!
 //! This module only adds ops through the [`Builder`]; it must not edit ops already built.
 
@@ -123,8 +124,78 @@ impl Builder {
                 self.each(d(&a), |b, da| b.splat(ty, da))
             }
             Op::Call(i, args) => self.call_derivs(i, &args, x, memo),
+            Op::Proj(region, i) => self.proj_derivs(region, i as usize),
             _ => None,
         }
+    }
+
+    /// Derivatives of result `i` of an `If` (an illuminance's sums have none): `select(cond,
+    /// ∂then, ∂else)` where both arms yield values from outside the region; otherwise a new
+    /// `If` on the same condition whose arms rebuild the yields' straight-line computation
+    /// and yield its derivatives (an arm whose yield depends on a nested region gives zero).
+    fn proj_derivs(&mut self, region: Value, i: usize) -> D {
+        let Op::If { cond, then_, else_ } = self.program().op(region).clone() else {
+            return None;
+        };
+        let (yt, ye) = (*then_.yields.get(i)?, *else_.yields.get(i)?);
+        let ty = self.ty(yt);
+        if !then_.body.contains(&yt) && !else_.body.contains(&ye) {
+            let (dt, de) = (self.derivs(yt), self.derivs(ye));
+            if dt.is_none() && de.is_none() {
+                return None;
+            }
+            let (dt, de) = (self.or_zero(dt, ty), self.or_zero(de, ty));
+            return Some([0, 1].map(|k| self.select(cond, dt[k], de[k])));
+        }
+        let r = self.if_(
+            cond,
+            |b| b.arm_derivs(&then_, yt, ty),
+            |b| b.arm_derivs(&else_, ye, ty),
+        );
+        Some([r[0], r[1]])
+    }
+
+    /// In a new arm: the derivatives of `y`, yielded by `arm`, rebuilt from the arm's ops
+    /// (zeros where `y` depends on a region nested in the arm).
+    fn arm_derivs(&mut self, arm: &super::Block, y: Value, ty: Type) -> Vec<Value> {
+        let y = if arm.body.contains(&y) {
+            self.rebuild(arm, y)
+        } else {
+            Some(y)
+        };
+        let d = y.and_then(|y| self.derivs(y));
+        self.or_zero(d, ty).to_vec()
+    }
+
+    /// Copies into the current block the ops of `arm` that `y` depends on (in the arm's
+    /// order, operands renamed to the copies); the copy of `y`, or `None` where one of them
+    /// is a region.
+    fn rebuild(&mut self, arm: &super::Block, y: Value) -> Option<Value> {
+        let inside: BTreeSet<Value> = arm.body.iter().copied().collect();
+        let mut need = BTreeSet::new();
+        let mut stack = vec![y];
+        while let Some(x) = stack.pop() {
+            if !inside.contains(&x) || !need.insert(x) {
+                continue;
+            }
+            if matches!(self.program().op(x), Op::If { .. } | Op::Illuminance { .. }) {
+                return None;
+            }
+            self.program().op(x).for_each_operand(|o| stack.push(o));
+        }
+        let mut copies: HashMap<Value, Value> = HashMap::new();
+        for &x in arm.body.iter().filter(|x| need.contains(x)) {
+            let e = self.program().expr(x).clone();
+            let mut op = e.op;
+            for o in op.operands_mut() {
+                if let Some(c) = copies.get(o) {
+                    *o = *c;
+                }
+            }
+            let c = self.push(op, e.ty);
+            copies.insert(x, c);
+        }
+        copies.get(&y).copied()
     }
 
     /// Derivatives of an implicit stream.
