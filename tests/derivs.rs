@@ -3,6 +3,7 @@
 //! surface frame, intrinsics by a difference over the footprint, and the box-filtered
 //! checker against a supersampled box.
 
+mod common;
 use shadenet::graph::ir::{BinOp, Builder, Intrinsic, Program, Stream, UnOp, Value};
 use shadenet::graph::types::{ConstValue, Type};
 use shadenet_runtime::{Fragment, Interpreter, ShadeCtx, ShadeEnv};
@@ -442,10 +443,8 @@ fn texture_footprints_follow_place2d_rotation_and_scale() {
 
 #[test]
 fn texture_footprints_follow_materialx_place2d() {
-    let lib = match shadenet::mtlx::locate(None).and_then(|d| shadenet::mtlx::library(&d)) {
-        Ok(l) => l,
-        Err(e) if std::env::var_os("CI").is_some() => panic!("CI needs the libraries: {e}"),
-        Err(_) => return,
+    let Some(lib) = common::mtlx_library() else {
+        return;
     };
     let file = png_in_temp("mtlx");
     let doc = format!(

@@ -29,16 +29,7 @@ use shadenet_runtime::{Backend, Fragment, ShadeEnv};
 use std::time::Duration;
 
 fn lib() -> Option<&'static Library> {
-    match shadenet::mtlx::locate(None).and_then(|d| shadenet::mtlx::library(&d)) {
-        Ok(l) => Some(l),
-        Err(e) if std::env::var_os("CI").is_some() => {
-            panic!("CI needs the MaterialX libraries: {}", error_chain(&e))
-        }
-        Err(e) => {
-            eprintln!("skipped: {}", error_chain(&e));
-            None
-        }
-    }
+    common::mtlx_library()
 }
 
 /// A document with one `node` surface of `inputs` (`name`, MaterialX type, value) under

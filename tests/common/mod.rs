@@ -183,3 +183,21 @@ pub fn shadenet_env(args: &[&str], env: &[(&str, &str)]) -> (i32, String, String
 pub fn gpu_or_skip(test: &str) -> bool {
     shadenet_gpu::testing::device_or_skip(test).is_some()
 }
+
+/// The MaterialX libraries of the user's installation; `None` (with a printed reason) when
+/// they are missing, a panic when `CI` is set (`.ci/run` installs them).
+pub fn mtlx_library() -> Option<&'static shadenet::graph::mtlx::Library> {
+    match shadenet::mtlx::locate(None).and_then(|d| shadenet::mtlx::library(&d)) {
+        Ok(l) => Some(l),
+        Err(e) if std::env::var_os("CI").is_some() => {
+            panic!(
+                "CI needs the MaterialX libraries: {}",
+                shadenet::graph::error_chain(&e)
+            )
+        }
+        Err(e) => {
+            eprintln!("skipped: {}", shadenet::graph::error_chain(&e));
+            None
+        }
+    }
+}

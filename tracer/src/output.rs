@@ -211,16 +211,9 @@ pub fn read_exr(path: &Path) -> Result<ExrImage, OutputError> {
     };
     // Through the input gate: a regular file within the image limit, read bounded.
     let bytes = input::read(path, FileKind::Image, "EXR image")?;
-    check_exr_size(&bytes).map_err(err)?;
-    use exr::prelude::{ReadChannels, ReadLayers};
-    let image = exr::prelude::read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .first_valid_layer()
-        .all_attributes()
-        .from_buffered(std::io::Cursor::new(bytes))
-        .map_err(|e| err(e.to_string()))?;
+    let limit = FileKind::Image.limit().map_err(|e| err(e.to_string()))?;
+    let image =
+        shadenet_runtime::texture::decode::read_exr_first_layer(&bytes, limit).map_err(err)?;
     let size = image.layer_data.size;
     let mut channels: Vec<Channel> = image
         .layer_data
@@ -235,13 +228,6 @@ pub fn read_exr(path: &Path) -> Result<ExrImage, OutputError> {
         height: size.1 as u32,
         channels,
     })
-}
-
-/// Refuses an EXR whose headers promise more decoded f32 samples than the image limit allows
-/// or than the file's bytes could hold (the texture decoder's check, shared).
-fn check_exr_size(bytes: &[u8]) -> Result<(), String> {
-    let limit = FileKind::Image.limit().map_err(|e| e.to_string())?;
-    shadenet_runtime::texture::decode::check_exr_header(bytes, limit).map(|_| ())
 }
 
 /// How two images' channel groups differ (`shadenet diff`).

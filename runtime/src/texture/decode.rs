@@ -165,6 +165,27 @@ pub fn check_exr_header(bytes: &[u8], limit: u64) -> Result<exr::meta::MetaData,
     Ok(meta)
 }
 
+/// An EXR image as [`read_exr_first_layer`] reads it: the first valid layer, every channel
+/// as flat samples, the attributes kept.
+pub type ExrLayerImage =
+    exr::prelude::Image<exr::prelude::Layer<exr::prelude::AnyChannels<exr::prelude::FlatSamples>>>;
+
+/// The largest resolution level of the first valid layer of an EXR held in memory, every
+/// channel, after [`check_exr_header`] has refused headers that promise more than `limit`
+/// bytes: the texture decoder's and the tracer's reader (`shadenet diff`) both.
+pub fn read_exr_first_layer(bytes: &[u8], limit: u64) -> Result<ExrLayerImage, String> {
+    check_exr_header(bytes, limit)?;
+    use exr::prelude::{ReadChannels, ReadLayers};
+    exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(Cursor::new(bytes))
+        .map_err(|e| e.to_string())
+}
+
 /// OpenEXR through the `exr` crate: the first valid layer's `R`, `G`, `B` (and `A`), else
 /// `Y` (and `A`), else a layer's `NAME.R`, `NAME.G`, `NAME.B`, else its only channel.
 fn decode_exr(bytes: &[u8], budget: u64) -> Result<Decoded, String> {
@@ -175,15 +196,7 @@ fn decode_exr(bytes: &[u8], budget: u64) -> Result<Decoded, String> {
         let side = |n: usize| u32::try_from(n).unwrap_or(u32::MAX);
         check_size(side(w), side(ht), budget)?;
     }
-    use exr::prelude::{ReadChannels, ReadLayers};
-    let image = exr::prelude::read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .first_valid_layer()
-        .all_attributes()
-        .from_buffered(Cursor::new(bytes))
-        .map_err(|e| e.to_string())?;
+    let image = read_exr_first_layer(bytes, limit)?;
     let (width, height) = (
         image.layer_data.size.0 as u32,
         image.layer_data.size.1 as u32,
