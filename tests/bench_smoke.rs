@@ -16,7 +16,9 @@ fn quick_bench_runs_every_suite_at_a_tiny_size() {
     };
     let results = bench::run(&opts, |_| {});
     let names: Vec<_> = results.iter().map(|r| r.name).collect();
-    assert_eq!(names, ["B1", "B2", "B3", "B4", "B5", "B6", "B7"]);
+    assert_eq!(names, ["B1", "B2", "B3", "B4", "B5", "B6", "B7", "B8"]);
+    // B8 (its own test: tests/bench_b8.rs): three filterings × 1, 4, 16 spp.
+    assert_eq!(results[7].rows.len(), 9, "{}", results[7].extra);
     // B7 prints OSL's figures beside ours, labelled as quoted.
     let b7 = &results[6];
     assert_eq!(b7.rows.len(), 3);

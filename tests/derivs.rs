@@ -473,3 +473,46 @@ fn texture_footprints_follow_materialx_place2d() {
     .unwrap();
     check_lookup_footprint(&with_lookup_operands(c.program), "MaterialX place2d");
 }
+
+/// A checker whose uv comes through `place2d` rotated by `deg` (repeat 1, no offset).
+fn placed_checker(deg: f64) -> Program {
+    let src = format!(
+        r#"{{"nodes": [{{"name": "p", "type": "place2d", "inputs": {{"rotateUV": {deg}}}}},
+              {{"name": "c", "type": "checker",
+               "inputs": {{"uvCoord": "p.outUV", "color1": [1, 1, 1], "color2": [0, 0, 0]}}}}],
+            "outputs": {{"c": "c.outColor"}}}}"#
+    );
+    shadenet::compile_json(&src, &shadenet::NodeLibrary::standard())
+        .unwrap()
+        .program
+}
+
+#[test]
+fn derivatives_flow_through_place2d() {
+    // The usual Maya chain, place2d → checker: unrotated, the filtered checker sees the
+    // same footprint as on uv directly (the value bit for bit); rotated, it is filtered too
+    // (a grey between the checks where the footprint straddles an edge). place2d once
+    // rotated in an `if` region, out of which no derivatives flow: never filtered.
+    let f = Fragment {
+        uv: [0.49, 0.2],
+        dpdu: [1.0, 0.0, 0.0],
+        dpdv: [0.0, 1.0, 0.0],
+        dpdx: [0.3, 0.0, 0.0],
+        dpdy: [0.0, 0.3, 0.0],
+        ..Fragment::default()
+    };
+    let direct = eval(&checker(1.0), f);
+    assert_eq!(eval(&placed_checker(0.0), f), direct);
+    assert!(direct[0] > 0.2 && direct[0] < 0.8, "{direct:?}");
+    let turned = eval(&placed_checker(30.0), f)[0];
+    assert!(turned > 0.01 && turned < 0.99, "{turned}");
+    // Without a footprint the rotated checker is the point value.
+    let point = eval(
+        &placed_checker(30.0),
+        Fragment {
+            uv: [0.49, 0.2],
+            ..Fragment::default()
+        },
+    )[0];
+    assert!(point == 0.0 || point == 1.0, "{point}");
+}

@@ -20,6 +20,10 @@
 //!   strategy's error at MIS's time.
 //! - **B7** peers: the tree at levels 1 and 10 and an fBm node through `shadenet shade`'s
 //!   batch path on 2 threads, beside OSL's `testshade` figures quoted in issue 23.
+//! - **B8** speed against error of texture filtering (unfiltered, trilinear, anisotropic)
+//!   on `texture_plane.toml` at 1, 4 and 16 spp: RMSE, relMSE and SSIM against an
+//!   unfiltered high-spp reference (cached in the output folder) vs render time, and the
+//!   target check of issue 16.
 //!
 //! Every time is the median of repeated runs in this process (min and max beside), every
 //! ratio is against a row of the same run, and every error is measured against the f64
@@ -28,6 +32,9 @@
 pub mod peer;
 pub mod render;
 pub mod report;
+pub mod speed_error;
+pub mod ssim;
+pub mod textures;
 pub mod transport;
 pub mod workloads;
 
@@ -51,7 +58,7 @@ use std::time::{Duration, Instant};
 use workloads::{Entry, packets, tree_fragments, tree_program, tree_spec};
 
 /// The suites, in order.
-pub const SUITES: [&str; 7] = ["b1", "b2", "b3", "b4", "b5", "b6", "b7"];
+pub const SUITES: [&str; 8] = ["b1", "b2", "b3", "b4", "b5", "b6", "b7", "b8"];
 
 /// What to run.
 #[derive(Clone, Debug)]
@@ -64,8 +71,11 @@ pub struct BenchOptions {
     pub size: Option<(u32, u32)>,
     /// Tree levels of B1/B2/B4; `None`: 1–10 (1, 4, 7, 10 with `quick`).
     pub levels: Option<Vec<u32>>,
-    /// Directory of the example scenes (B3, B5).
+    /// Directory of the example scenes (B3, B5, B6, B8).
     pub scenes: PathBuf,
+    /// The output folder, where a suite caches what later runs reuse (B8's reference
+    /// render); `None`: nothing is cached.
+    pub out: Option<PathBuf>,
 }
 
 impl Default for BenchOptions {
@@ -76,6 +86,7 @@ impl Default for BenchOptions {
             size: None,
             levels: None,
             scenes: PathBuf::from("examples/scenes"),
+            out: None,
         }
     }
 }
@@ -127,7 +138,8 @@ pub fn run(opts: &BenchOptions, mut done: impl FnMut(&SuiteResult)) -> Vec<Suite
             "b4" => b4(opts),
             "b5" => b5(opts),
             "b6" => transport::b6(opts),
-            _ => peer::b7(opts),
+            "b7" => peer::b7(opts),
+            _ => textures::b8(opts),
         };
         report::fill_ratios(&mut r.rows);
         done(&r);
@@ -946,8 +958,8 @@ pub fn write(
         write_file(&dir.join(format!("{stem}.csv")), report::csv(&r.rows))?;
         write_file(
             &dir.join(format!("{stem}.svg")),
-            if r.name == "B6" {
-                transport::svg(&format!("{} — {}", r.name, r.title), &r.rows)
+            if r.name == "B6" || r.name == "B8" {
+                speed_error::svg(&format!("{} — {}", r.name, r.title), &r.rows)
             } else {
                 report::svg(&format!("{} — {}", r.name, r.title), &r.rows)
             },

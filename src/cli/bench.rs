@@ -12,20 +12,21 @@ pub(crate) struct BenchArgs {
     quick: bool,
     /// Suites to run, comma-separated (b1 tree, b2 threads, b3 scenes, b4 preprocessing,
     /// b5 passes, b6 light-transport strategies: speed against error on pbr.toml, b7 peers:
-    /// OSL's figures beside).
-    #[arg(long, value_delimiter = ',', default_value = "b1,b2,b3,b4,b5,b6,b7")]
+    /// OSL's figures beside, b8 texture filtering: speed against error on
+    /// texture_plane.toml).
+    #[arg(long, value_delimiter = ',', default_value = "b1,b2,b3,b4,b5,b6,b7,b8")]
     suite: Vec<String>,
-    /// Output directory of the CSV, SVG and summary files.
+    /// Output directory of the CSV, SVG and summary files (and of B8's cached reference).
     #[arg(long, default_value = "bench-out")]
     out: PathBuf,
     /// Frame size of shading and tree renders, WxH (default 640x480; 160x120 with --quick;
-    /// B6: 240x135, 96x54 with --quick).
+    /// B6: 240x135, 96x54 with --quick; B8: 320x180, 96x54 with --quick).
     #[arg(long, value_parser = parse_res)]
     size: Option<(u32, u32)>,
     /// Tree levels of B1, comma-separated (default 1–10; 1,4,7,10 with --quick).
     #[arg(long, value_delimiter = ',')]
     levels: Option<Vec<u32>>,
-    /// Directory of the example scenes (B3, B5, B6).
+    /// Directory of the example scenes (B3, B5, B6, B8).
     #[arg(long, default_value = "examples/scenes")]
     scenes: PathBuf,
 }
@@ -49,10 +50,10 @@ pub(crate) fn run(args: BenchArgs) -> Result<()> {
     let wants_scenes = args
         .suite
         .iter()
-        .any(|s| matches!(s.to_lowercase().as_str(), "b3" | "b5" | "b6"));
+        .any(|s| matches!(s.to_lowercase().as_str(), "b3" | "b5" | "b6" | "b8"));
     if wants_scenes && !args.scenes.join("cornell.toml").is_file() {
         anyhow::bail!(
-            "--scenes: {} holds no example scenes (B3, B5 and B6 render examples/scenes/*.toml): \
+            "--scenes: {} holds no example scenes (B3, B5, B6 and B8 render examples/scenes/*.toml): \
              run from the repository root or pass --scenes DIR",
             args.scenes.display()
         );
@@ -63,6 +64,7 @@ pub(crate) fn run(args: BenchArgs) -> Result<()> {
         size: args.size,
         levels: args.levels.clone(),
         scenes: args.scenes.clone(),
+        out: Some(args.out.clone()),
     };
     let start = std::time::Instant::now();
     let results = bench::run(&opts, |r| {
