@@ -75,8 +75,8 @@ impl GpuMaterial {
         let mut d = vec![0.0f32; l.frag_columns * n];
         for &(s, c0) in &l.streams {
             for (i, f) in frags.iter().enumerate() {
-                let vals = stream_columns(s, f);
-                for (k, x) in vals.iter().enumerate() {
+                let (vals, len) = stream_columns(s, f);
+                for (k, x) in vals[..len].iter().enumerate() {
                     d[(c0 + k) * n + i] = *x;
                 }
             }
@@ -88,22 +88,24 @@ impl GpuMaterial {
     }
 }
 
-/// The columns of a stream of a fragment (ints as their bits).
-pub(super) fn stream_columns(s: Stream, f: &Fragment) -> Vec<f32> {
+/// The columns of a stream of a fragment (ints as their bits): the first `len` floats of the
+/// array (no allocation: this runs per fragment and stream).
+pub(super) fn stream_columns(s: Stream, f: &Fragment) -> ([f32; 4], usize) {
+    let pad3 = |v: [f32; 3]| ([v[0], v[1], v[2], 0.0], 3);
     match s {
-        Stream::P => f.p.to_vec(),
-        Stream::N => f.n.to_vec(),
-        Stream::Ng => f.ng.to_vec(),
-        Stream::I => f.i.to_vec(),
-        Stream::Uv => f.uv.to_vec(),
-        Stream::DPdu => f.dpdu.to_vec(),
-        Stream::DPdv => f.dpdv.to_vec(),
-        Stream::DPdx => f.dpdx.to_vec(),
-        Stream::DPdy => f.dpdy.to_vec(),
-        Stream::Time => vec![f.time],
-        Stream::RayType => vec![f32::from_bits(f.ray_type as u32)],
-        Stream::RayDepth => vec![f32::from_bits(f.ray_depth as u32)],
-        Stream::Rand => f.rand.to_vec(),
+        Stream::P => pad3(f.p),
+        Stream::N => pad3(f.n),
+        Stream::Ng => pad3(f.ng),
+        Stream::I => pad3(f.i),
+        Stream::Uv => ([f.uv[0], f.uv[1], 0.0, 0.0], 2),
+        Stream::DPdu => pad3(f.dpdu),
+        Stream::DPdv => pad3(f.dpdv),
+        Stream::DPdx => pad3(f.dpdx),
+        Stream::DPdy => pad3(f.dpdy),
+        Stream::Time => ([f.time, 0.0, 0.0, 0.0], 1),
+        Stream::RayType => ([f32::from_bits(f.ray_type as u32), 0.0, 0.0, 0.0], 1),
+        Stream::RayDepth => ([f32::from_bits(f.ray_depth as u32), 0.0, 0.0, 0.0], 1),
+        Stream::Rand => (f.rand, 4),
     }
 }
 

@@ -58,7 +58,10 @@ impl HostValues<'_> {
                 let b = self.m.uniform_bool(v, self.mask).unwrap_or(false);
                 vec![if b { 1.0 } else { 0.0 }]
             }
-            Op::Stream(s) => stream_columns(*s, &self.frags[i]),
+            Op::Stream(s) => {
+                let (v, len) = stream_columns(*s, &self.frags[i]);
+                v[..len].to_vec()
+            }
             Op::Ambient => lights::ambient::<f32>(&self.env.lights).to_vec(),
             _ => vec![0.0; crate::emit::columns(p.ty(v))],
         }
