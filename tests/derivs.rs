@@ -516,3 +516,59 @@ fn derivatives_flow_through_place2d() {
     )[0];
     assert!(point == 0.0 || point == 1.0, "{point}");
 }
+
+#[test]
+fn filter_width_and_filter_step_use_the_footprint() {
+    use shadenet::graph::nodes::filtered::{filter_step, filter_width};
+    // x = 10·u: ∂x = (10·0.01, 10·(−0.005)), width √(0.1² + 0.05²).
+    let build = |scale: f64| {
+        let mut b = Builder::new("fs");
+        let uv = b.stream(Stream::Uv);
+        let u = b.extract(uv, 0);
+        let ten = b.float(10.0);
+        let x = b.mul(u, ten);
+        let w = filter_width(&mut b, x);
+        let (edge, s) = (b.float(3.0), b.float(scale));
+        let st = filter_step(&mut b, edge, x, s);
+        b.output("w", None, w);
+        b.output("step", None, st);
+        b.finish().unwrap()
+    };
+    let p = build(1.0);
+    let width = (0.1f64 * 0.1 + 0.05 * 0.05).sqrt();
+    let at = |p: &Program, u: f64| eval(p, fragment([u, 0.5], [0.0; 3]));
+    let r = at(&p, 0.3);
+    assert!((r[0] - width).abs() < 1e-7, "{r:?}");
+    // Exactly at the edge: half the box is above it.
+    assert!((r[1] - 0.5).abs() < 1e-5, "{r:?}");
+    // A little below: the share of the box above the edge.
+    let x = 2.97f64;
+    let want = (x + width / 2.0 - 3.0) / width;
+    assert!((at(&p, 0.297)[1] - want).abs() < 1e-5);
+    assert_eq!(at(&p, 0.31)[1], 1.0);
+    assert_eq!(at(&p, 0.29)[1], 0.0);
+    // No footprint, or the filter off: the plain step (1 at or above the edge).
+    let still = |u: f32| Fragment {
+        uv: [u, 0.5],
+        ..Fragment::default()
+    };
+    assert_eq!(eval(&p, still(0.3)), vec![0.0, 1.0]);
+    assert_eq!(eval(&p, still(0.2999)), vec![0.0, 0.0]);
+    let off = build(0.0);
+    assert_eq!(at(&off, 0.2995)[1], 0.0);
+    assert_eq!(at(&off, 0.3)[1], 1.0);
+}
+
+#[test]
+fn the_filter_nodes_link_and_lower() {
+    let src = r#"{"nodes": [
+          {"name": "w", "type": "filterWidth", "inputs": {"in": 2.0}},
+          {"name": "s", "type": "filterStep", "inputs": {"edge": 0.5, "in": 0.75}}],
+        "outputs": {"w": "w.outValue", "s": "s.outValue"}}"#;
+    let c = shadenet::compile_json(src, &shadenet::NodeLibrary::standard()).unwrap();
+    // Constants have no footprint: width 0, the plain step.
+    assert_eq!(
+        eval(&c.program, fragment([0.3, 0.4], [0.0; 3])),
+        vec![0.0, 1.0]
+    );
+}

@@ -116,3 +116,40 @@ fn square_wave_integral(b: &mut Builder, t: Value) -> Value {
     let a = b.unary(UnOp::Abs, c);
     b.sub(one, a)
 }
+
+/// OSL's `filterwidth(x)` of a float: `√(∂x/∂x_screen² + ∂x/∂y_screen²)`, 0 where `x` has no
+/// derivatives (a constant, or no ray differentials).
+pub fn filter_width(b: &mut Builder, x: Value) -> Value {
+    match b.derivs(x) {
+        Some([dx, dy]) => {
+            let one = b.float(1.0);
+            footprint_width(b, dx, dy, one)
+        }
+        None => b.float(0.0),
+    }
+}
+
+/// A box-filtered step: the share of `[x − w/2, x + w/2]` at or above `edge`, `w` the filter
+/// width of `x` times `scale`, that is `clamp((x + w/2 − edge) / w, 0, 1)`; where `w` is
+/// below 1e-9 (or NaN, or `scale ≤ 0`) the unfiltered step, 1 for `x ≥ edge`, else 0.
+pub fn filter_step(b: &mut Builder, edge: Value, x: Value, scale: Value) -> Value {
+    let (one, zero) = (b.float(1.0), b.float(0.0));
+    let at_or_above = b.binary(BinOp::Ge, x, edge);
+    let hard = b.select(at_or_above, one, zero);
+    let Some([dx, dy]) = b.derivs(x) else {
+        return hard;
+    };
+    let w = footprint_width(b, dx, dy, scale);
+    let half = b.float(0.5);
+    let hw = b.mul(w, half);
+    let top = b.add(x, hw);
+    let above = b.sub(top, edge);
+    let share = b.div(above, w);
+    let soft = b.clamp(share, zero, one);
+    let eps = b.float(1e-9);
+    let wide = b.binary(BinOp::Gt, w, eps);
+    let filtered = b.select(wide, soft, hard);
+    // As the checker's: a constant scale ≤ 0 folds the filtered arm and its derivatives away.
+    let on = b.binary(BinOp::Gt, scale, zero);
+    b.select(on, filtered, hard)
+}

@@ -1,6 +1,7 @@
 //! Standard nodes: utilities that look around the shaded point — `ambientOcclusion` (asks
-//! the renderer's scene) and `bump2d` (samples its input at moved texture coordinates
-//! through a stream override, DESIGN §3).
+//! the renderer's scene), `bump2d` (samples its input at moved texture coordinates
+//! through a stream override, DESIGN §3), and `filterWidth` / `filterStep` (the pixel's
+//! footprint of a value, for antialiased patterns).
 
 use super::{LowVal, NodeDef, NodeInputs, NodeKind, NodeLibrary, port};
 use crate::ir::{BinOp, Builder, Stream, Value};
@@ -14,6 +15,62 @@ pub const BUMP_DELTA: f64 = 1.0 / 1024.0;
 pub fn register(lib: &mut NodeLibrary) {
     lib.add(ambient_occlusion_def());
     lib.add(bump2d_def());
+    lib.add(filter_width_def());
+    lib.add(filter_step_def());
+}
+
+fn filter_width_def() -> NodeDef {
+    NodeDef {
+        name: "filterWidth",
+        category: "utility",
+        doc: "The width of a float's footprint across the pixel (OSL's `filterwidth`): \
+              `√(∂in/∂x² + ∂in/∂y²)`, from the screen-space derivatives the IR builds from \
+              the ray differentials to `in` (docs/textures.md). 0 where `in` does not vary \
+              across the pixel or there are no differentials. For filtering patterns of \
+              one's own: a feature narrower than this aliases.",
+        generic: &[],
+        inputs: vec![port::float("in", 0.0, "The value (usually connected).")],
+        outputs: vec![port::out("outValue", Type::Float, "The filter width, ≥ 0.")],
+        lower: |b, inp| {
+            let w = super::filtered::filter_width(b, inp.get("in"));
+            Ok(vec![LowVal::plain(w)])
+        },
+        kind: NodeKind::Shading,
+    }
+}
+
+fn filter_step_def() -> NodeDef {
+    NodeDef {
+        name: "filterStep",
+        category: "utility",
+        doc: "An antialiased step (RenderMan's `filterstep`, OSL's `aastep`, with a box \
+              filter): the share of the interval `[in − w/2, in + w/2]` at or above `edge`, \
+              `clamp((in + w/2 − edge) / w, 0, 1)`, where `w` is `filterWidth(in) · filter`. \
+              Where the footprint is narrower than 1e-9 (or `filter ≤ 0`, or there are no \
+              differentials) it is the plain step: 1 where `in ≥ edge`, else 0.",
+        generic: &[],
+        inputs: vec![
+            port::float("edge", 0.5, "Where the step rises."),
+            port::float("in", 0.0, "The value stepped (usually connected)."),
+            port::float(
+                "filter",
+                1.0,
+                "Scale of the footprint: 1 box-filters over the pixel, 0 or less is the \
+                 plain step.",
+            ),
+        ],
+        outputs: vec![port::out(
+            "outValue",
+            Type::Float,
+            "The filtered step, in [0, 1].",
+        )],
+        lower: |b, inp| {
+            let s =
+                super::filtered::filter_step(b, inp.get("edge"), inp.get("in"), inp.get("filter"));
+            Ok(vec![LowVal::plain(s)])
+        },
+        kind: NodeKind::Shading,
+    }
 }
 
 fn ambient_occlusion_def() -> NodeDef {
