@@ -491,8 +491,8 @@ fn placed_checker(deg: f64) -> Program {
 fn derivatives_flow_through_place2d() {
     // The usual Maya chain, place2d → checker: unrotated, the filtered checker sees the
     // same footprint as on uv directly (the value bit for bit); rotated, it is filtered too
-    // (a grey between the checks where the footprint straddles an edge). place2d once
-    // rotated in an `if` region, out of which no derivatives flow: never filtered.
+    // (a grey between the checks where the footprint straddles an edge). place2d rotates in
+    // an `if` region: derivatives must flow through it, else the checker is never filtered.
     let f = Fragment {
         uv: [0.49, 0.2],
         dpdu: [1.0, 0.0, 0.0],

@@ -149,25 +149,29 @@ fn lower_place2d(b: &mut Builder, n: &NodeInputs) -> Result<Vec<LowVal>, String>
     let deg = n.get("rotateUV");
     let zero = b.float(0.0);
     let rotating = b.binary(BinOp::Ne, deg, zero);
-    // A `select`, not an `if` region: screen-space derivatives (filtered lookups downstream)
-    // do not flow out of regions, and with `rotateUV` constant (the usual case) folding
-    // keeps one side only, so the unrotated uv is passed through bit for bit.
-    let rad_per_deg = b.float(std::f64::consts::PI / 180.0);
-    let theta = b.mul(deg, rad_per_deg);
-    let (c, s) = (b.unary(UnOp::Cos, theta), b.unary(UnOp::Sin, theta));
-    let half = b.float(0.5);
-    let u = b.extract(uv, 0);
-    let v = b.extract(uv, 1);
-    let du = b.sub(u, half);
-    let dv = b.sub(v, half);
-    let (cu, sv) = (b.mul(c, du), b.mul(s, dv));
-    let (su, cv) = (b.mul(s, du), b.mul(c, dv));
-    let ru = b.sub(cu, sv);
-    let rv = b.add(su, cv);
-    let ru = b.add(ru, half);
-    let rv = b.add(rv, half);
-    let turned = b.construct(Type::Vec2, &[ru, rv]);
-    let rotated = b.select(rotating, turned, uv);
+    // An `if` region: unrotated uv costs nothing, and derivatives flow through regions
+    // (`Builder::derivs`) to filtered lookups downstream.
+    let rotated = b.if_(
+        rotating,
+        |b| {
+            let rad_per_deg = b.float(std::f64::consts::PI / 180.0);
+            let theta = b.mul(deg, rad_per_deg);
+            let (c, s) = (b.unary(UnOp::Cos, theta), b.unary(UnOp::Sin, theta));
+            let half = b.float(0.5);
+            let u = b.extract(uv, 0);
+            let v = b.extract(uv, 1);
+            let du = b.sub(u, half);
+            let dv = b.sub(v, half);
+            let (cu, sv) = (b.mul(c, du), b.mul(s, dv));
+            let (su, cv) = (b.mul(s, du), b.mul(c, dv));
+            let ru = b.sub(cu, sv);
+            let rv = b.add(su, cv);
+            let ru = b.add(ru, half);
+            let rv = b.add(rv, half);
+            vec![b.construct(Type::Vec2, &[ru, rv])]
+        },
+        |_| vec![uv],
+    )[0];
     let repeat = b.construct(Type::Vec2, &[n.get("repeatU"), n.get("repeatV")]);
     let offset = b.construct(Type::Vec2, &[n.get("offsetU"), n.get("offsetV")]);
     let scaled = b.mul(rotated, repeat);
