@@ -175,6 +175,11 @@ pub type ExrLayerImage =
 /// bytes: the texture decoder's and the tracer's reader (`shadenet diff`) both.
 pub fn read_exr_first_layer(bytes: &[u8], limit: u64) -> Result<ExrLayerImage, String> {
     check_exr_header(bytes, limit)?;
+    read_checked_exr(bytes)
+}
+
+/// [`read_exr_first_layer`] for bytes whose headers [`check_exr_header`] has passed.
+fn read_checked_exr(bytes: &[u8]) -> Result<ExrLayerImage, String> {
     use exr::prelude::{ReadChannels, ReadLayers};
     exr::prelude::read()
         .no_deep_data()
@@ -196,7 +201,7 @@ fn decode_exr(bytes: &[u8], budget: u64) -> Result<Decoded, String> {
         let side = |n: usize| u32::try_from(n).unwrap_or(u32::MAX);
         check_size(side(w), side(ht), budget)?;
     }
-    let image = read_exr_first_layer(bytes, limit)?;
+    let image = read_checked_exr(bytes)?;
     let (width, height) = (
         image.layer_data.size.0 as u32,
         image.layer_data.size.1 as u32,
