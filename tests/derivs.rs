@@ -274,6 +274,13 @@ fn intrinsics_differ_over_the_footprint() {
     );
 }
 
+/// The program of a network (JSON) on the standard node library.
+fn network(src: &str) -> Program {
+    shadenet::compile_json(src, &shadenet::NodeLibrary::standard())
+        .unwrap()
+        .program
+}
+
 /// A checker network on uv with the footprint of `fragment`, scaled by `filter`.
 fn checker(filter: f64) -> Program {
     let src = format!(
@@ -281,9 +288,7 @@ fn checker(filter: f64) -> Program {
               "inputs": {{"color1": [1, 1, 1], "color2": [0, 0, 0], "filter": {filter}}}}}],
             "outputs": {{"c": "c.outColor"}}}}"#
     );
-    shadenet::compile_json(&src, &shadenet::NodeLibrary::standard())
-        .unwrap()
-        .program
+    network(&src)
 }
 
 #[test]
@@ -437,8 +442,7 @@ fn texture_footprints_follow_place2d_rotation_and_scale() {
                 "inputs": {{"fileTextureName": "{file}", "uvCoord": "uvs.outUV"}}}}],
             "outputs": {{"c": "img.outColor"}}}}"#
     );
-    let c = shadenet::compile_json(&src, &shadenet::NodeLibrary::standard()).unwrap();
-    check_lookup_footprint(&with_lookup_operands(c.program), "Maya place2d");
+    check_lookup_footprint(&with_lookup_operands(network(&src)), "Maya place2d");
 }
 
 #[test]
@@ -482,9 +486,7 @@ fn placed_checker(deg: f64) -> Program {
                "inputs": {{"uvCoord": "p.outUV", "color1": [1, 1, 1], "color2": [0, 0, 0]}}}}],
             "outputs": {{"c": "c.outColor"}}}}"#
     );
-    shadenet::compile_json(&src, &shadenet::NodeLibrary::standard())
-        .unwrap()
-        .program
+    network(&src)
 }
 
 #[test]
