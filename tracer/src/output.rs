@@ -14,6 +14,7 @@
 
 use shadenet_graph::ops::math;
 use shadenet_runtime::input::{self, FileKind, InputError};
+use shadenet_runtime::texture::colorspace::Transfer;
 use std::path::{Path, PathBuf};
 
 /// An image that could not be written.
@@ -91,18 +92,15 @@ pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> 
     })
 }
 
-/// Linear → sRGB transfer function, clamped to [0, 1] (non-finite → 0).
+/// Linear → sRGB transfer function, clamped to [0, 1] (non-finite → 0): the texture
+/// system's sRGB curve ([`Transfer::Srgb`]) on the clamped value.
 pub fn linear_to_srgb(x: f32) -> f32 {
     let x = if x.is_finite() {
         x.clamp(0.0, 1.0)
     } else {
         0.0
     };
-    if x <= 0.003_130_8 {
-        12.92 * x
-    } else {
-        1.055 * math::pow_f32(x, 1.0 / 2.4) - 0.055
-    }
+    Transfer::Srgb.encode(x)
 }
 
 /// Luminance below which [`tonemap`] changes nothing.
