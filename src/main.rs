@@ -1,5 +1,5 @@
 //! The `shadenet` command line: `render`, `shade`, `compile`, `check`, `nodes`, `gen`,
-//! `bench`, `gpu-info`, `diff`, `mtlx-coverage`.
+//! `bench`, `gpu-info`, `diff`, `merge`, `mtlx-coverage`.
 //!
 //! This file only parses arguments and dispatches; each subcommand is a file of [`cli`], and
 //! an error is printed once here, its causes outermost first.
@@ -11,6 +11,7 @@ use cli::bench::BenchArgs;
 use cli::compile::CompileArgs;
 use cli::diff::DiffArgs;
 use cli::generate::GenCmd;
+use cli::merge::MergeArgs;
 use cli::render::RenderArgs;
 use cli::shade::ShadeArgs;
 use shadenet::graph::NodeLibrary;
@@ -62,6 +63,9 @@ enum Cmd {
     /// Compare two EXR images layer by layer (max abs difference, RMSE, worst pixel, samples
     /// that differ); exit 1 when a bound given is exceeded.
     Diff(DiffArgs),
+    /// Assemble region renders (`render --crop`) into the full frame's EXR; the parts must
+    /// tile the frame exactly.
+    Merge(MergeArgs),
 }
 
 fn main() {
@@ -80,6 +84,7 @@ fn main() {
         Cmd::Bench(args) => cli::bench::run(args),
         Cmd::GpuInfo => cli::gpu_info::run(),
         Cmd::Diff(args) => cli::diff::run(&args),
+        Cmd::Merge(args) => cli::merge::run(&args),
     };
     if let Err(e) = result {
         // Each level of an error says its own part only: `{:#}` prints the chain once,

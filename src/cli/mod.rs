@@ -19,6 +19,7 @@ pub mod compile;
 pub mod diff;
 pub mod generate;
 pub mod gpu_info;
+pub mod merge;
 pub mod mtlx_coverage;
 pub mod render;
 pub mod shade;

@@ -7,7 +7,7 @@ use clap::ValueEnum;
 use shadenet::render::{self as r, BackendKind, CompiledMaterial, Files, RenderOptions};
 use shadenet::tracer::render::StageTimes;
 use shadenet::tracer::shader::ShaderBackend;
-use shadenet::tracer::{DeferredOptions, Film, RenderStats, Renderer, ShadingMode};
+use shadenet::tracer::{DeferredOptions, Film, RenderStats, Renderer, ShadingMode, Window};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -56,6 +56,12 @@ pub(crate) struct RenderArgs {
     /// Resolution, WxH (overrides the scene).
     #[arg(long, value_parser = parse_res)]
     res: Option<(u32, u32)>,
+    /// Render only this pixel window of the frame: columns X0..X1 and rows Y0..Y1 from the
+    /// top left, ends exclusive. Its pixels get exactly the bits a full render gives them;
+    /// the EXR's data window is the crop inside the full frame (`shadenet merge` assembles
+    /// the parts).
+    #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = parse_crop)]
+    crop: Option<[u32; 4]>,
     /// How closures gather area lights and the environment (overrides the scene's
     /// `render.light_strategy`): `mis` (light sampling and BSDF sampling, power heuristic),
     /// `light` (light sampling only) or `bsdf` (BSDF sampling only; point, spot and distant
@@ -71,6 +77,19 @@ pub(crate) struct RenderArgs {
     /// Print nothing but errors (no progress bar, no summary).
     #[arg(short, long)]
     quiet: bool,
+}
+
+/// `--crop X0,Y0,X1,Y1`: four whole numbers (checked against the frame after the scene is
+/// loaded).
+fn parse_crop(s: &str) -> Result<[u32; 4], String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    let nums: Vec<u32> = parts.iter().filter_map(|p| p.parse().ok()).collect();
+    match <[u32; 4]>::try_from(nums) {
+        Ok(c) if parts.len() == 4 => Ok(c),
+        _ => Err(format!(
+            "`{s}`: expected X0,Y0,X1,Y1, four whole numbers ≥ 0 (ends exclusive)"
+        )),
+    }
 }
 
 fn parse_strategy(s: &str) -> Result<shadenet::graph::LightStrategy, String> {
@@ -101,11 +120,19 @@ pub(crate) fn run(args: RenderArgs) -> Result<()> {
             renderer.set_shading_mode(ShadingMode::Deferred(DeferredOptions::default()))
         }
     }
+    let frame = (
+        renderer.scene().camera.width,
+        renderer.scene().camera.height,
+    );
+    let window = match args.crop {
+        Some(c) => Window::new(c, frame).map_err(|e| anyhow::anyhow!("--crop: {e}"))?,
+        None => Window::full(frame.0, frame.1),
+    };
     let setup_time = t0.elapsed();
     if !args.quiet {
         notes(&renderer, &compiled);
     }
-    let (film, stats) = pool.install(|| render_with_progress(&renderer, args.quiet));
+    let (film, stats) = pool.install(|| render_with_progress(&renderer, window, args.quiet));
     // Each file is written to a temporary name and renamed: an error leaves any existing
     // output untouched.
     film.write_exr(&exr_path)?;
@@ -206,7 +233,7 @@ fn notes(renderer: &Renderer, compiled: &[CompiledMaterial]) {
 }
 
 /// Renders, with a progress bar when stderr is a terminal and `quiet` is off.
-fn render_with_progress(renderer: &Renderer, quiet: bool) -> (Film, RenderStats) {
+fn render_with_progress(renderer: &Renderer, window: Window, quiet: bool) -> (Film, RenderStats) {
     use std::io::IsTerminal;
     let show = !quiet && std::io::stderr().is_terminal();
     let bar = show.then(|| {
@@ -226,7 +253,7 @@ fn render_with_progress(renderer: &Renderer, quiet: bool) -> (Film, RenderStats)
             b.set_position(done);
         }
     };
-    let result = renderer.render(&progress);
+    let result = renderer.render_window(window, &progress);
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
@@ -247,11 +274,17 @@ struct Run<'a> {
 fn summary(run: &Run, film: &Film, s: &RenderStats) {
     let render_s = s.render_time.as_secs_f64();
     let load = run.setup_time.saturating_sub(s.bvh_time + s.compile_time);
+    let size = if film.window == Window::full(film.frame.0, film.frame.1) {
+        format!("{}x{}", film.width, film.height)
+    } else {
+        format!(
+            "region {} ({}x{}) of {}x{}",
+            film.window, film.width, film.height, film.frame.0, film.frame.1
+        )
+    };
     say!(
-        "rendered {}: {}x{}, {} spp, {} threads, backend {}, {} shading",
+        "rendered {}: {size}, {} spp, {} threads, backend {}, {} shading",
         run.name,
-        film.width,
-        film.height,
         run.renderer.scene().settings.spp,
         run.threads,
         run.backend.name(),

@@ -5,6 +5,11 @@
 //! channels: `normal` X, Y, Z; `depth` Z; `uv` U, V; `occlusion` Y). In the EXR each channel
 //! is `layer.channel` (`beauty.R`, `diffuse.G`, `depth.Z`), the naming VFX tools read as
 //! layers.
+//!
+//! A film may hold only a **region** of the frame ([`Window`], `render --crop`): its layers
+//! then cover the window's pixels, and the EXR records the window as its data window inside
+//! the full frame (the display window), the way compositors and `shadenet merge` read
+//! region renders.
 
 use crate::output::{self, OutputError};
 use std::path::Path;
@@ -36,13 +41,82 @@ impl Layer {
     }
 }
 
-/// A rendered image: its layers.
+/// A pixel window of a frame: columns `x0..x1` and rows `y0..y1` (ends exclusive), rows
+/// counted from the top.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Window {
+    /// First column.
+    pub x0: u32,
+    /// First row.
+    pub y0: u32,
+    /// One past the last column.
+    pub x1: u32,
+    /// One past the last row.
+    pub y1: u32,
+}
+
+impl Window {
+    /// The whole of a `width × height` frame.
+    pub fn full(width: u32, height: u32) -> Window {
+        Window {
+            x0: 0,
+            y0: 0,
+            x1: width,
+            y1: height,
+        }
+    }
+
+    /// A window of a `width × height` frame; an error (saying why) when it is empty or
+    /// reaches outside the frame.
+    pub fn new([x0, y0, x1, y1]: [u32; 4], (width, height): (u32, u32)) -> Result<Window, String> {
+        if x0 >= x1 || y0 >= y1 {
+            return Err(format!(
+                "the window {x0},{y0},{x1},{y1} is empty (it needs x0 < x1 and y0 < y1; the \
+                 ends are exclusive)"
+            ));
+        }
+        if x1 > width || y1 > height {
+            return Err(format!(
+                "the window {x0},{y0},{x1},{y1} reaches outside the {width}×{height} frame \
+                 (the ends are exclusive: at most {width},{height})"
+            ));
+        }
+        Ok(Window { x0, y0, x1, y1 })
+    }
+
+    /// Width in pixels.
+    pub fn width(&self) -> u32 {
+        self.x1 - self.x0
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> u32 {
+        self.y1 - self.y0
+    }
+
+    /// The number of pixels.
+    pub fn pixels(&self) -> usize {
+        self.width() as usize * self.height() as usize
+    }
+}
+
+impl std::fmt::Display for Window {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{},{},{},{}", self.x0, self.y0, self.x1, self.y1)
+    }
+}
+
+/// A rendered image: its layers, over the whole frame or a [`Window`] of it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Film {
-    /// Width in pixels.
+    /// Width in pixels (of the window).
     pub width: u32,
-    /// Height in pixels.
+    /// Height in pixels (of the window).
     pub height: u32,
+    /// Where the layers' pixels sit in the frame: the whole frame for a full render.
+    pub window: Window,
+    /// The full frame's size (the EXR's display window).
+    pub frame: (u32, u32),
     /// `beauty` first, then the passes.
     pub layers: Vec<Layer>,
 }
@@ -67,9 +141,10 @@ impl Film {
         out
     }
 
-    /// Writes every layer to one multi-layer f32 EXR (atomically).
+    /// Writes every layer to one multi-layer f32 EXR (atomically); a region's EXR has the
+    /// window as its data window and the full frame as its display window.
     pub fn write_exr(&self, path: &Path) -> Result<(), OutputError> {
-        output::write_exr(path, self.width, self.height, self.channels())
+        output::write_exr_window(path, self.window, self.frame, self.channels())
     }
 
     /// Writes the beauty layer as a tone-mapped sRGB PNG preview (atomically).

@@ -4,7 +4,7 @@
 //! differentials ([`camera`]), the BVH and ray queries ([`accel`]), render passes and
 //! ray-match rules ([`passes`]), the integrator and the scene services shaders call back
 //! into ([`render`]), the files of image environment lights ([`envmap`]), the film
-//! ([`film`]) and image output ([`output`]).
+//! ([`film`]), image output ([`output`]) and the assembly of region renders ([`merge`]).
 //!
 //! It must not touch nodes or networks: it receives compiled [`shadenet_graph::ir::Program`]s
 //! (the facade links networks) and runs them through a [`shader::ShaderBackend`] (the
@@ -33,12 +33,13 @@ pub mod camera;
 pub mod envmap;
 pub mod film;
 pub mod geometry;
+pub mod merge;
 pub mod output;
 pub mod passes;
 pub mod render;
 pub mod scene;
 pub mod shader;
 
-pub use film::{Film, Layer};
+pub use film::{Film, Layer, Window};
 pub use render::{DeferredOptions, RenderError, RenderStats, Renderer, ShadingMode};
 pub use scene::{Scene, SceneError};

@@ -12,6 +12,7 @@
 //! slope 1 at the knee, approaching 1), scaling the pixel's RGB by the same factor so hues
 //! survive; channels are then clamped to [0, 1] and encoded with the sRGB transfer function.
 
+use crate::film::Window;
 use shadenet_graph::ops::math;
 use shadenet_runtime::input::{self, FileKind, InputError};
 use shadenet_runtime::texture::colorspace::Transfer;
@@ -155,18 +156,37 @@ pub fn write_png(path: &Path, w: u32, h: u32, rgb: &[f32]) -> Result<(), OutputE
 pub type Channel = (String, Vec<f32>);
 
 /// Writes f32 channels as one EXR part (channel names carry the layer: `layer.R`), zip
-/// compressed.
+/// compressed: a whole `w × h` frame.
 pub fn write_exr(path: &Path, w: u32, h: u32, channels: Vec<Channel>) -> Result<(), OutputError> {
+    write_exr_window(path, Window::full(w, h), (w, h), channels)
+}
+
+/// [`write_exr`] for a region: the channels hold the `window`'s pixels, which the file
+/// records as its data window inside a display window of the full `frame` size. A window
+/// that is the whole frame writes the same bytes as [`write_exr`].
+pub fn write_exr_window(
+    path: &Path,
+    window: Window,
+    frame: (u32, u32),
+    channels: Vec<Channel>,
+) -> Result<(), OutputError> {
     use exr::prelude::*;
     if channels.is_empty() {
         return Err(OutputError::Shape("no channels to write".into()));
     }
+    if window.x1 > frame.0 || window.y1 > frame.1 || window.pixels() == 0 {
+        return Err(OutputError::Shape(format!(
+            "the window {window} is not inside the {}×{} frame",
+            frame.0, frame.1
+        )));
+    }
+    let (w, h) = (window.width(), window.height());
     for (name, data) in &channels {
-        if data.len() != (w as usize) * (h as usize) {
+        if data.len() != window.pixels() {
             return Err(OutputError::Shape(format!(
                 "channel {name} has {} samples, expected {}",
                 data.len(),
-                w * h
+                window.pixels()
             )));
         }
     }
@@ -174,13 +194,18 @@ pub fn write_exr(path: &Path, w: u32, h: u32, channels: Vec<Channel>) -> Result<
         .into_iter()
         .map(|(name, data)| AnyChannel::new(name.as_str(), FlatSamples::F32(data)))
         .collect();
+    let attributes = LayerAttributes {
+        layer_position: Vec2(window.x0 as i32, window.y0 as i32),
+        ..LayerAttributes::default()
+    };
     let layer = Layer::new(
         (w as usize, h as usize),
-        LayerAttributes::default(),
+        attributes,
         Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(list),
     );
-    let image = Image::from_layer(layer);
+    let display = IntegerBounds::new((0, 0), (frame.0 as usize, frame.1 as usize));
+    let image = Image::new(ImageAttributes::new(display), layer);
     write_atomic(path, |tmp| {
         image.write().to_file(tmp).map_err(|e| OutputError::Write {
             path: path.to_path_buf(),
@@ -189,13 +214,19 @@ pub fn write_exr(path: &Path, w: u32, h: u32, channels: Vec<Channel>) -> Result<
     })
 }
 
-/// An EXR image read back: its size and its channels (first part), sorted by name.
+/// An EXR image read back: its size, where it sits in its frame and its channels (first
+/// part), sorted by name.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ExrImage {
-    /// Width in pixels.
+    /// Width in pixels (of the data window).
     pub width: u32,
-    /// Height in pixels.
+    /// Height in pixels (of the data window).
     pub height: u32,
+    /// The data window, relative to the display window's top-left corner: the whole frame
+    /// for a full render, the region for a region render.
+    pub window: Window,
+    /// The display window's size: the full frame.
+    pub frame: (u32, u32),
     /// Every channel, as f32 (f16 and u32 samples converted), sorted by name.
     pub channels: Vec<Channel>,
 }
@@ -221,9 +252,36 @@ pub fn read_exr(path: &Path) -> Result<ExrImage, OutputError> {
         .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
         .collect();
     channels.sort_by(|a, b| a.0.cmp(&b.0));
+    let display = image.attributes.display_window;
+    let at = image.layer_data.attributes.layer_position;
+    let (x0, y0) = (
+        i64::from(at.0) - i64::from(display.position.0),
+        i64::from(at.1) - i64::from(display.position.1),
+    );
+    let frame = (display.size.0 as u64, display.size.1 as u64);
+    let (w, h) = (size.0 as u64, size.1 as u64);
+    // A data window reaching outside its display window is legal EXR but not one of ours:
+    // such an image reads as a whole frame of its data window's size (so `merge` reports
+    // its frame as differing from the other parts').
+    let inside = x0 >= 0 && y0 >= 0 && x0 as u64 + w <= frame.0 && y0 as u64 + h <= frame.1;
+    let (window, frame) = if inside {
+        (
+            Window {
+                x0: x0 as u32,
+                y0: y0 as u32,
+                x1: (x0 as u64 + w) as u32,
+                y1: (y0 as u64 + h) as u32,
+            },
+            (frame.0 as u32, frame.1 as u32),
+        )
+    } else {
+        (Window::full(w as u32, h as u32), (w as u32, h as u32))
+    };
     Ok(ExrImage {
-        width: size.0 as u32,
-        height: size.1 as u32,
+        width: w as u32,
+        height: h as u32,
+        window,
+        frame,
         channels,
     })
 }
@@ -254,6 +312,12 @@ pub fn compare(a: &ExrImage, b: &ExrImage) -> Result<Vec<LayerDiff>, String> {
         return Err(format!(
             "the images differ in size: {}×{} and {}×{}",
             a.width, a.height, b.width, b.height
+        ));
+    }
+    if (a.window, a.frame) != (b.window, b.frame) {
+        return Err(format!(
+            "the images cover different windows: {} of a {}×{} frame and {} of a {}×{} frame",
+            a.window, a.frame.0, a.frame.1, b.window, b.frame.0, b.frame.1
         ));
     }
     let names = |i: &ExrImage| i.channels.iter().map(|c| c.0.clone()).collect::<Vec<_>>();
@@ -320,6 +384,43 @@ pub fn compare(a: &ExrImage, b: &ExrImage) -> Result<Vec<LayerDiff>, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A region's EXR keeps its data window inside the full frame; `diff` refuses to
+    /// compare images of different windows even when their sizes agree.
+    #[test]
+    fn exr_regions_keep_their_window_and_frame() {
+        let dir = std::env::temp_dir().join(format!("shadenet-window-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (a, b) = (dir.join("a.exr"), dir.join("b.exr"));
+        let values = vec![("beauty.R".to_string(), vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0])];
+        let wa = Window::new([3, 1, 6, 3], (8, 5)).unwrap();
+        let wb = Window::new([0, 0, 3, 2], (8, 5)).unwrap();
+        write_exr_window(&a, wa, (8, 5), values.clone()).unwrap();
+        write_exr_window(&b, wb, (8, 5), values.clone()).unwrap();
+        let (ia, ib) = (read_exr(&a).unwrap(), read_exr(&b).unwrap());
+        assert_eq!(
+            (ia.width, ia.height, ia.window, ia.frame),
+            (3, 2, wa, (8, 5))
+        );
+        assert_eq!(ia.channels, values);
+        assert_eq!(ib.window, wb);
+        let e = compare(&ia, &ib).unwrap_err();
+        assert!(
+            e.contains("different windows: 3,1,6,3 of a 8×5 frame"),
+            "{e}"
+        );
+        // Outside the frame or the wrong size: refused, nothing written.
+        let c = dir.join("c.exr");
+        let outside = Window {
+            x0: 6,
+            y0: 0,
+            x1: 9,
+            y1: 2,
+        };
+        assert!(write_exr_window(&c, outside, (8, 5), values.clone()).is_err());
+        assert!(write_exr_window(&c, wb, (8, 5), vec![("x.R".into(), vec![0.0])]).is_err());
+        assert!(!c.exists());
+    }
 
     #[test]
     fn exr_round_trips_and_compares_per_layer() {

@@ -4,7 +4,7 @@
 
 use super::compile::Specialized;
 use super::setup::Renderer;
-use crate::film::{Film, Layer};
+use crate::film::{Film, Layer, Window};
 use crate::passes::{OverrideKind, PassKind};
 
 /// Where the per-pixel floats live.
@@ -86,9 +86,10 @@ impl Renderer {
         }
     }
 
-    pub(super) fn compose(&self, acc: &[f32], layout: &Layout) -> Film {
-        let (w, h) = (self.scene.camera.width, self.scene.camera.height);
-        let n = (w as usize) * (h as usize);
+    /// The film's layers from the accumulated pixels of `window` (row-major, `stride`
+    /// floats each).
+    pub(super) fn compose(&self, acc: &[f32], layout: &Layout, window: Window) -> Film {
+        let n = window.pixels();
         let px = |i: usize| &acc[i * layout.stride..(i + 1) * layout.stride];
         let mut layers = Vec::new();
         // beauty = every component + untagged values; A = coverage.
@@ -143,8 +144,10 @@ impl Renderer {
             }
         }
         Film {
-            width: w,
-            height: h,
+            width: window.width(),
+            height: window.height(),
+            window,
+            frame: (self.scene.camera.width, self.scene.camera.height),
             layers,
         }
     }

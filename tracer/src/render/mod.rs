@@ -81,7 +81,7 @@ pub use setup::{DeferredOptions, Renderer, ShadingMode};
 pub use sobol::{Dim, GroupSeeds, sample1, sample2};
 pub use stats::{RenderStats, StageTimes};
 
-use crate::film::Film;
+use crate::film::{Film, Window};
 use deferred::group_tiles;
 use film::TileOut;
 use rayon::prelude::*;
@@ -93,13 +93,34 @@ impl Renderer {
     /// Renders every tile on the current rayon pool, calling `progress(done, total)` after
     /// each tile. Returns the film and the statistics.
     pub fn render(&self, progress: &(dyn Fn(u64, u64) + Sync)) -> (Film, RenderStats) {
-        let start = Instant::now();
         let (w, h) = (self.scene.camera.width, self.scene.camera.height);
-        let ts = self.scene.settings.tile_size;
+        self.render_window(Window::full(w, h), progress)
+    }
+
+    /// Renders only the pixels of `window` (which [`Window::new`] has checked against the
+    /// frame; a window reaching outside it is clipped), in tiles of the scene's tile size
+    /// from the window's corner: each pixel gets exactly the bits it has in a full render
+    /// (see Determinism), so region renders of a frame's parts assemble into the full
+    /// render (`shadenet merge`).
+    pub fn render_window(
+        &self,
+        window: Window,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) -> (Film, RenderStats) {
+        let start = Instant::now();
+        let (fw, fh) = (self.scene.camera.width, self.scene.camera.height);
+        let window = Window {
+            x0: window.x0.min(fw),
+            y0: window.y0.min(fh),
+            x1: window.x1.min(fw),
+            y1: window.y1.min(fh),
+        };
+        let w = window.width();
+        let ts = self.scene.settings.tile_size.max(1);
         let mut tiles = Vec::new();
-        for y0 in (0..h).step_by(ts as usize) {
-            for x0 in (0..w).step_by(ts as usize) {
-                tiles.push((x0, y0, (x0 + ts).min(w), (y0 + ts).min(h)));
+        for y0 in (window.y0..window.y1).step_by(ts as usize) {
+            for x0 in (window.x0..window.x1).step_by(ts as usize) {
+                tiles.push((x0, y0, (x0 + ts).min(window.x1), (y0 + ts).min(window.y1)));
             }
         }
         let total = tiles.len() as u64;
@@ -139,12 +160,15 @@ impl Renderer {
             }
         };
         let t_film = Instant::now();
-        let mut acc = vec![0.0f32; (w as usize) * (h as usize) * layout.stride];
+        let mut acc = vec![0.0f32; window.pixels() * layout.stride];
         let mut stats = self.stats.clone();
         for ((x0, y0, x1, _), out) in tiles.iter().zip(outs) {
             let tw = (x1 - x0) as usize;
             for (i, px) in out.values.chunks_exact(layout.stride).enumerate() {
-                let (x, y) = (*x0 as usize + i % tw, *y0 as usize + i / tw);
+                let (x, y) = (
+                    (x0 - window.x0) as usize + i % tw,
+                    (y0 - window.y0) as usize + i / tw,
+                );
                 let dst = (y * w as usize + x) * layout.stride;
                 acc[dst..dst + layout.stride].copy_from_slice(px);
             }
@@ -152,7 +176,7 @@ impl Renderer {
         for ts in tile_stats {
             ts.add_to(&mut stats);
         }
-        let film = self.compose(&acc, &layout);
+        let film = self.compose(&acc, &layout, window);
         stats.stages.film += t_film.elapsed();
         stats.render_time = start.elapsed();
         (film, stats)
