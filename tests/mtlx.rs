@@ -780,3 +780,29 @@ fn matrix44_atoms_match_their_formulas() {
     ];
     assert_close(&v, &want, 0.0, "matrix44 output");
 }
+
+/// The stdlib coverage the README and docs/materialx.md report, exactly: a change that
+/// loses a nodedef (as the image node's `filtertype` once lost `tiledimage` and
+/// `triplanarprojection`, whose graphs pass it through `interfacename`) fails here, and one
+/// that gains nodedefs updates the documents with the figure.
+#[test]
+fn stdlib_coverage_is_the_documented_figure() {
+    use shadenet::graph::mtlx::coverage::{self, Status};
+    let Some(lib) = lib() else {
+        return;
+    };
+    let rows = coverage::check(lib, "stdlib");
+    let count = |f: &dyn Fn(&Status) -> bool| rows.iter().filter(|r| f(&r.status)).count();
+    let native = count(&|s| *s == Status::Native);
+    let graph = count(&|s| *s == Status::ViaNodegraph);
+    assert_eq!((rows.len(), native, graph), (693, 465, 197));
+    for nd in [
+        "ND_tiledimage_color3",
+        "ND_triplanarprojection_vector4",
+        "ND_surface_unlit",
+        "ND_convert_color4_surfaceshader",
+    ] {
+        let row = rows.iter().find(|r| r.nodedef == nd).unwrap();
+        assert!(!matches!(row.status, Status::Unsupported(_)), "{nd}: {:?}", row.status);
+    }
+}

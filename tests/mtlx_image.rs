@@ -145,3 +145,39 @@ fn bad_image_attributes_name_the_input() {
         assert!(e.contains(needle) && e.contains("img"), "{e}");
     }
 }
+
+/// `tiledimage` (a graph over `image`) forwards its string inputs through `interfacename`:
+/// the file and the filter reach the lookup, which reads the tiled uv.
+#[test]
+fn tiledimage_forwards_its_file_and_filter_to_the_image() {
+    if lib().is_none() {
+        return;
+    }
+    let file = png("tiled");
+    let img = format!(
+        r#"<tiledimage name="img" type="color3">
+             <input name="file" type="filename" value="{file}"/>
+             <input name="filtertype" type="string" value="closest"/>
+             <input name="uvtiling" type="vector2" value="2, 2"/>
+           </tiledimage>"#
+    );
+    let c = compile(&doc("", &img)).unwrap();
+    assert_eq!(c.program.textures.len(), 1);
+    assert_eq!(c.program.textures[0].path, file);
+    assert_eq!(samplings(&c).len(), 1);
+    assert_eq!(samplings(&c)[0].filter, Filter::Closest);
+    let at = |uv: [f32; 2]| {
+        let mut f = plane_fragment();
+        f.uv = uv;
+        run_program(&c.program, &f, &[], u32::MAX).get("out")
+    };
+    // Tiled twice: uv (0.125, 0.375) reads the texture at (0.25, 0.75), the red texel;
+    // (0.375, 0.375) reads (0.75, 0.75), green.
+    assert_close(&at([0.125, 0.375]), &[1.0, 0.0, 0.0], 0.0, "first tile");
+    assert_close(&at([0.375, 0.375]), &[0.0, 1.0, 0.0], 0.0, "first tile, right");
+    assert_close(&at([0.625, 0.875]), &[1.0, 0.0, 0.0], 0.0, "second tile");
+    // An unknown filter named through the interface is still an error naming the input.
+    let bad = img.replace("closest", "bicubic");
+    let e = compile(&doc("", &bad)).unwrap_err();
+    assert!(e.contains("filtertype") && e.contains("bicubic"), "{e}");
+}

@@ -443,3 +443,46 @@ fn a_chosen_material_is_not_stopped_by_another_materials_nodes() {
     let e = compile_sel(&body, &pick("M2")).unwrap().unwrap_err();
     assert!(e.contains("no_such_bsdf"), "{e}");
 }
+
+/// `surface_unlit` (and the `convert` to `surfaceshader` graphs built on it): emission
+/// `emission · emission_color` scaled by the cutout opacity, no light-dependent part; its
+/// transmission is a lobe only where `transmission` is not zero (it traces the ray behind).
+#[test]
+fn unlit_surfaces_emit_their_color_and_transmit_only_when_asked() {
+    let unlit = |extra: &str| {
+        format!(
+            r#"<surface_unlit name="u" type="surfaceshader">
+            <input name="emission" type="float" value="0.5"/>
+            <input name="emission_color" type="color3" value="1, 0.5, 0.25"/>{extra}</surface_unlit>
+            <surfacematerial name="M" type="material">
+            <input name="surfaceshader" type="surfaceshader" nodename="u"/></surfacematerial>"#
+        )
+    };
+    let lights = [point([0.0, 0.0, 1.0], 5.0)];
+    let Some(o) = shade(&unlit(r#"<input name="opacity" type="float" value="0.5"/>"#), &lights)
+    else {
+        return;
+    };
+    assert_close(&part(&o, "emission"), &[0.25, 0.125, 0.0625], 1e-12, "emission");
+    assert_close(&o.get("M"), &[0.25, 0.125, 0.0625], 1e-12, "total: unlit");
+    let ir = |body: &str| {
+        let c = compile_sel(body, &Selection::default()).unwrap().unwrap();
+        shadenet::graph::opt::run(&c.program, &Default::default())
+            .0
+            .to_string()
+    };
+    let opaque = ir(&unlit(""));
+    assert!(!opaque.contains("trace"), "{opaque}");
+    let clear = ir(&unlit(
+        r#"<input name="transmission" type="float" value="1"/>
+        <input name="transmission_color" type="color3" value="0.2, 0.4, 0.6"/>"#,
+    ));
+    assert!(clear.contains("trace"), "{clear}");
+    // convert(color3 → surfaceshader): an unlit surface emitting the color.
+    let body = r#"<convert name="c" type="surfaceshader">
+        <input name="in" type="color3" value="0.3, 0.6, 0.9"/></convert>
+        <surfacematerial name="M" type="material">
+        <input name="surfaceshader" type="surfaceshader" nodename="c"/></surfacematerial>"#;
+    let o = shade(body, &lights).unwrap();
+    assert_close(&o.get("M"), &[0.3, 0.6, 0.9], 1e-12, "convert color3 → surfaceshader");
+}

@@ -298,6 +298,16 @@ impl<'n, 'l> Expander<'n, 'l> {
                 }
             },
             Json::String(s) if !string_port => Some(s.as_str()),
+            // A string input forwards a compound's input only by naming one (`$filtertype`
+            // inside a compound with a `filtertype` input): any other string is its value.
+            Json::String(s)
+                if s.strip_prefix('$').is_some_and(|name| {
+                    let name = name.split_once('.').map_or(name, |(n, _)| n);
+                    args.is_some_and(|a| a.contains_key(name))
+                }) =>
+            {
+                Some(s.as_str())
+            }
             _ => None,
         };
         let Some(conn) = conn else {

@@ -28,6 +28,7 @@ const CLOSURE_ATOMS: &[(&str, LowerFn)] = &[
     ("anisotropic_vdf", medium),
     ("generalized_schlick_edf", schlick_edf),
     ("surface", surface),
+    ("surface_unlit", surface_unlit),
     ("surfacematerial", surfacematerial),
     ("mix", mix),
     ("add", add),
@@ -78,6 +79,11 @@ fn frame(b: &mut Builder, inp: &NodeInputs) -> Frame {
     } else {
         b.zero(Type::Vec3)
     };
+    frame_at(b, n, t)
+}
+
+/// The frame of normal `n` and tangent `t` (zero: any), its side from the geometric normal.
+fn frame_at(b: &mut Builder, n: Value, t: Value) -> Frame {
     let wo = view_dir(b);
     let mut f = Frame::new(b, n, t, wo);
     // The renderer's `N` already faces the viewer; which side of the material the viewer
@@ -350,6 +356,41 @@ fn surface(b: &mut Builder, inp: &NodeInputs) -> Out {
     let bsdf = closure_in(inp, "bsdf");
     let edf = closure_in(inp, "edf");
     let mut c = Closure::add(b, &bsdf, &edf);
+    c.opacity = Some(inp.get("opacity"));
+    one(LowVal::closure(b, c))
+}
+
+/// `surface_unlit`: emission `emission · emission_color`, straight-through transmission
+/// `transmission · transmission_color` and the cutout `opacity` (MaterialX's
+/// `mx_surface_unlit`). The transmission is a smooth dielectric of IOR 1 that only transmits:
+/// no Fresnel reflection and no bending, so what lies behind shows through, tinted; at the
+/// default `transmission = 0` its weight folds to zero and the lobe is gone.
+fn surface_unlit(b: &mut Builder, inp: &NodeInputs) -> Out {
+    let (e, ec) = (inp.get("emission"), inp.get("emission_color"));
+    let e = b.splat(Type::Color, e);
+    let emission = b.mul(e, ec);
+    let emit = Closure::emitter(emission);
+    let (t, tc) = (inp.get("transmission"), inp.get("transmission_color"));
+    let t = b.splat(Type::Color, t);
+    let weight = b.mul(t, tc);
+    let kind = LobeKind::Dielectric {
+        tint: b.color([1.0; 3]),
+        ior: b.float(1.0),
+        roughness: b.zero(Type::Vec2),
+        scatter_mode: ScatterMode::T,
+        thin_film: None,
+    };
+    let n = b.stream(Stream::N);
+    let t0 = b.zero(Type::Vec3);
+    let frame = frame_at(b, n, t0);
+    let transmit = Closure::lobe(Lobe {
+        kind,
+        weight,
+        frame,
+        component: specular_component(ScatterMode::T),
+        unbuilt: None,
+    });
+    let mut c = Closure::add(b, &emit, &transmit);
     c.opacity = Some(inp.get("opacity"));
     one(LowVal::closure(b, c))
 }
