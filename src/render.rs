@@ -401,6 +401,17 @@ pub fn setup_with(
     opts: &RenderOptions,
     backend: &dyn ShaderBackend,
 ) -> Result<Renderer, SetupError> {
+    let (scene, files, dir) = load(path, opts)?;
+    Ok(prepare(scene, files, &dir, backend, None)?.0)
+}
+
+/// Loads a scene file (or the embedded default scene with `None`) and applies the options:
+/// the scene, where its files come from and the folder its relative paths start from. The
+/// CLI, [`setup_with`] and the Python package all start a render here.
+pub fn load(
+    path: Option<&Path>,
+    opts: &RenderOptions,
+) -> Result<(Scene, Files, PathBuf), SetupError> {
     let (mut scene, files, dir) = match path {
         Some(p) => (
             scene::load(p)?,
@@ -414,5 +425,5 @@ pub fn setup_with(
         ),
     };
     apply_options(&mut scene, opts)?;
-    Ok(prepare(scene, files, &dir, backend, None)?.0)
+    Ok((scene, files, dir))
 }

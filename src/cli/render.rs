@@ -4,11 +4,11 @@
 use super::{BackendArg, GpuPassesArg, ThreadsArg, check_extension, parse_res, print_out};
 use anyhow::{Context, Result, bail};
 use clap::ValueEnum;
-use shadenet::render::{self as r, BackendKind, CompiledMaterial, Files, RenderOptions};
+use shadenet::render::{self as r, BackendKind, CompiledMaterial, RenderOptions};
 use shadenet::tracer::render::StageTimes;
 use shadenet::tracer::shader::ShaderBackend;
 use shadenet::tracer::{DeferredOptions, Film, RenderStats, Renderer, ShadingMode, Window};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 /// `--shading`: how camera hits are shaded.
@@ -189,22 +189,12 @@ fn setup(
     args: &RenderArgs,
     backend: &dyn ShaderBackend,
 ) -> Result<(Renderer, Vec<CompiledMaterial>, String)> {
-    let (mut scene, files, dir, name) = match &args.scene {
-        Some(p) => (
-            shadenet::tracer::scene::load(p)?,
-            Files::Disk,
-            p.parent().map(Path::to_path_buf).unwrap_or_default(),
-            p.display().to_string(),
-        ),
-        None => (
-            r::default_scene()?,
-            Files::Embedded,
-            PathBuf::from("examples/scenes"),
-            format!("{} (embedded default scene)", r::DEFAULT_SCENE_PATH),
-        ),
+    let name = match &args.scene {
+        Some(p) => p.display().to_string(),
+        None => format!("{} (embedded default scene)", r::DEFAULT_SCENE_PATH),
     };
-    r::apply_options(
-        &mut scene,
+    let (scene, files, dir) = r::load(
+        args.scene.as_deref(),
         &RenderOptions {
             spp: args.spp,
             passes: args.passes.clone(),
