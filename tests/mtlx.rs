@@ -803,6 +803,10 @@ fn stdlib_coverage_is_the_documented_figure() {
         "ND_convert_color4_surfaceshader",
     ] {
         let row = rows.iter().find(|r| r.nodedef == nd).unwrap();
-        assert!(!matches!(row.status, Status::Unsupported(_)), "{nd}: {:?}", row.status);
+        assert!(
+            !matches!(row.status, Status::Unsupported(_)),
+            "{nd}: {:?}",
+            row.status
+        );
     }
 }

@@ -174,7 +174,12 @@ fn tiledimage_forwards_its_file_and_filter_to_the_image() {
     // Tiled twice: uv (0.125, 0.375) reads the texture at (0.25, 0.75), the red texel;
     // (0.375, 0.375) reads (0.75, 0.75), green.
     assert_close(&at([0.125, 0.375]), &[1.0, 0.0, 0.0], 0.0, "first tile");
-    assert_close(&at([0.375, 0.375]), &[0.0, 1.0, 0.0], 0.0, "first tile, right");
+    assert_close(
+        &at([0.375, 0.375]),
+        &[0.0, 1.0, 0.0],
+        0.0,
+        "first tile, right",
+    );
     assert_close(&at([0.625, 0.875]), &[1.0, 0.0, 0.0], 0.0, "second tile");
     // An unknown filter named through the interface is still an error naming the input.
     let bad = img.replace("closest", "bicubic");

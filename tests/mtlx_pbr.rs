@@ -459,11 +459,18 @@ fn unlit_surfaces_emit_their_color_and_transmit_only_when_asked() {
         )
     };
     let lights = [point([0.0, 0.0, 1.0], 5.0)];
-    let Some(o) = shade(&unlit(r#"<input name="opacity" type="float" value="0.5"/>"#), &lights)
-    else {
+    let Some(o) = shade(
+        &unlit(r#"<input name="opacity" type="float" value="0.5"/>"#),
+        &lights,
+    ) else {
         return;
     };
-    assert_close(&part(&o, "emission"), &[0.25, 0.125, 0.0625], 1e-12, "emission");
+    assert_close(
+        &part(&o, "emission"),
+        &[0.25, 0.125, 0.0625],
+        1e-12,
+        "emission",
+    );
     assert_close(&o.get("M"), &[0.25, 0.125, 0.0625], 1e-12, "total: unlit");
     let ir = |body: &str| {
         let c = compile_sel(body, &Selection::default()).unwrap().unwrap();
@@ -484,5 +491,10 @@ fn unlit_surfaces_emit_their_color_and_transmit_only_when_asked() {
         <surfacematerial name="M" type="material">
         <input name="surfaceshader" type="surfaceshader" nodename="c"/></surfacematerial>"#;
     let o = shade(body, &lights).unwrap();
-    assert_close(&o.get("M"), &[0.3, 0.6, 0.9], 1e-12, "convert color3 → surfaceshader");
+    assert_close(
+        &o.get("M"),
+        &[0.3, 0.6, 0.9],
+        1e-12,
+        "convert color3 → surfaceshader",
+    );
 }

@@ -39,6 +39,7 @@ pub mod passes;
 pub mod render;
 pub mod scene;
 pub mod shader;
+pub mod window;
 
 pub use film::{Film, Layer, Window};
 pub use render::{DeferredOptions, RenderError, RenderStats, Renderer, ShadingMode};

@@ -2,8 +2,8 @@
 //! one frame size and one set of channels and tile the frame exactly — no gap, no overlap.
 //! It owns those checks and the copy; reading and writing the files is [`crate::output`]'s.
 
-use crate::film::Window;
 use crate::output::{Channel, ExrImage};
+use crate::window::Window;
 use std::path::PathBuf;
 
 /// The full frame from its parts, each named by its file for the errors: every pixel comes

@@ -12,7 +12,7 @@
 //! slope 1 at the knee, approaching 1), scaling the pixel's RGB by the same factor so hues
 //! survive; channels are then clamped to [0, 1] and encoded with the sRGB transfer function.
 
-use crate::film::Window;
+use crate::window::Window;
 use shadenet_graph::ops::math;
 use shadenet_runtime::input::{self, FileKind, InputError};
 use shadenet_runtime::texture::colorspace::Transfer;
