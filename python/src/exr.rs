@@ -1,7 +1,7 @@
 //! `shadenet.write_exr` and `shadenet.read_exr`: multi-layer f32 EXR through the tracer's
 //! writer (temporary file + rename) and its bounded reader.
 
-use crate::{Channels, detached, f32_bytes, f32_values, shadenet_error};
+use crate::boundary::{Channels, detached, f32_bytes, f32_values, shadenet_error};
 use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 use std::path::PathBuf;

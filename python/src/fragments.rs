@@ -2,7 +2,7 @@
 //! checks on them (lengths, finite values), and `shadenet.grid` (the CLI `shade` grid as
 //! fields).
 
-use crate::{f32_bytes, value_error};
+use crate::boundary::{f32_bytes, value_error};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 use shadenet::graph::ir::RAY_CAMERA;

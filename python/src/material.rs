@@ -2,8 +2,8 @@
 //! file, or either as text) as the CLI's `load` does, its optimized IR and statistics as
 //! `compile --emit ir --stats` reports them, and shading fragments with a chosen back end.
 
+use crate::boundary::{Layers, detached, f32_bytes, shadenet_error, shadenet_msg, value_error};
 use crate::fragments::fragments;
-use crate::{Layers, detached, f32_bytes, shadenet_error, shadenet_msg, value_error};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use shadenet::graph::ir::Program;

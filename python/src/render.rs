@@ -2,7 +2,7 @@
 //! as `shadenet render` sets it up (src/cli/render.rs: load or the default scene, the
 //! options, `shadenet::render::prepare`), with the GIL released while it renders.
 
-use crate::{Layers, detached, f32_bytes, shadenet_error, shadenet_msg, value_error};
+use crate::boundary::{Layers, detached, f32_bytes, shadenet_error, shadenet_msg, value_error};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use shadenet::render::{self as r, BackendKind, Files, RenderOptions};
