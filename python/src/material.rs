@@ -243,11 +243,17 @@ impl NativeMaterial {
         d.set_item("passes", passes)?;
         d.set_item("needs", r.needs.to_string().trim_end())?;
         d.set_item("report", r.to_string())?;
-        let optimized = &self.optimized;
-        let jit = self
-            .jit_stats
-            .get_or_init(|| py.detach(|| jit_stats(optimized)));
-        d.set_item("jit", jit.as_str())?;
+        // Computed with the GIL released and outside the `OnceLock`: a thread that waited
+        // on the lock while holding the GIL would deadlock with one that computes without it.
+        let jit = match self.jit_stats.get() {
+            Some(s) => s.clone(),
+            None => {
+                let optimized = &self.optimized;
+                let s = py.detach(|| jit_stats(optimized));
+                self.jit_stats.get_or_init(|| s).clone()
+            }
+        };
+        d.set_item("jit", jit)?;
         if let Some((path, opts)) = &self.mtlx_path {
             let lobes = py
                 .detach(|| shadenet::mtlx::mtlx_lobes(path, opts, &Specialization::default()))
@@ -327,11 +333,12 @@ impl NativeMaterial {
             spec.components = Specialization::mask_of(&self.program, names)
                 .map_err(|e| value_error(format!("mask: {e}")))?;
         }
-        let (back, mode) = backend_for(backend)?;
         let key = (backend.to_string(), spec.components);
         let program = &self.program;
         let cache = &self.cache;
+        // Everything that waits on a lock (the GPU device, the cache) runs without the GIL.
         let layers = detached(py, move || {
+            let (back, mode) = backend_for(backend)?;
             let cached = cache
                 .lock()
                 .unwrap_or_else(|e| e.into_inner())

@@ -129,6 +129,35 @@ def test_grid_is_the_cli_grid_and_defaults_fill_the_rest():
     assert_same_bits(mat.shade(some, backend="interp"), full, "float64")
 
 
+def test_threads_share_a_material_and_get_the_serial_bits():
+    import threading
+
+    mat = shadenet.compile(MARBLE)
+    g = shadenet.grid(9, 5)
+    want = {b: mat.shade(g, backend=b) for b in ("interp", "jit", "jit-batch")}
+    fresh = shadenet.compile(MARBLE)  # its back ends compiled by the threads, concurrently
+    got = {}
+
+    def work(i, backend):
+        got[i] = (backend, fresh.shade(g, backend=backend), fresh.stats["jit"])
+
+    threads = [threading.Thread(target=work, args=(i, b))
+               for i, b in enumerate(["jit", "jit-batch", "interp", "jit", "jit-batch", "interp"])]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert len(got) == 6
+    for backend, out, jit in got.values():
+        assert_same_bits(out, want[backend], f"thread {backend}")
+        assert jit == got[0][2]
+
+
+def test_no_fragments_give_empty_layers():
+    out = shadenet.compile(MARBLE).shade({"P": np.zeros((0, 3))})
+    assert out["color"].shape == (0, 3) and out["veins"].shape == (0, 1)
+
+
 # ---- (b) rendering: the layers `shadenet render -o x.exr` writes -----------------------
 
 
