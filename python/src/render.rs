@@ -1,11 +1,12 @@
 //! `shadenet.render`: a scene (or the embedded default) rendered to layers, set up exactly
-//! as `shadenet render` sets it up (src/cli/render.rs: load or the default scene, the
-//! options, `shadenet::render::prepare`), with the GIL released while it renders.
+//! as `shadenet render` sets it up (`shadenet::render::load`: the scene file or the default
+//! scene, the options; then `shadenet::render::prepare`), with the GIL released while it
+//! renders.
 
 use crate::boundary::{Layers, detached, f32_bytes, shadenet_error, shadenet_msg, value_error};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use shadenet::render::{self as r, BackendKind, Files, RenderOptions};
+use shadenet::render::{self as r, BackendKind, RenderOptions, SetupError};
 use shadenet::tracer::{Film, RenderStats, Renderer};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -108,29 +109,20 @@ fn thread_pool(threads: Option<usize>) -> PyResult<rayon::ThreadPool> {
 }
 
 /// Loads the scene (or the embedded default), applies the options and compiles the
-/// materials, as `shadenet render` does.
+/// materials, as `shadenet render` does (`shadenet::render::load`, then `prepare`). An
+/// option out of range is a `ValueError`; anything else a `ShadenetError`.
 fn setup(
     scene: Option<&Path>,
     opts: &RenderOptions,
     backend: &dyn shadenet::tracer::shader::ShaderBackend,
     mtlx_libraries: Option<PathBuf>,
 ) -> PyResult<Renderer> {
-    let fail = |e: &dyn std::error::Error| shadenet_error(e);
-    let (mut scene, files, dir) = match scene {
-        Some(p) => (
-            shadenet::tracer::scene::load(p).map_err(|e| fail(&e))?,
-            Files::Disk,
-            p.parent().map(Path::to_path_buf).unwrap_or_default(),
-        ),
-        None => (
-            r::default_scene().map_err(|e| fail(&e))?,
-            Files::Embedded,
-            PathBuf::from("examples/scenes"),
-        ),
-    };
-    r::apply_options(&mut scene, opts).map_err(|e| value_error(e.to_string()))?;
-    let (renderer, _) =
-        r::prepare(scene, files, &dir, backend, mtlx_libraries.as_deref()).map_err(|e| fail(&e))?;
+    let (scene, files, dir) = r::load(scene, opts).map_err(|e| match e {
+        SetupError::Option(m) => value_error(m),
+        e => shadenet_error(&e),
+    })?;
+    let (renderer, _) = r::prepare(scene, files, &dir, backend, mtlx_libraries.as_deref())
+        .map_err(|e| shadenet_error(&e))?;
     Ok(renderer)
 }
 
