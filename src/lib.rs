@@ -5,7 +5,8 @@
 //! The facade re-exports the member crates: [`graph`] (networks, node library, linker, IR,
 //! op semantics), [`runtime`] (shading context, lights, interpreter, back-end traits),
 //! [`jit`] (the Cranelift back end) and [`tracer`] (scenes, BVH, passes, film); [`shade`]
-//! shades a network over a grid without a renderer, [`render`] links a scene's materials and
+//! shades a network over a grid (or any fragments) without a renderer, [`lights`] parses
+//! the one-line light strings of `shade --light`, [`render`] links a scene's materials and
 //! hands them to the tracer, [`output`] writes PNG and EXR images, [`mtlx`] reads MaterialX documents and
 //! finds the MaterialX libraries, [`generate`] builds
 //! networks for benchmarks (the multiplication tree) and [`bench`] is `shadenet bench`. It owns the `shadenet` CLI and must not
@@ -13,6 +14,7 @@
 
 pub mod bench;
 pub mod generate;
+pub mod lights;
 pub mod mtlx;
 pub mod output;
 pub mod render;

@@ -5,6 +5,11 @@
 //! looking at the origin. Pixel (x, y) (row 0 at the top) gets `uv = ((x+½)/W, 1 − (y+½)/H)`,
 //! `P = (u − ½, v − ½, 0)`, `dPdu = (1, 0, 0)`, `dPdv = (0, 1, 0)`, ray differentials of one
 //! pixel, and `I = P − eye`.
+//!
+//! It also shades any list of fragments ([`shade_fragments`], what the Python package's
+//! `Material.shade` runs) and names what was shaded: [`output_layers`] is the one naming of
+//! a material's outputs and components as layers (`color`, `color.diffuse`) and channels,
+//! used by `shade -o x.exr` ([`exr_channels`]) and by the Python package.
 
 use rayon::prelude::*;
 use shadenet_graph::ir::{Program, RAY_CAMERA};
@@ -310,9 +315,240 @@ pub fn shade_grid_many(
     (grid, result)
 }
 
+/// Shades a list of fragments with a compiled material on the rayon thread pool, with the
+/// components in `mask` active: one [`Material::shade`] call per fragment, or with `batch`
+/// one [`Material::shade_many`] call per run of [`FRAGMENTS_PER_BATCH`] fragments (`all`:
+/// one call for every fragment, as the GPU wants). No scene: a BSDF sample's ray returns
+/// black. The result is a grid one fragment high, packed as one segment.
+pub fn shade_fragments(
+    material: &dyn Material,
+    env: &ShadeEnv,
+    frags: &[Fragment],
+    mask: u32,
+    batch: BatchMode,
+) -> Grid {
+    let stride = material.width();
+    let n = frags.len();
+    let mut data = vec![0.0f32; packed_len(stride, n)];
+    let per_packet = (stride * LANES).max(1);
+    let nonfinite = match batch {
+        BatchMode::All => {
+            let all = Fragments::from_slice(frags);
+            material
+                .shade_many(env, mask, None, &all, &mut data)
+                .nonfinite
+        }
+        BatchMode::Batches => data
+            .par_chunks_mut(per_packet * FRAGMENTS_PER_BATCH / LANES)
+            .zip(frags.par_chunks(FRAGMENTS_PER_BATCH))
+            .map(|(dst, chunk)| {
+                let chunk = Fragments::from_slice(chunk);
+                material.shade_many(env, mask, None, &chunk, dst).nonfinite
+            })
+            .sum(),
+        BatchMode::Single => data
+            .par_chunks_mut(per_packet)
+            .zip(frags.par_chunks(LANES))
+            .map(|(dst, packet)| {
+                let mut one = vec![0.0f32; stride];
+                let mut bad = 0u64;
+                for (lane, frag) in packet.iter().enumerate() {
+                    let ctx = ShadeCtx {
+                        frag: *frag,
+                        env,
+                        mask,
+                        scene: None,
+                    };
+                    bad += material.shade(&ctx, &mut one) as u64;
+                    for (k, v) in one.iter().enumerate() {
+                        dst[packed_index(stride, lane, k)] = *v;
+                    }
+                }
+                bad
+            })
+            .sum(),
+    };
+    Grid {
+        width: n as u32,
+        height: 1,
+        stride,
+        values: GridValues::Packed {
+            data,
+            segment: n.max(1),
+        },
+        nonfinite,
+    }
+}
+
+/// Fragments per [`Material::shade_many`] call of [`shade_fragments`] with
+/// [`BatchMode::Batches`] (a multiple of the packet width).
+pub const FRAGMENTS_PER_BATCH: usize = 64 * LANES;
+
+/// How [`shade_fragments`] calls the material.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BatchMode {
+    /// [`Material::shade`], one fragment per call (the interpreter, the JIT's scalar entry).
+    Single,
+    /// [`Material::shade_many`] over runs of [`FRAGMENTS_PER_BATCH`] fragments, in
+    /// parallel (the JIT's batch entry).
+    Batches,
+    /// One [`Material::shade_many`] call for every fragment (the GPU: one dispatch).
+    All,
+}
+
+/// The output layout every back end writes: (name, component, type, offset) per slot.
+pub type Slots = Vec<(String, Option<u8>, shadenet_graph::Type, usize)>;
+
+/// The slots of `program`'s outputs ([`shadenet_runtime::output_layout`]).
+pub fn output_slots(program: &Program) -> Slots {
+    shadenet_runtime::output_layout(program)
+        .0
+        .into_iter()
+        .map(|s| (s.name, s.component, s.ty, s.offset))
+        .collect()
+}
+
+/// Channel `c` of the slots `pred` picks, summed per fragment, as f32 (a slot narrower than
+/// `c + 1` gives its last channel).
+pub fn channel(
+    grid: &Grid,
+    slots: &Slots,
+    pred: &dyn Fn(&str, Option<u8>) -> bool,
+    c: usize,
+) -> Vec<f32> {
+    let n = (grid.width * grid.height) as usize;
+    let mut out = vec![0.0f32; n];
+    for (name, comp, ty, off) in slots {
+        if !pred(name, *comp) {
+            continue;
+        }
+        let w = ty.width().max(1);
+        let ci = c.min(w - 1);
+        for (o, x) in out.iter_mut().zip(grid.component(off + ci)) {
+            *o += x as f32;
+        }
+    }
+    out
+}
+
+/// One layer of a shaded grid: an output's total (every part of it summed) or one of its
+/// render components, named `output` or `output.component`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OutputLayer {
+    /// `output` or `output.component`.
+    pub name: String,
+    /// The channel names: `X Y` (2 floats), `R G B` (3), `R G B A` (colour4), `X Y Z W`
+    /// (other 4-float types), `Y` (1).
+    pub channels: Vec<&'static str>,
+    /// Per channel, one f32 per fragment.
+    pub data: Vec<Vec<f32>>,
+}
+
+/// The channel names of an output of type `ty` (see [`OutputLayer::channels`]).
+pub fn channel_names(ty: shadenet_graph::Type) -> &'static [&'static str] {
+    match ty.width() {
+        2 => &["X", "Y"],
+        3 => &["R", "G", "B"],
+        4 if ty.is_color() => &["R", "G", "B", "A"],
+        4 => &["X", "Y", "Z", "W"],
+        _ => &["Y"],
+    }
+}
+
+/// The layers of a grid shaded with `program`: per output its total, then each of its
+/// components, in the program's output order.
+pub fn output_layers(program: &Program, grid: &Grid) -> Vec<OutputLayer> {
+    let slots = output_slots(program);
+    let mut out = Vec::new();
+    for name in program.output_names() {
+        let Some(ty) = slots.iter().find(|s| s.0 == name).map(|s| s.2) else {
+            continue;
+        };
+        let suffixes = channel_names(ty);
+        let mut layers: Vec<(String, Option<Option<u8>>)> = vec![(name.to_string(), None)];
+        for (sn, comp, _, _) in &slots {
+            if let Some(k) = comp
+                && sn == name
+            {
+                layers.push((
+                    format!("{name}.{}", program.components[*k as usize]),
+                    Some(*comp),
+                ));
+            }
+        }
+        for (layer, only) in layers {
+            let pred = |n: &str, c: Option<u8>| n == name && only.is_none_or(|o| o == c);
+            out.push(OutputLayer {
+                name: layer,
+                channels: suffixes.to_vec(),
+                data: (0..suffixes.len())
+                    .map(|ci| channel(grid, &slots, &pred, ci))
+                    .collect(),
+            });
+        }
+    }
+    out
+}
+
+/// The EXR channels of a grid shaded with `program` (`shadenet shade -o x.exr`): every
+/// [`output_layers`] layer's channels, named `layer.channel`.
+pub fn exr_channels(program: &Program, grid: &Grid) -> Vec<(String, Vec<f32>)> {
+    output_layers(program, grid)
+        .into_iter()
+        .flat_map(|l| {
+            let name = l.name;
+            l.channels
+                .into_iter()
+                .zip(l.data)
+                .map(move |(c, d)| (format!("{name}.{c}"), d))
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Shading the grid's fragments as a list gives the grid's layers bit for bit, in every
+    /// batch mode, with the interpreter and the JIT (scalar and batch entries); 300
+    /// fragments: more than one batch, the last packet partial.
+    #[test]
+    fn shading_fragments_equals_shading_the_grid() {
+        use shadenet_runtime::Backend;
+        let compiled = crate::load_network(std::path::Path::new("examples/networks/marble.json"))
+            .expect("marble.json");
+        let program = compiled.program;
+        let env = grid_env(&[crate::lights::parse_light(crate::lights::DEFAULT_LIGHT, 0).unwrap()]);
+        let (w, h) = (20u32, 15u32);
+        let frags: Vec<Fragment> = (0..h)
+            .flat_map(|y| (0..w).map(move |x| grid_fragment(x, y, w, h)))
+            .collect();
+        let spec = shadenet_graph::opt::Specialization::default();
+        let backends: [(&dyn Backend, bool); 2] = [
+            (&shadenet_runtime::InterpBackend, false),
+            (&shadenet_jit::JitBackend::new(), true),
+        ];
+        for (backend, batch) in backends {
+            let material = backend.compile(&program, &spec).unwrap();
+            let want = output_layers(
+                &program,
+                &shade_grid_with(&*material, &env, w, h, u32::MAX, batch),
+            );
+            for mode in [BatchMode::Single, BatchMode::Batches, BatchMode::All] {
+                let got = shade_fragments(&*material, &env, &frags, u32::MAX, mode);
+                let got = output_layers(&program, &got);
+                assert!(!want.is_empty());
+                assert_eq!(got.len(), want.len());
+                for (g, x) in got.iter().zip(&want) {
+                    assert_eq!((&g.name, &g.channels), (&x.name, &x.channels));
+                    for (a, b) in g.data.iter().zip(&x.data) {
+                        let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+                        assert_eq!(bits(a), bits(b), "{} {mode:?} {}", backend.name(), g.name);
+                    }
+                }
+            }
+        }
+    }
 
     /// The row packets equal the grid's fragments, lane for lane, on the first row built
     /// and on every later row updated in place (padding lanes: the row's last pixel).

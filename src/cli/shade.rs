@@ -7,12 +7,14 @@ use anyhow::{Context, Result, bail};
 use clap::ValueEnum;
 use shadenet::bench::report::Timing;
 use shadenet::graph::ir::Program;
-use shadenet::graph::nodes::{LightDesc, LightKind};
+use shadenet::graph::nodes::LightDesc;
 use shadenet::graph::opt::{self, Specialization};
+use shadenet::lights::{DEFAULT_LIGHT, parse_light};
 use shadenet::output::{write_exr, write_png};
 use shadenet::runtime::{Backend, BatchTimes, CompileStats, InterpBackend, Material};
 use shadenet::shade::{
-    Grid, GridValues, grid_env, shade_grid, shade_grid_into, shade_grid_many, shade_grid_with,
+    Grid, GridValues, channel, exr_channels, grid_env, output_slots, shade_grid, shade_grid_into,
+    shade_grid_many, shade_grid_with,
 };
 use shadenet_gpu::GpuBackend;
 use shadenet_jit::{JitBackend, JitOptions};
@@ -130,15 +132,15 @@ fn prepare(args: &ShadeArgs) -> Result<Job> {
     let program = compiled.program;
     let mut lights = compiled.lights;
     for (i, spec) in args.light.iter().enumerate() {
-        lights.push(parse_light(spec, i)?);
+        lights.push(parse_light(spec, i).with_context(|| format!("--light {spec}"))?);
     }
     if lights.is_empty() {
         if !args.quiet {
             eprintln!(
-                "note: no lights in the network or on the command line; using --light point:1,1,2:20"
+                "note: no lights in the network or on the command line; using --light {DEFAULT_LIGHT}"
             );
         }
-        lights.push(parse_light("point:1,1,2:20", 0)?);
+        lights.push(parse_light(DEFAULT_LIGHT, 0)?);
     }
     // Specialize and optimize for this run (unless --no-opt): only what the active
     // components need is computed, and textures on dead branches are never opened.
@@ -281,75 +283,10 @@ fn shade(args: &ShadeArgs, job: &Job) -> Result<Shaded> {
     })
 }
 
-/// One `--light` option as a light (`index` names it `light{index}`).
-fn parse_light(spec: &str, index: usize) -> Result<LightDesc> {
-    let parts: Vec<&str> = spec.split(':').collect();
-    let vec3 = |s: &str| -> Result<[f64; 3]> {
-        let v: Vec<f64> = s
-            .split(',')
-            .map(|x| x.trim().parse::<f64>())
-            .collect::<Result<_, _>>()
-            .with_context(|| format!("--light {spec}: `{s}` is not X,Y,Z"))?;
-        if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {
-            bail!("--light {spec}: `{s}` is not three finite numbers");
-        }
-        Ok([v[0], v[1], v[2]])
-    };
-    let num = |s: &str| -> Result<f64> {
-        s.trim()
-            .parse::<f64>()
-            .ok()
-            .filter(|x| x.is_finite())
-            .with_context(|| format!("--light {spec}: `{s}` is not a finite number"))
-    };
-    let power = |i: f64, color: Option<&&str>| -> Result<[f64; 3]> {
-        let c = color.map(|c| vec3(c)).transpose()?.unwrap_or([1.0; 3]);
-        Ok(c.map(|x| x * i))
-    };
-    let name = format!("light{index}");
-    let (kind, pw) = match (parts[0], parts.len()) {
-        ("point", 3 | 4) => (
-            LightKind::Point {
-                position: vec3(parts[1])?,
-            },
-            power(num(parts[2])?, parts.get(3))?,
-        ),
-        ("distant", 3 | 4) => (
-            LightKind::Distant {
-                direction: vec3(parts[1])?,
-            },
-            power(num(parts[2])?, parts.get(3))?,
-        ),
-        ("spot", 5 | 6) => (
-            LightKind::Spot {
-                position: vec3(parts[1])?,
-                direction: vec3(parts[2])?,
-                cone_angle: num(parts[4])?.to_radians(),
-                penumbra_angle: 0.0,
-                dropoff: 0.0,
-            },
-            power(num(parts[3])?, parts.get(5))?,
-        ),
-        ("ambient", 2 | 3) => (LightKind::Ambient, power(num(parts[1])?, parts.get(2))?),
-        _ => bail!(
-            "--light {spec}: expected point:X,Y,Z:I[:R,G,B], distant:DX,DY,DZ:I[:R,G,B], \
-             spot:X,Y,Z:DX,DY,DZ:I:CONE_DEG[:R,G,B] or ambient:I[:R,G,B]"
-        ),
-    };
-    LightDesc::new(name, kind, pw).with_context(|| format!("--light {spec}"))
-}
-
-/// The output layout every back end writes: (name, component, type, offset) per slot.
-type Slots = Vec<(String, Option<u8>, shadenet::graph::Type, usize)>;
-
 /// Writes every `-o` image: a PNG of the chosen output (and component), or an EXR of every
 /// output and component.
 fn write_outputs(args: &ShadeArgs, job: &Job, grid: &Grid) -> Result<()> {
-    let slots: Slots = shadenet::runtime::output_layout(&job.program)
-        .0
-        .into_iter()
-        .map(|s| (s.name, s.component, s.ty, s.offset))
-        .collect();
+    let slots = output_slots(&job.program);
     let (w, h) = args.res;
     for path in &args.output {
         if path.extension().and_then(|e| e.to_str()) == Some("png") {
@@ -366,68 +303,10 @@ fn write_outputs(args: &ShadeArgs, job: &Job, grid: &Grid) -> Result<()> {
             }
             write_png(path, w, h, &rgb)?;
         } else {
-            write_exr(path, w, h, exr_layers(job, grid, &slots))?;
+            write_exr(path, w, h, exr_channels(&job.program, grid))?;
         }
     }
     Ok(())
-}
-
-/// Channel `c` of the slots `pred` picks, summed per fragment, as f32.
-fn channel(
-    grid: &Grid,
-    slots: &Slots,
-    pred: &dyn Fn(&str, Option<u8>) -> bool,
-    c: usize,
-) -> Vec<f32> {
-    let n = (grid.width * grid.height) as usize;
-    let mut out = vec![0.0f32; n];
-    for (name, comp, ty, off) in slots {
-        if !pred(name, *comp) {
-            continue;
-        }
-        let w = ty.width().max(1);
-        let ci = c.min(w - 1);
-        for (o, x) in out.iter_mut().zip(grid.component(off + ci)) {
-            *o += x as f32;
-        }
-    }
-    out
-}
-
-/// The EXR channels: per output its total and each of its components, per channel.
-fn exr_layers(job: &Job, grid: &Grid, slots: &Slots) -> Vec<(String, Vec<f32>)> {
-    let program = &job.program;
-    let mut chans = Vec::new();
-    for name in program.output_names() {
-        let Some(ty) = slots.iter().find(|s| s.0 == name).map(|s| s.2) else {
-            continue;
-        };
-        let suffixes: &[&str] = match ty.width() {
-            2 => &["X", "Y"],
-            3 => &["R", "G", "B"],
-            4 if ty.is_color() => &["R", "G", "B", "A"],
-            4 => &["X", "Y", "Z", "W"],
-            _ => &["Y"],
-        };
-        let mut layers: Vec<(String, Option<Option<u8>>)> = vec![(name.to_string(), None)];
-        for (sn, comp, _, _) in slots {
-            if let Some(k) = comp
-                && sn == name
-            {
-                layers.push((
-                    format!("{name}.{}", program.components[*k as usize]),
-                    Some(*comp),
-                ));
-            }
-        }
-        for (layer, only) in layers {
-            for (ci, suf) in suffixes.iter().enumerate() {
-                let pred = |n: &str, c: Option<u8>| n == name && only.is_none_or(|o| o == c);
-                chans.push((format!("{layer}.{suf}"), channel(grid, slots, &pred, ci)));
-            }
-        }
-    }
-    chans
 }
 
 /// The summary line, the compile statistics and the GPU time split.
