@@ -6,7 +6,7 @@
 //! IR ops before and after optimization, the best of a few runs of each step, one thread),
 //! then runs criterion on the library load and on the largest document.
 //! The libraries come from `SHADENET_MTLX_LIBRARIES` (or `MATERIALX_SEARCH_PATH`): without
-//! them the bench says so and exits; `.ci/run` installs them under `target/venv-mtlx`.
+//! them the bench says so and exits; `.ci/run` installs them under `target/venv`.
 //! `cargo test --benches` runs a quick check instead (every example compiles).
 
 use criterion::{Criterion, criterion_group};

@@ -32,6 +32,8 @@ __all__ = [
     "compile",
     "grid",
     "render",
+    "Renderer",
+    "frame_size",
     "write_exr",
     "read_exr",
     "FRAGMENT_FIELDS",
@@ -304,35 +306,8 @@ def grid(width: int, height: int) -> Dict[str, np.ndarray]:
     return out
 
 
-def render(
-    scene: Optional[PathLike] = None,
-    *,
-    spp: Optional[int] = None,
-    res: Optional[Tuple[int, int]] = None,
-    passes: Optional[Sequence[str]] = None,
-    backend: str = "jit",
-    threads: Optional[int] = None,
-    mtlx_libraries: Optional[PathLike] = None,
-) -> Dict[str, Any]:
-    """Renders a scene and returns its layers, as ``shadenet render -o x.exr`` writes them.
-
-    ``scene``: a scene file (``.toml``, docs/scene-format.md); ``None`` renders the
-    embedded default scene. ``spp``, ``res`` (``(width, height)``) and ``passes`` (a list
-    of names, or a comma-separated str) override the scene's as ``--spp``, ``--res`` and
-    ``--passes`` do. ``backend``: ``"interp"``, ``"jit"`` or ``"gpu"``. ``threads``:
-    worker threads, 1 to 8 × the cores (default: all cores). ``mtlx_libraries``: the
-    MaterialX libraries folder for ``mtlx = "…"`` materials.
-
-    Returns a dict: ``layers`` (layer name → float32 array, shape (height, width,
-    channels): ``beauty`` first, then the passes), ``channels`` (layer name → channel
-    names, ``["R", "G", "B", "A"]`` for ``beauty``), ``stats`` (``spp``, ``threads``,
-    ``backend``, ``setup_s``, ``compile_s``, ``bvh_s``, ``render_s``, ``shaders``,
-    ``triangles``, ``rays``, ``camera_rays``, ``shadow_rays``, ``secondary_rays``,
-    ``shading_calls``, ``nonfinite``, ``batches``, ``batched_fragments``, ``warnings``).
-
-    Raises :class:`ShadenetError` when the scene or a material cannot be loaded,
-    ``ValueError`` for an option out of range.
-    """
+def _check_render_options(res: Any, spp: Any, threads: Any, backend: Any) -> Optional[Tuple[int, int]]:
+    """The checks :func:`render` and :class:`Renderer` share; returns ``res`` as ints."""
     if res is not None:
         if (
             not isinstance(res, Sequence)
@@ -350,22 +325,141 @@ def render(
             raise ValueError(f"{what}: must be 1 to 2**32 - 1, got {v}")
     if not isinstance(backend, str):
         raise TypeError(f"backend: expected a str, got {type(backend).__name__}")
-    # issue 17 §1: `crop=` (a pixel window of the frame) joins here once the library renders
-    # regions.
-    width, height, layers, stats = _native.render(
-        _opt_path(scene, "scene"),
-        spp=None if spp is None else int(spp),
+    return res
+
+
+def _crop(crop: Any) -> Optional[Tuple[int, int, int, int]]:
+    """``crop`` as four ints ``(x0, y0, x1, y1)``, or ``TypeError``/``ValueError``."""
+    if crop is None:
+        return None
+    if (
+        not isinstance(crop, Sequence)
+        or len(crop) != 4
+        or not all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in crop)
+    ):
+        raise TypeError(f"crop: expected (x0, y0, x1, y1) ints, got {crop!r}")
+    if min(crop) < 0 or max(crop) > _U32_MAX:
+        raise ValueError(f"crop: {tuple(crop)} has a coordinate outside 0 to 2**32 - 1")
+    return (int(crop[0]), int(crop[1]), int(crop[2]), int(crop[3]))
+
+
+class Renderer:
+    """A scene loaded and compiled once, rendered any number of times: the whole frame or a
+    pixel window of it (``crop``) at a time.
+
+    The arguments are :func:`render`'s. Compiling happens here (with the GIL released);
+    :meth:`render` then only renders, so rendering a frame's tiles one by one pays the
+    compile once (``shadenet.distributed`` keeps one per worker process).
+    """
+
+    __slots__ = ("_r",)
+
+    def __init__(
+        self,
+        scene: Optional[PathLike] = None,
+        *,
+        spp: Optional[int] = None,
+        res: Optional[Tuple[int, int]] = None,
+        passes: Optional[Sequence[str]] = None,
+        backend: str = "jit",
+        threads: Optional[int] = None,
+        mtlx_libraries: Optional[PathLike] = None,
+    ) -> None:
+        """Loads ``scene`` (``None``: the embedded default scene) with the overrides and
+        compiles its materials."""
+        res = _check_render_options(res, spp, threads, backend)
+        self._r = _native.Renderer(
+            _opt_path(scene, "scene"),
+            spp=None if spp is None else int(spp),
+            res=res,
+            passes=_str_list(passes, "passes"),
+            backend=backend,
+            threads=None if threads is None else int(threads),
+            mtlx_libraries=_opt_path(mtlx_libraries, "mtlx_libraries"),
+        )
+
+    @property
+    def frame(self) -> Tuple[int, int]:
+        """The full frame's size ``(width, height)``."""
+        return tuple(self._r.frame)  # type: ignore[return-value]
+
+    @property
+    def spp(self) -> int:
+        """Samples per pixel."""
+        return self._r.spp
+
+    def render(self, crop: Optional[Tuple[int, int, int, int]] = None) -> Dict[str, Any]:
+        """Renders the frame, or only the pixel window ``crop = (x0, y0, x1, y1)``: columns
+        x0..x1 and rows y0..y1 from the top left, ends exclusive. Every pixel of a window
+        has exactly the bits a full render gives it. Returns :func:`render`'s dict; its
+        layers cover the window, ``window`` is the window and ``frame`` the full size.
+        A window that is empty or reaches outside the frame is a ``ValueError``.
+        """
+        width, height, layers, stats, window, frame = self._r.render(_crop(crop))
+        return {
+            "layers": {n: _floats(d, (height, width, len(c))) for n, c, d in layers},
+            "channels": {n: list(c) for n, c, _ in layers},
+            "stats": dict(stats),
+            "window": tuple(window),
+            "frame": tuple(frame),
+        }
+
+
+def render(
+    scene: Optional[PathLike] = None,
+    *,
+    spp: Optional[int] = None,
+    res: Optional[Tuple[int, int]] = None,
+    crop: Optional[Tuple[int, int, int, int]] = None,
+    passes: Optional[Sequence[str]] = None,
+    backend: str = "jit",
+    threads: Optional[int] = None,
+    mtlx_libraries: Optional[PathLike] = None,
+) -> Dict[str, Any]:
+    """Renders a scene and returns its layers, as ``shadenet render -o x.exr`` writes them.
+
+    ``scene``: a scene file (``.toml``, docs/scene-format.md); ``None`` renders the
+    embedded default scene. ``spp``, ``res`` (``(width, height)``), ``crop`` (``(x0, y0,
+    x1, y1)``, ends exclusive: only that pixel window, as ``--crop``) and ``passes`` (a list
+    of names, or a comma-separated str) override the scene's as ``--spp``, ``--res`` and
+    ``--passes`` do. ``backend``: ``"interp"``, ``"jit"`` or ``"gpu"``. ``threads``:
+    worker threads, 1 to 8 × the cores (default: all cores). ``mtlx_libraries``: the
+    MaterialX libraries folder for ``mtlx = "…"`` materials.
+
+    Returns a dict: ``layers`` (layer name → float32 array, shape (height, width,
+    channels) of the window: ``beauty`` first, then the passes), ``channels`` (layer name →
+    channel names, ``["R", "G", "B", "A"]`` for ``beauty``), ``window`` (``(x0, y0, x1,
+    y1)``), ``frame`` (``(width, height)`` of the full frame), ``stats`` (``spp``,
+    ``threads``, ``backend``, ``setup_s``, ``compile_s``, ``bvh_s``, ``render_s``,
+    ``shaders``, ``triangles``, ``rays``, ``camera_rays``, ``shadow_rays``,
+    ``secondary_rays``, ``shading_calls``, ``nonfinite``, ``batches``,
+    ``batched_fragments``, ``warnings``). One call is :class:`Renderer` then
+    :meth:`Renderer.render`.
+
+    Raises :class:`ShadenetError` when the scene or a material cannot be loaded,
+    ``ValueError`` for an option out of range or a crop outside the frame.
+    """
+    crop = _crop(crop)
+    r = Renderer(
+        scene,
+        spp=spp,
         res=res,
-        passes=_str_list(passes, "passes"),
+        passes=passes,
         backend=backend,
-        threads=None if threads is None else int(threads),
-        mtlx_libraries=_opt_path(mtlx_libraries, "mtlx_libraries"),
+        threads=threads,
+        mtlx_libraries=mtlx_libraries,
     )
-    return {
-        "layers": {n: _floats(d, (height, width, len(c))) for n, c, d in layers},
-        "channels": {n: list(c) for n, c, _ in layers},
-        "stats": dict(stats),
-    }
+    return r.render(crop)
+
+
+def frame_size(
+    scene: Optional[PathLike] = None, *, res: Optional[Tuple[int, int]] = None
+) -> Tuple[int, int]:
+    """The frame size ``(width, height)`` a render of ``scene`` (``None``: the embedded
+    default scene) with ``res`` would have: the scene is loaded and checked, nothing is
+    compiled. Raises :class:`ShadenetError` for a scene that cannot be loaded."""
+    res = _check_render_options(res, None, None, "jit")
+    return tuple(_native.frame_size(_opt_path(scene, "scene"), res=res))  # type: ignore[return-value]
 
 
 #: Default channel names by channel count (:func:`write_exr`).

@@ -54,16 +54,35 @@ def compile(
 def grid(width: int, height: int) -> List[Tuple[str, bytes, int, str]]:
     """The ``shade`` grid's fields: ``(key, bytes, values per fragment, dtype)``."""
 
-def render(
-    scene: Optional[str] = None,
-    spp: Optional[int] = None,
-    res: Optional[Tuple[int, int]] = None,
-    passes: Optional[List[str]] = None,
-    backend: str = "jit",
-    threads: Optional[int] = None,
-    mtlx_libraries: Optional[str] = None,
-) -> Tuple[int, int, List[Tuple[str, List[str], bytes]], Dict[str, object]]:
-    """Renders; ``(width, height, [(layer, channels, h × w × c f32 bytes)], stats)``."""
+class Renderer:
+    """A scene loaded and compiled once, rendered whole or a pixel window at a time."""
+
+    frame: Tuple[int, int]
+    spp: int
+    def __init__(
+        self,
+        scene: Optional[str] = None,
+        spp: Optional[int] = None,
+        res: Optional[Tuple[int, int]] = None,
+        passes: Optional[List[str]] = None,
+        backend: str = "jit",
+        threads: Optional[int] = None,
+        mtlx_libraries: Optional[str] = None,
+    ) -> None: ...
+    def render(
+        self, crop: Optional[Tuple[int, int, int, int]] = None
+    ) -> Tuple[
+        int,
+        int,
+        List[Tuple[str, List[str], bytes]],
+        Dict[str, object],
+        Tuple[int, int, int, int],
+        Tuple[int, int],
+    ]:
+        """``(width, height, [(layer, channels, h × w × c f32 bytes)], stats, window, frame)``."""
+
+def frame_size(scene: Optional[str] = None, res: Optional[Tuple[int, int]] = None) -> Tuple[int, int]:
+    """The frame size of a scene with the ``res`` override (nothing compiled)."""
 
 def write_exr(path: str, width: int, height: int, channels: List[Tuple[str, bytes]]) -> None:
     """Writes ``width × height`` f32 channels to an EXR, atomically."""

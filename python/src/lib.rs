@@ -29,7 +29,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<material::NativeMaterial>()?;
     m.add_function(wrap_pyfunction!(material::compile, m)?)?;
     m.add_function(wrap_pyfunction!(fragments::grid, m)?)?;
-    m.add_function(wrap_pyfunction!(render::render, m)?)?;
+    m.add_class::<render::NativeRenderer>()?;
+    m.add_function(wrap_pyfunction!(render::frame_size, m)?)?;
     m.add_function(wrap_pyfunction!(exr::write_exr, m)?)?;
     m.add_function(wrap_pyfunction!(exr::read_exr, m)?)?;
     m.add("FRAGMENT_FIELDS", fragments::field_table())?;
