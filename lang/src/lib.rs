@@ -102,7 +102,47 @@ pub fn parse_str(
     parse_loaded(sources, main, dialect, options)
 }
 
+/// Stack size of the thread the front end runs on (16 MiB). The parser's nesting limit
+/// ([`parse::MAX_NESTING`]) keeps its recursion bounded; unoptimised builds take about 20 KiB
+/// of stack per nested parenthesis, more than a default 2 MiB thread has for 128 of them, so
+/// the front end does not run on the caller's stack.
+pub const STACK_BYTES: usize = 16 << 20;
+
+/// Runs `f` on a scoped thread with a [`STACK_BYTES`] stack (or on this thread if one cannot
+/// be started).
+fn on_big_stack<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+    let mut slot = Some(f);
+    let ran = std::thread::scope(|s| {
+        let spawned = std::thread::Builder::new()
+            .name("shadenet-lang".into())
+            .stack_size(STACK_BYTES)
+            .spawn_scoped(s, || slot.take().map(|f| f()));
+        match spawned {
+            Ok(h) => match h.join() {
+                Ok(r) => r,
+                Err(panic) => std::panic::resume_unwind(panic),
+            },
+            Err(_) => None,
+        }
+    });
+    match (ran, slot.take()) {
+        (Some(r), _) => r,
+        (None, Some(f)) => f(),
+        // The thread took `f` and returned nothing: impossible, `f` always returns.
+        (None, None) => unreachable!("the front end's thread took its work and returned none"),
+    }
+}
+
 fn parse_loaded(
+    sources: &mut SourceMap,
+    main: FileId,
+    dialect: Dialect,
+    options: &Options,
+) -> Result<Parsed, Diagnostics> {
+    on_big_stack(|| parse_loaded_here(sources, main, dialect, options))
+}
+
+fn parse_loaded_here(
     sources: &mut SourceMap,
     main: FileId,
     dialect: Dialect,

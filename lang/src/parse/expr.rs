@@ -153,7 +153,7 @@ impl Parser<'_> {
 
     fn unary_inner(&mut self) -> PResult<Expr> {
         let Some(t) = self.peek() else {
-            return Err(self.expected("an expression", ""));
+            return Err(Box::new(self.expected("an expression", "")));
         };
         let op = match t.kind {
             TokenKind::Minus => Some(UnaryOp::Neg),
@@ -188,22 +188,23 @@ impl Parser<'_> {
             });
         }
         // `(type) operand`: a cast.
-        if t.kind == TokenKind::LParen && self.nth_kind(2) == Some(TokenKind::RParen) {
-            if let Some(ty) = Self::base_type_kw(self.nth_kind(1)) {
-                self.bump();
-                let ty_span = self.bump().span;
-                self.bump();
-                let expr = self.unary()?;
-                let span = t.span.to(expr.span);
-                return Ok(Expr {
-                    kind: ExprKind::Cast {
-                        ty,
-                        ty_span,
-                        expr: Box::new(expr),
-                    },
-                    span,
-                });
-            }
+        if t.kind == TokenKind::LParen
+            && self.nth_kind(2) == Some(TokenKind::RParen)
+            && let Some(ty) = Self::base_type_kw(self.nth_kind(1))
+        {
+            self.bump();
+            let ty_span = self.bump().span;
+            self.bump();
+            let expr = self.unary()?;
+            let span = t.span.to(expr.span);
+            return Ok(Expr {
+                kind: ExprKind::Cast {
+                    ty,
+                    ty_span,
+                    expr: Box::new(expr),
+                },
+                span,
+            });
         }
         self.postfix()
     }
@@ -212,7 +213,8 @@ impl Parser<'_> {
         let mut e = self.primary()?;
         loop {
             match self.peek_kind() {
-                Some(TokenKind::LBracket) => {
+                // `[[` starts OSL metadata, not an index.
+                Some(TokenKind::LBracket) if self.nth_kind(1) != Some(TokenKind::LBracket) => {
                     let open = self.bump();
                     let index = self.expr()?;
                     let close = self.expect_close(TokenKind::RBracket, open, "after the index")?;
@@ -278,7 +280,7 @@ impl Parser<'_> {
 
     fn primary(&mut self) -> PResult<Expr> {
         let Some(t) = self.peek() else {
-            return Err(self.expected("an expression", ""));
+            return Err(Box::new(self.expected("an expression", "")));
         };
         let text = self.text(t);
         let kind = match t.kind {
@@ -291,11 +293,11 @@ impl Parser<'_> {
                 match v {
                     Some(v) => ExprKind::Int(v),
                     None => {
-                        return Err(Diagnostic::error(
+                        return Err(Box::new(Diagnostic::error(
                             format!("integer '{text}' is too large"),
                             t.span,
                             "over 2^63 - 1",
-                        ));
+                        )));
                     }
                 }
             }
@@ -304,11 +306,11 @@ impl Parser<'_> {
                 match text.parse::<f64>() {
                     Ok(v) => ExprKind::Float(v),
                     Err(_) => {
-                        return Err(Diagnostic::error(
+                        return Err(Box::new(Diagnostic::error(
                             format!("bad number '{text}'"),
                             t.span,
                             "not a number",
-                        ));
+                        )));
                     }
                 }
             }
@@ -332,13 +334,13 @@ impl Parser<'_> {
                 return self.construct();
             }
             TokenKind::Keyword(Keyword::Closure) => {
-                return Err(Diagnostic::error(
+                return Err(Box::new(Diagnostic::error(
                     "'closure' names a type, not a value",
                     t.span,
                     "expected an expression",
-                ));
+                )));
             }
-            _ => return Err(self.expected("an expression", "")),
+            _ => return Err(Box::new(self.expected("an expression", ""))),
         };
         Ok(Expr { kind, span: t.span })
     }
@@ -352,7 +354,9 @@ impl Parser<'_> {
             let inner = raw.get(1..raw.len().saturating_sub(1)).unwrap_or("");
             match decode_string(inner) {
                 Ok(s) => value.push_str(&s),
-                Err((_, msg)) => return Err(Diagnostic::error(msg, t.span, "in this string")),
+                Err((_, msg)) => {
+                    return Err(Box::new(Diagnostic::error(msg, t.span, "in this string")));
+                }
             }
         }
         Ok(Expr {

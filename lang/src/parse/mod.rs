@@ -27,8 +27,8 @@ use std::collections::HashSet;
 /// right-associative operator chains. Deeper input is an error, never a stack overflow.
 pub const MAX_NESTING: usize = 256;
 
-/// Result of a parsing step.
-pub type PResult<T> = Result<T, Diagnostic>;
+/// Result of a parsing step (the error boxed: results stay small on the recursive path).
+pub type PResult<T> = Result<T, Box<Diagnostic>>;
 
 /// Parses a preprocessed token stream into a [`File`]. `end` is where "the end of the file"
 /// is reported (the end of the main file).
@@ -139,7 +139,9 @@ impl<'a> Parser<'a> {
     fn expect(&mut self, kind: TokenKind, context: &str) -> PResult<Token> {
         match self.eat(kind) {
             Some(t) => Ok(t),
-            None => Err(self.expected(&format!("'{}'", kind.as_str()), context)),
+            None => Err(Box::new(
+                self.expected(&format!("'{}'", kind.as_str()), context),
+            )),
         }
     }
 
@@ -147,9 +149,10 @@ impl<'a> Parser<'a> {
     fn expect_close(&mut self, kind: TokenKind, open: Token, context: &str) -> PResult<Token> {
         match self.eat(kind) {
             Some(t) => Ok(t),
-            None => Err(self
-                .expected(&format!("'{}'", kind.as_str()), context)
-                .with_secondary(open.span, "opened here")),
+            None => Err(Box::new(
+                self.expected(&format!("'{}'", kind.as_str()), context)
+                    .with_secondary(open.span, "opened here"),
+            )),
         }
     }
 
@@ -162,19 +165,21 @@ impl<'a> Parser<'a> {
                     span: t.span,
                 })
             }
-            _ => Err(self.expected("a name", context)),
+            _ => Err(Box::new(self.expected("a name", context))),
         }
     }
 
     /// Enters one nesting level; fails past [`MAX_NESTING`].
     fn enter(&mut self) -> PResult<()> {
         if self.depth >= MAX_NESTING {
-            return Err(Diagnostic::error(
-                format!("nesting deeper than {MAX_NESTING} levels"),
-                self.here(),
-                "too deep here",
-            )
-            .with_note("split the expression or statement"));
+            return Err(Box::new(
+                Diagnostic::error(
+                    format!("nesting deeper than {MAX_NESTING} levels"),
+                    self.here(),
+                    "too deep here",
+                )
+                .with_note("split the expression or statement"),
+            ));
         }
         self.depth += 1;
         Ok(())
@@ -241,11 +246,11 @@ impl<'a> Parser<'a> {
                 Some(TokenKind::Keyword(k @ (Keyword::Uniform | Keyword::Varying))) => {
                     let t = self.bump();
                     if rate.is_some() {
-                        return Err(Diagnostic::error(
+                        return Err(Box::new(Diagnostic::error(
                             "more than one of 'uniform' and 'varying'",
                             t.span,
                             "a second rate",
-                        ));
+                        )));
                     }
                     let r = if k == Keyword::Uniform {
                         Rate::Uniform
@@ -259,11 +264,11 @@ impl<'a> Parser<'a> {
             };
             let t = t.map_or(self.end, |t| t.span);
             if slot.is_some() {
-                return Err(Diagnostic::error(
+                return Err(Box::new(Diagnostic::error(
                     format!("'{}' written twice", self.sm.text(t)),
                     t,
                     "repeated",
-                ));
+                )));
             }
             *slot = Some(t);
             self.pos += 1;
@@ -274,15 +279,15 @@ impl<'a> Parser<'a> {
                 b
             }
             None if self.is_type_start(0) => BaseType::Struct(self.ident(context)?),
-            None => return Err(self.expected("a type", context)),
+            None => return Err(Box::new(self.expected("a type", context))),
         };
         let base_span = self.prev_span();
         if closure.is_some() && base != BaseType::Color {
-            return Err(Diagnostic::error(
+            return Err(Box::new(Diagnostic::error(
                 "'closure' must be followed by 'color'",
                 base_span,
                 "not 'color'",
-            ));
+            )));
         }
         Ok(Type {
             output,
@@ -371,9 +376,10 @@ impl<'a> Parser<'a> {
                 return Ok(params);
             }
             if self.peek().is_none() {
-                return Err(self
-                    .expected("')'", "to end the parameter list")
-                    .with_secondary(open.span, "opened here"));
+                return Err(Box::new(
+                    self.expected("')'", "to end the parameter list")
+                        .with_secondary(open.span, "opened here"),
+                ));
             }
             let ty = self.ty("for the parameter")?;
             loop {
@@ -406,9 +412,10 @@ impl<'a> Parser<'a> {
                 if self.eat(TokenKind::Semi).is_some() || self.at(TokenKind::RParen) {
                     break;
                 }
-                return Err(self
-                    .expected("',', ';' or ')'", "after the parameter")
-                    .with_secondary(open.span, "parameter list opened here"));
+                return Err(Box::new(
+                    self.expected("',', ';' or ')'", "after the parameter")
+                        .with_secondary(open.span, "parameter list opened here"),
+                ));
             }
         }
     }
@@ -453,7 +460,7 @@ impl<'a> Parser<'a> {
                     "a shader ('shader', 'surface', 'displacement', 'volume'), a function or a struct"
                 }
             };
-            return Err(self.expected(what, "at file scope"));
+            return Err(Box::new(self.expected(what, "at file scope")));
         }
         let ret = self.ty("as the function's return type")?;
         let name = self.ident("for the function")?;
@@ -479,11 +486,11 @@ impl<'a> Parser<'a> {
         while !self.at(TokenKind::RBrace) && self.peek().is_some() {
             let d = self.decl("for the struct field")?;
             if let Some(v) = d.vars.iter().find(|v| v.init.is_some()) {
-                return Err(Diagnostic::error(
+                return Err(Box::new(Diagnostic::error(
                     "struct fields cannot have initialisers",
                     v.span,
                     "initialised here",
-                ));
+                )));
             }
             fields.push(d);
         }

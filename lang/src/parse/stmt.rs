@@ -15,9 +15,10 @@ impl Parser<'_> {
         let mut stmts = Vec::new();
         while !self.at(TokenKind::RBrace) {
             if self.peek().is_none() {
-                return Err(self
-                    .expected("'}'", "to end the block")
-                    .with_secondary(open.span, "block opened here"));
+                return Err(Box::new(
+                    self.expected("'}'", "to end the block")
+                        .with_secondary(open.span, "block opened here"),
+                ));
             }
             stmts.push(self.stmt()?);
         }
@@ -45,12 +46,14 @@ impl Parser<'_> {
         loop {
             let name = self.ident("in the declaration")?;
             if self.at(TokenKind::LParen) {
-                return Err(Diagnostic::error(
-                    "function definitions inside a body are not supported yet",
-                    name.span,
-                    "a function defined here",
-                )
-                .with_note("define the function at file scope"));
+                return Err(Box::new(
+                    Diagnostic::error(
+                        "function definitions inside a body are not supported yet",
+                        name.span,
+                        "a function defined here",
+                    )
+                    .with_note("define the function at file scope"),
+                ));
             }
             let array = self.array_len()?;
             let init = match self.eat(TokenKind::Eq) {
@@ -164,7 +167,11 @@ impl Parser<'_> {
                 StmtKind::Return(value)
             }
             Keyword::Illuminance | Keyword::Illuminate | Keyword::Solar => self.light_stmt(k)?,
-            Keyword::Else => return Err(self.expected("a statement", "('else' without 'if')")),
+            Keyword::Else => {
+                return Err(Box::new(
+                    self.expected("a statement", "('else' without 'if')"),
+                ));
+            }
             _ => return Ok(None),
         }))
     }
@@ -243,14 +250,14 @@ impl Parser<'_> {
         };
         if !ok {
             let n = args.len() + usize::from(category.is_some());
-            return Err(Diagnostic::error(
+            return Err(Box::new(Diagnostic::error(
                 format!(
                     "'{name}' takes {forms}; found {n} argument{}",
                     if n == 1 { "" } else { "s" }
                 ),
                 kw.span.to(close.span),
                 "wrong number of arguments",
-            ));
+            )));
         }
         let body = Box::new(self.stmt()?);
         Ok(match k {

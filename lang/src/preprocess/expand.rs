@@ -34,14 +34,16 @@ pub(super) struct Expander<'a> {
 }
 
 impl<'a> Expander<'a> {
-    fn emit(&mut self, out: &mut Vec<Token>, t: Token) -> Result<(), Diagnostic> {
+    fn emit(&mut self, out: &mut Vec<Token>, t: Token) -> Result<(), Box<Diagnostic>> {
         if *self.budget == 0 {
-            return Err(Diagnostic::error(
-                format!("the source expands to more than {MAX_TOKENS} tokens"),
-                t.span,
-                "the limit was reached here",
-            )
-            .with_note("a macro that expands to several copies of itself grows exponentially"));
+            return Err(Box::new(
+                Diagnostic::error(
+                    format!("the source expands to more than {MAX_TOKENS} tokens"),
+                    t.span,
+                    "the limit was reached here",
+                )
+                .with_note("a macro that expands to several copies of itself grows exponentially"),
+            ));
         }
         *self.budget -= 1;
         out.push(t);
@@ -55,7 +57,7 @@ impl<'a> Expander<'a> {
         disabled: &mut Vec<&'a str>,
         depth: usize,
         out: &mut Vec<Token>,
-    ) -> Result<(), Diagnostic> {
+    ) -> Result<(), Box<Diagnostic>> {
         let mut i = 0;
         while i < input.len() {
             let t = input[i];
@@ -88,11 +90,11 @@ impl<'a> Expander<'a> {
                 continue;
             }
             if depth >= MAX_MACRO_DEPTH {
-                return Err(Diagnostic::error(
+                return Err(Box::new(Diagnostic::error(
                     format!("macro expansion nested deeper than {MAX_MACRO_DEPTH} levels"),
                     t.span,
                     format!("expanding '{name}' here"),
-                ));
+                )));
             }
             let body = match &m.params {
                 None => self.substitute(m, t.span, &[], disabled, depth)?,
@@ -110,17 +112,19 @@ impl<'a> Expander<'a> {
                         args.len()
                     };
                     if given != params.len() {
-                        return Err(Diagnostic::error(
-                            format!(
-                                "macro '{name}' takes {} argument{}, but {given} {} given",
-                                params.len(),
-                                if params.len() == 1 { "" } else { "s" },
-                                if given == 1 { "was" } else { "were" }
-                            ),
-                            site,
-                            "in this invocation",
-                        )
-                        .with_secondary(m.name_span, "defined here"));
+                        return Err(Box::new(
+                            Diagnostic::error(
+                                format!(
+                                    "macro '{name}' takes {} argument{}, but {given} {} given",
+                                    params.len(),
+                                    if params.len() == 1 { "" } else { "s" },
+                                    if given == 1 { "was" } else { "were" }
+                                ),
+                                site,
+                                "in this invocation",
+                            )
+                            .with_secondary(m.name_span, "defined here"),
+                        ));
                     }
                     self.substitute(m, site, &args[..given], disabled, depth)?
                 }
@@ -142,7 +146,7 @@ impl<'a> Expander<'a> {
         args: &[&[Token]],
         disabled: &mut Vec<&'a str>,
         depth: usize,
-    ) -> Result<Vec<Token>, Diagnostic> {
+    ) -> Result<Vec<Token>, Box<Diagnostic>> {
         let mut expanded = Vec::with_capacity(args.len());
         for a in args {
             let mut e = Vec::new();
@@ -185,7 +189,7 @@ fn collect_args<'t>(
     open: usize,
     name_tok: Token,
     name: &str,
-) -> Result<(Vec<&'t [Token]>, usize), Diagnostic> {
+) -> Result<(Vec<&'t [Token]>, usize), Box<Diagnostic>> {
     let mut args = Vec::new();
     let mut level = 0usize;
     let mut start = open + 1;
@@ -204,9 +208,9 @@ fn collect_args<'t>(
             _ => {}
         }
     }
-    Err(Diagnostic::error(
+    Err(Box::new(Diagnostic::error(
         format!("unterminated invocation of macro '{name}'"),
         name_tok.span,
         "its argument list has no closing ')' before the end of the text",
-    ))
+    )))
 }

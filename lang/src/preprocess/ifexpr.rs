@@ -9,7 +9,7 @@ use crate::source::{SourceMap, Span};
 use std::collections::HashMap;
 
 /// Deepest nesting of parentheses and unary operators in a `#if` expression.
-pub const MAX_IF_DEPTH: usize = 256;
+pub const MAX_IF_DEPTH: usize = 64;
 
 /// Evaluates a macro-expanded `#if` line (`defined` forms left in place). `at` is the
 /// directive, for errors about an empty or truncated expression.
@@ -18,7 +18,7 @@ pub(super) fn eval<M>(
     sm: &SourceMap,
     macros: &HashMap<String, M>,
     at: Span,
-) -> Result<i64, Diagnostic> {
+) -> Result<i64, Box<Diagnostic>> {
     let mut p = IfParser {
         tokens,
         pos: 0,
@@ -28,14 +28,14 @@ pub(super) fn eval<M>(
     };
     let v = p.ternary(0)?;
     if let Some(t) = p.tokens.get(p.pos) {
-        return Err(Diagnostic::error(
+        return Err(Box::new(Diagnostic::error(
             format!(
                 "expected the end of the #if expression, found '{}'",
                 sm.text(t.text)
             ),
             t.span,
             "unexpected here",
-        ));
+        )));
     }
     Ok(v)
 }
@@ -48,19 +48,22 @@ struct IfParser<'a, M> {
     at: Span,
 }
 
-/// Binary operators by precedence, loosest first.
-const LEVELS: &[&[TokenKind]] = &[
-    &[TokenKind::OrOr],
-    &[TokenKind::AndAnd],
-    &[TokenKind::Pipe],
-    &[TokenKind::Caret],
-    &[TokenKind::Amp],
-    &[TokenKind::EqEq, TokenKind::NotEq],
-    &[TokenKind::Lt, TokenKind::Le, TokenKind::Gt, TokenKind::Ge],
-    &[TokenKind::Shl, TokenKind::Shr],
-    &[TokenKind::Plus, TokenKind::Minus],
-    &[TokenKind::Star, TokenKind::Slash, TokenKind::Percent],
-];
+/// The precedence of a binary operator (higher binds tighter), as in C.
+fn precedence(kind: TokenKind) -> Option<u8> {
+    Some(match kind {
+        TokenKind::OrOr => 1,
+        TokenKind::AndAnd => 2,
+        TokenKind::Pipe => 3,
+        TokenKind::Caret => 4,
+        TokenKind::Amp => 5,
+        TokenKind::EqEq | TokenKind::NotEq => 6,
+        TokenKind::Lt | TokenKind::Le | TokenKind::Gt | TokenKind::Ge => 7,
+        TokenKind::Shl | TokenKind::Shr => 8,
+        TokenKind::Plus | TokenKind::Minus => 9,
+        TokenKind::Star | TokenKind::Slash | TokenKind::Percent => 10,
+        _ => return None,
+    })
+}
 
 impl<M> IfParser<'_, M> {
     fn peek(&self) -> Option<Token> {
@@ -82,25 +85,25 @@ impl<M> IfParser<'_, M> {
         }
     }
 
-    fn expect(&mut self, kind: TokenKind, what: &str) -> Result<(), Diagnostic> {
+    fn expect(&mut self, kind: TokenKind, what: &str) -> Result<(), Box<Diagnostic>> {
         if self.peek().is_some_and(|t| t.kind == kind) {
             self.pos += 1;
             Ok(())
         } else {
-            Err(self.missing(what))
+            Err(Box::new(self.missing(what)))
         }
     }
 
-    fn ternary(&mut self, depth: usize) -> Result<i64, Diagnostic> {
+    fn ternary(&mut self, depth: usize) -> Result<i64, Box<Diagnostic>> {
         if depth > MAX_IF_DEPTH {
             let at = self.peek().map_or(self.at, |t| t.span);
-            return Err(Diagnostic::error(
+            return Err(Box::new(Diagnostic::error(
                 format!("#if expression nested deeper than {MAX_IF_DEPTH} levels"),
                 at,
                 "too deep here",
-            ));
+            )));
         }
-        let c = self.binary(0, depth)?;
+        let c = self.binary(1, depth)?;
         if self.peek().is_some_and(|t| t.kind == TokenKind::Question) {
             self.pos += 1;
             let a = self.ternary(depth + 1)?;
@@ -111,14 +114,16 @@ impl<M> IfParser<'_, M> {
         Ok(c)
     }
 
-    fn binary(&mut self, level: usize, depth: usize) -> Result<i64, Diagnostic> {
-        if level == LEVELS.len() {
-            return self.unary(depth);
-        }
-        let mut l = self.binary(level + 1, depth)?;
-        while let Some(t) = self.peek().filter(|t| LEVELS[level].contains(&t.kind)) {
+    /// Binary operators of precedence `min` and tighter (precedence climbing).
+    fn binary(&mut self, min: u8, depth: usize) -> Result<i64, Box<Diagnostic>> {
+        let mut l = self.unary(depth)?;
+        while let Some((t, prec)) = self
+            .peek()
+            .and_then(|t| precedence(t.kind).map(|p| (t, p)))
+            .filter(|(_, p)| *p >= min)
+        {
             self.pos += 1;
-            let r = self.binary(level + 1, depth)?;
+            let r = self.binary(prec + 1, depth)?;
             l = match t.kind {
                 TokenKind::OrOr => i64::from(l != 0 || r != 0),
                 TokenKind::AndAnd => i64::from(l != 0 && r != 0),
@@ -137,11 +142,11 @@ impl<M> IfParser<'_, M> {
                 TokenKind::Minus => l.wrapping_sub(r),
                 TokenKind::Star => l.wrapping_mul(r),
                 _ if r == 0 => {
-                    return Err(Diagnostic::error(
+                    return Err(Box::new(Diagnostic::error(
                         "division by zero in #if",
                         t.span,
                         "the right operand is 0",
-                    ));
+                    )));
                 }
                 TokenKind::Slash => l.wrapping_div(r),
                 _ => l.wrapping_rem(r),
@@ -150,9 +155,9 @@ impl<M> IfParser<'_, M> {
         Ok(l)
     }
 
-    fn unary(&mut self, depth: usize) -> Result<i64, Diagnostic> {
+    fn unary(&mut self, depth: usize) -> Result<i64, Box<Diagnostic>> {
         let Some(t) = self.peek() else {
-            return Err(self.missing("a value"));
+            return Err(Box::new(self.missing("a value")));
         };
         let nested = |s: &mut Self| s.unary_nested(depth);
         match t.kind {
@@ -186,11 +191,11 @@ impl<M> IfParser<'_, M> {
                     None => text.parse::<i64>().ok(),
                 };
                 v.ok_or_else(|| {
-                    Diagnostic::error(
+                    Box::new(Diagnostic::error(
                         format!("integer '{text}' does not fit in 64 bits"),
                         t.span,
                         "too large",
-                    )
+                    ))
                 })
             }
             TokenKind::Ident | TokenKind::Keyword(_) if self.sm.text(t.text) == "defined" => {
@@ -201,7 +206,7 @@ impl<M> IfParser<'_, M> {
                 }
                 let name = match self.peek() {
                     Some(n) if matches!(n.kind, TokenKind::Ident | TokenKind::Keyword(_)) => n,
-                    _ => return Err(self.missing("a macro name after 'defined'")),
+                    _ => return Err(Box::new(self.missing("a macro name after 'defined'"))),
                 };
                 self.pos += 1;
                 if paren {
@@ -213,25 +218,25 @@ impl<M> IfParser<'_, M> {
                 self.pos += 1;
                 Ok(0)
             }
-            TokenKind::Float | TokenKind::Str => Err(Diagnostic::error(
+            TokenKind::Float | TokenKind::Str => Err(Box::new(Diagnostic::error(
                 format!(
                     "#if expressions are integers, found '{}'",
                     self.sm.text(t.text)
                 ),
                 t.span,
                 "not an integer",
-            )),
-            _ => Err(self.missing("a value")),
+            ))),
+            _ => Err(Box::new(self.missing("a value"))),
         }
     }
 
-    fn unary_nested(&mut self, depth: usize) -> Result<i64, Diagnostic> {
+    fn unary_nested(&mut self, depth: usize) -> Result<i64, Box<Diagnostic>> {
         if depth > MAX_IF_DEPTH {
-            return Err(Diagnostic::error(
+            return Err(Box::new(Diagnostic::error(
                 format!("#if expression nested deeper than {MAX_IF_DEPTH} levels"),
                 self.peek().map_or(self.at, |t| t.span),
                 "too deep here",
-            ));
+            )));
         }
         self.unary(depth + 1)
     }

@@ -234,7 +234,7 @@ impl Pp<'_> {
         let r = ex.expand(run, &mut Vec::new(), 0, &mut self.out);
         run.clear();
         if let Err(e) = r {
-            self.error(e);
+            self.error(*e);
             self.stop = true;
         }
     }
@@ -387,7 +387,7 @@ impl Pp<'_> {
         match r {
             Ok(v) => Some(v != 0),
             Err(e) => {
-                self.error(e);
+                self.error(*e);
                 None
             }
         }
