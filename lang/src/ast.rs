@@ -292,10 +292,16 @@ pub enum StmtKind {
         /// The test.
         cond: Expr,
     },
-    /// `break;` (OSL's `break N` is not supported).
-    Break,
-    /// `continue;`.
-    Continue,
+    /// `break;`, or RSL's `break N;` leaving `N` nested loops (`levels`, 1 when not written).
+    Break {
+        /// How many enclosing loops it leaves (at least 1).
+        levels: u32,
+    },
+    /// `continue;`, or RSL's `continue N;` continuing the `N`th enclosing loop.
+    Continue {
+        /// Which enclosing loop continues (1: the innermost).
+        levels: u32,
+    },
     /// `return;` / `return expr;`.
     Return(Option<Expr>),
     /// RSL `illuminance([category,] P [, N, angle]) body`.

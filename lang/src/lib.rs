@@ -151,7 +151,14 @@ fn parse_loaded_here(
     let pre = preprocess::preprocess(sources, main, dialect, options)?;
     let len = sources.file(main).text.len();
     let end = Span::new(main, len, len);
-    let file = parse::parse(&pre.tokens, sources, dialect, end)?;
+    let file = parse::parse(&pre.tokens, sources, dialect, end).map_err(|mut d| {
+        if let Some(p) = &d.primary
+            && let Some(chain) = pre.include_chains.get(&p.span.file)
+        {
+            d.include_chain = chain.clone();
+        }
+        d
+    })?;
     Ok(Parsed {
         dialect,
         main,

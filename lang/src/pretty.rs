@@ -267,8 +267,10 @@ impl Display for Stmt {
             }
             StmtKind::While { cond, body } => write!(f, "while ({cond}) {body}"),
             StmtKind::DoWhile { body, cond } => write!(f, "do {body} while ({cond});"),
-            StmtKind::Break => f.write_str("break;"),
-            StmtKind::Continue => f.write_str("continue;"),
+            StmtKind::Break { levels: 1 } => f.write_str("break;"),
+            StmtKind::Break { levels } => write!(f, "break {levels};"),
+            StmtKind::Continue { levels: 1 } => f.write_str("continue;"),
+            StmtKind::Continue { levels } => write!(f, "continue {levels};"),
             StmtKind::Return(None) => f.write_str("return;"),
             StmtKind::Return(Some(e)) => write!(f, "return {e};"),
             StmtKind::Illuminance {

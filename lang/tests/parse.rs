@@ -232,6 +232,10 @@ fn statements() {
             "for ((i = 0), (j = 1);; (i++), (j--)) break;",
         ),
         ("for (;;) continue;", "for (;;) continue;"),
+        (
+            "while (a) while (b) { break 2; continue 2; }",
+            "while (a) while (b) { break 2; continue 2; }",
+        ),
         ("while (x > 0) x -= 1;", "while ((x > 0)) (x -= 1);"),
         ("return x * 2;", "return (x * 2);"),
         ("return;", "return;"),
@@ -488,6 +492,11 @@ fn errors_render_with_place_and_caret() {
     let e = error(RSL, "t.sl", "surface s(float a = 1 float b) { }");
     assert!(
         e.starts_with("error: expected ',', ';' or ')' after the parameter, found 'float'"),
+        "{e}"
+    );
+    let e = error(RSL, "t.sl", "surface s() { while (1) break 0; }");
+    assert!(
+        e.starts_with("error: 'break' takes a loop count of at least 1\n  --> t.sl:1:31"),
         "{e}"
     );
     let e = error(RSL, "t.sl", "surface s() { uniform varying float x; }");

@@ -216,6 +216,22 @@ fn include_cycle_and_missing_include_show_the_chain() {
         "{e}"
     );
     assert!(e.contains("= included from DIR/main.sl:1:1"), "{e}");
+    // So does a syntax error the parser finds in it.
+    let dir = tree(
+        "syntax",
+        &[
+            ("main.sl", "\n#include \"x.h\"\nsurface s() { }\n"),
+            ("x.h", "#include \"y.h\"\n"),
+            ("y.h", "float f() { return 1 }\n"),
+        ],
+    );
+    let e = run_file(&dir.join("main.sl"), &Options::new(Dialect::Rsl), &dir).unwrap_err();
+    assert_eq!(
+        e,
+        "error: expected ';' after the return value, found '}'\n  --> DIR/y.h:1:22\n  |\n\
+         1 | float f() { return 1 }\n  |                      ^ expected ';'\n  |\n  \
+         = included from DIR/x.h:1:1\n  = included from DIR/main.sl:2:1\n\n"
+    );
 }
 
 #[test]

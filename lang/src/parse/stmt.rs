@@ -149,11 +149,25 @@ impl Parser<'_> {
             Keyword::For => self.for_stmt()?,
             Keyword::Break | Keyword::Continue => {
                 let t = self.bump();
-                self.expect(TokenKind::Semi, &format!("after '{}'", self.text(t)))?;
+                let word = self.text(t);
+                let mut levels = 1;
+                if let Some(n) = self.eat(TokenKind::Int) {
+                    levels = match self.text(n).parse::<u32>() {
+                        Ok(v) if v >= 1 => v,
+                        _ => {
+                            return Err(Box::new(Diagnostic::error(
+                                format!("'{word}' takes a loop count of at least 1"),
+                                n.span,
+                                "not a loop count",
+                            )));
+                        }
+                    };
+                }
+                self.expect(TokenKind::Semi, &format!("after '{word}'"))?;
                 if k == Keyword::Break {
-                    StmtKind::Break
+                    StmtKind::Break { levels }
                 } else {
-                    StmtKind::Continue
+                    StmtKind::Continue { levels }
                 }
             }
             Keyword::Return => {

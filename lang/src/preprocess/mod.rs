@@ -49,6 +49,9 @@ pub struct Preprocessed {
     pub tokens: Vec<Token>,
     /// Warnings (ignored pragmas, `#warning`).
     pub warnings: Vec<Diagnostic>,
+    /// For each included file, the `#include` directives that first led to it, innermost
+    /// first (what [`Diagnostic::include_chain`] holds), for later phases' errors.
+    pub include_chains: HashMap<FileId, Vec<Span>>,
 }
 
 /// Reads `path` into the source map (or finds it there, by canonical path). Returns the id
@@ -106,6 +109,7 @@ pub fn preprocess(
         warnings: Vec::new(),
         chain: Vec::new(),
         once: HashSet::new(),
+        include_chains: HashMap::new(),
         budget: MAX_TOKENS,
         stop: false,
     };
@@ -129,6 +133,7 @@ pub fn preprocess(
         Ok(Preprocessed {
             tokens: pp.out,
             warnings: pp.warnings,
+            include_chains: pp.include_chains,
         })
     } else {
         Err(Diagnostics(pp.errors))
@@ -159,6 +164,7 @@ struct Pp<'a> {
     chain: Vec<(FileId, Span)>,
     /// Files with `#pragma once`.
     once: HashSet<FileId>,
+    include_chains: HashMap<FileId, Vec<Span>>,
     budget: usize,
     /// Set by an error after which going on would only add noise.
     stop: bool,
@@ -578,6 +584,8 @@ impl Pp<'_> {
             return;
         }
         self.chain.push((file, at));
+        let chain = self.chain.iter().rev().map(|(_, s)| *s).collect();
+        self.include_chains.entry(id).or_insert(chain);
         self.file(id);
         self.chain.pop();
     }
