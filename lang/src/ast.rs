@@ -352,7 +352,7 @@ pub enum UnaryOp {
 }
 
 /// Binary operators. Which token means which depends on the dialect (see
-/// [`crate::parse::precedence`]).
+/// [`crate::parse::expr::precedence`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BinaryOp {
     /// `*`.

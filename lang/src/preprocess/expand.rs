@@ -8,7 +8,6 @@
 //! defined), variadic macros, and a function-like macro whose name ends an expansion and
 //! whose arguments follow it in the text (it stays unexpanded).
 
-use super::Macro;
 use crate::diag::Diagnostic;
 use crate::lex::{Token, TokenKind};
 use crate::source::SourceMap;
@@ -22,6 +21,16 @@ pub const MAX_MACRO_DEPTH: usize = 64;
 /// intermediate macro expansion and argument substitution (2^20). Bounds the memory a
 /// macro that doubles its input at each level can take.
 pub const MAX_TOKENS: usize = 1 << 20;
+
+/// A defined macro.
+pub(crate) struct Macro {
+    /// The name in its `#define`.
+    pub name_span: crate::source::Span,
+    /// Parameter names of a function-like macro; `None` for an object-like one.
+    pub params: Option<Vec<String>>,
+    /// The replacement tokens.
+    pub body: Vec<Token>,
+}
 
 /// Expands macros in token lists.
 pub(super) struct Expander<'a> {

@@ -25,22 +25,12 @@ use crate::diag::{Diagnostic, Diagnostics};
 use crate::lex::{Token, TokenKind, lex};
 use crate::options::{Dialect, Options};
 use crate::source::{FileId, MAX_FILE_BYTES, SourceMap, Span};
-use expand::{Expander, MAX_TOKENS};
+use expand::{Expander, MAX_TOKENS, Macro};
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 /// Most `#include`s nested inside one another.
 pub const MAX_INCLUDE_DEPTH: usize = 64;
-
-/// A defined macro.
-pub(crate) struct Macro {
-    /// The name in its `#define`.
-    name_span: Span,
-    /// Parameter names of a function-like macro; `None` for an object-like one.
-    params: Option<Vec<String>>,
-    /// The replacement tokens.
-    body: Vec<Token>,
-}
 
 /// The preprocessor's result.
 #[derive(Debug)]
