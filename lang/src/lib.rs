@@ -46,7 +46,8 @@ pub struct Parsed {
 }
 
 /// Reads, preprocesses and parses the file at `path` into `sources`. The dialect is
-/// `options.dialect`, else the extension's (`.sl` RSL, `.osl` OSL).
+/// `options.dialect`, else the extension's (`.sl` RSL, `.osl` OSL). A file already in
+/// `sources` (by canonical path) is not read again: use a fresh map to see edits.
 pub fn parse_file(
     sources: &mut SourceMap,
     path: &Path,

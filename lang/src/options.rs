@@ -33,8 +33,9 @@ impl Dialect {
     }
 }
 
-/// Front-end options.
-#[derive(Clone, Debug, PartialEq)]
+/// Front-end options. The default has no dialect (taken from the file's extension), no
+/// include directories and no defines.
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Options {
     /// The dialect; `None` picks it from the file's extension ([`Dialect::from_path`]).
     pub dialect: Option<Dialect>,

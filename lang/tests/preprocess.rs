@@ -361,6 +361,33 @@ fn include_depth_limit() {
 }
 
 #[test]
+fn a_header_included_many_times_is_bounded() {
+    // 500 inclusions of a guarded header holding 10 013 tokens (10 000 skipped): the 419th
+    // passes 2^22 with the main file's 2 000.
+    let header = format!(
+        "#ifndef G\n#define G\n#endif\n#if 0\n{}\n#endif\n",
+        "a ".repeat(10_000)
+    );
+    let main = "#include \"h.h\"\n".repeat(500);
+    let dir = tree("many", &[("h.h", &header), ("main.sl", &main)]);
+    let e = run_file(&dir.join("main.sl"), &Options::new(Dialect::Rsl), &dir).unwrap_err();
+    assert!(
+        e.starts_with(
+            "error: the files read hold more than 4194304 tokens in all\n  --> DIR/h.h:1:1"
+        ),
+        "{e}"
+    );
+    assert!(e.contains("= included from DIR/main.sl:419:1"), "{e}");
+    // 400 inclusions are within the limit.
+    let main = "#include \"h.h\"\n".repeat(400) + "surface s() { }\n";
+    let dir = tree("many-ok", &[("h.h", &header), ("main.sl", &main)]);
+    assert_eq!(
+        run_file(&dir.join("main.sl"), &Options::new(Dialect::Rsl), &dir).unwrap(),
+        "surface s() { }\n"
+    );
+}
+
+#[test]
 fn if_depth_limit() {
     // Deep `#if` parentheses.
     let src = format!(

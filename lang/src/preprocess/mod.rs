@@ -14,9 +14,9 @@
 //! and `OSL_VERSION` (11300) for OSL; then the `-D` defines in order. They live in a
 //! synthetic file named `<predefined>` so their tokens have spans like any other.
 //!
-//! Limits: [`MAX_INCLUDE_DEPTH`] nested includes, [`expand::MAX_MACRO_DEPTH`] nested
-//! expansions, [`expand::MAX_TOKENS`] tokens in all, [`ifexpr::MAX_IF_DEPTH`] nesting in
-//! `#if` expressions.
+//! Limits: [`MAX_INCLUDE_DEPTH`] nested includes, [`MAX_SCANNED`] tokens read in all,
+//! [`expand::MAX_MACRO_DEPTH`] nested expansions, [`expand::MAX_TOKENS`] tokens produced in
+//! all, [`ifexpr::MAX_IF_DEPTH`] nesting in `#if` expressions.
 
 pub mod expand;
 pub mod ifexpr;
@@ -28,9 +28,14 @@ use crate::source::{FileId, MAX_FILE_BYTES, SourceMap, Span};
 use expand::{Expander, MAX_TOKENS, Macro};
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
+use std::rc::Rc;
 
 /// Most `#include`s nested inside one another.
 pub const MAX_INCLUDE_DEPTH: usize = 64;
+
+/// Most tokens read over all files, a file counted each time it is included, skipped lines
+/// included (2^22): bounds the work of a file included many times behind an include guard.
+pub const MAX_SCANNED: usize = 1 << 22;
 
 /// The preprocessor's result.
 #[derive(Debug)]
@@ -100,7 +105,9 @@ pub fn preprocess(
         chain: Vec::new(),
         once: HashSet::new(),
         include_chains: HashMap::new(),
+        lexed: HashMap::new(),
         budget: MAX_TOKENS,
+        scan_budget: MAX_SCANNED,
         stop: false,
     };
     let mut pre = String::from("#define __SHADENET__ 1\n");
@@ -155,7 +162,11 @@ struct Pp<'a> {
     /// Files with `#pragma once`.
     once: HashSet<FileId>,
     include_chains: HashMap<FileId, Vec<Span>>,
+    /// Each file's tokens, lexed once.
+    lexed: HashMap<FileId, Rc<Vec<Token>>>,
     budget: usize,
+    /// Tokens that may still be read ([`MAX_SCANNED`]).
+    scan_budget: usize,
     /// Set by an error after which going on would only add noise.
     stop: bool,
 }
@@ -173,15 +184,35 @@ impl Pp<'_> {
 
     /// Processes one file's tokens into `self.out`.
     fn file(&mut self, file: FileId) {
-        let lexed = lex(&self.sm.file(file).text, file, self.dialect);
-        if !lexed.errors.is_empty() {
-            for e in lexed.errors {
-                self.error(e);
+        let tokens = match self.lexed.get(&file) {
+            Some(t) => Rc::clone(t),
+            None => {
+                let lexed = lex(&self.sm.file(file).text, file, self.dialect);
+                if !lexed.errors.is_empty() {
+                    for e in lexed.errors {
+                        self.error(e);
+                    }
+                    self.stop = true;
+                    return;
+                }
+                let t = Rc::new(lexed.tokens);
+                self.lexed.insert(file, Rc::clone(&t));
+                t
             }
+        };
+        if tokens.len() > self.scan_budget {
+            self.error(
+                Diagnostic::error(
+                    format!("the files read hold more than {MAX_SCANNED} tokens in all"),
+                    Span::new(file, 0, 0),
+                    "the limit was reached reading this file",
+                )
+                .with_note("a file included many times is read each time"),
+            );
             self.stop = true;
             return;
         }
-        let tokens = lexed.tokens;
+        self.scan_budget -= tokens.len();
         let mut conds: Vec<Cond> = Vec::new();
         let mut run: Vec<Token> = Vec::new();
         let mut i = 0;
