@@ -1,6 +1,6 @@
 //! Fuzz targets, run for a bounded time in CI (docs/fuzzing.md says how to run them for
-//! hours): byte-level mutation of network JSON, scene TOML, MaterialX documents, OBJ meshes
-//! and image files, and
+//! hours): byte-level mutation of network JSON, scene TOML, MaterialX documents, shader
+//! source (`.sl`, `.osl`), OBJ meshes and image files, and
 //! value-level mutation of our example scenes and networks (a number replaced by ±1e308,
 //! 1e-45, 2³¹, 0…; a key deleted; an array element duplicated), each loaded and rendered or
 //! shaded as a tiny image on every CPU back end. Any panic, hang or over-allocation fails
@@ -23,7 +23,7 @@ use std::path::{Path, PathBuf};
 #[global_allocator]
 static ALLOC: fuzzing::CountingAlloc = fuzzing::CountingAlloc;
 
-/// The CI budget per target in seconds (seven targets: about two and a half minutes).
+/// The CI budget per target in seconds (eight targets: about two and two-thirds minutes).
 const CI_SECS: f64 = 20.0;
 
 /// Inputs larger than this are cut (seeds are a few kilobytes).
@@ -180,6 +180,21 @@ material = "m"
         root().join("examples/scenes/materials/matte.json")
     );
     render_scene_text(&scene, &dir);
+}
+
+/// Shader source through the shading-language front end (preprocess, parse) in both
+/// dialects; a diagnostic is rendered against the source map as the CLI prints it.
+fn exec_shader_source(bytes: &[u8]) {
+    let Ok(text) = std::str::from_utf8(bytes) else {
+        return;
+    };
+    for dialect in [shadenet_lang::Dialect::Rsl, shadenet_lang::Dialect::Osl] {
+        let mut sources = shadenet_lang::SourceMap::new();
+        let options = shadenet_lang::Options::new(dialect);
+        if let Err(d) = shadenet_lang::parse_str(&mut sources, "fuzz", text, &options) {
+            let _ = d.render(&sources);
+        }
+    }
 }
 
 /// Image bytes as a PNG texture and as an EXR.
@@ -438,6 +453,13 @@ fn targets() -> Vec<Target> {
             mutate: mutate_bytes,
             exec: exec_image,
             ext: "bin",
+        },
+        Target {
+            name: "shading_language",
+            seeds: files(&root().join("lang/tests/shaders"), &["sl", "osl"]),
+            mutate: mutate_bytes,
+            exec: exec_shader_source,
+            ext: "sl",
         },
         Target {
             name: "mtlx",
