@@ -39,10 +39,10 @@ enum Cmd {
     Compile(CompileArgs),
     /// Link a network and report every error, or `ok` with a summary.
     Check {
-        /// The network file (.json) or MaterialX document (.mtlx).
+        /// The network file (.json), MaterialX document (.mtlx) or shader source (.sl).
         network: PathBuf,
         #[command(flatten)]
-        mtlx: cli::MtlxArgs,
+        mtlx: cli::SourceArgs,
     },
     /// Print every MaterialX stdlib nodedef with its status (native, via nodegraph, or
     /// unsupported with the reason) and the total.

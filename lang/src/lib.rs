@@ -1,7 +1,7 @@
 //! shadenet-lang: the front end shared by the RenderMan Shading Language (`.sl`) and Open
-//! Shading Language (`.osl`): [`lex`] → [`preprocess`] → [`parse`] to a spanned [`ast`].
-//! The checker and the lowering to the IR come next (DESIGN §16); nothing here resolves
-//! names or types.
+//! Shading Language (`.osl`): [`lex`] → [`preprocess`] → [`parse`] to a spanned [`ast`] →
+//! [`lower`], which checks a shader and lowers it to the IR (DESIGN §16; RSL surface
+//! shaders today, the rest a clear error).
 //!
 //! ```
 //! use shadenet_lang::{Dialect, Options, SourceMap, parse_str};
@@ -20,6 +20,7 @@
 pub mod ast;
 pub mod diag;
 pub mod lex;
+pub mod lower;
 mod options;
 pub mod parse;
 pub mod preprocess;
@@ -111,7 +112,7 @@ pub const STACK_BYTES: usize = 16 << 20;
 
 /// Runs `f` on a scoped thread with a [`STACK_BYTES`] stack (or on this thread if one cannot
 /// be started).
-fn on_big_stack<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+pub(crate) fn on_big_stack<R: Send>(f: impl FnOnce() -> R + Send) -> R {
     let mut slot = Some(f);
     let ran = std::thread::scope(|s| {
         let spawned = std::thread::Builder::new()

@@ -1,11 +1,11 @@
 //! `shadenet check`: link a network and report every error, or `ok` with a summary.
 
-use super::{MtlxArgs, load, print_out};
+use super::{SourceArgs, load, print_out};
 use anyhow::Result;
 use std::path::Path;
 
 /// Runs `shadenet check`.
-pub(crate) fn run(path: &Path, mtlx: &MtlxArgs) -> Result<()> {
+pub(crate) fn run(path: &Path, mtlx: &SourceArgs) -> Result<()> {
     let c = load(path, mtlx)?;
     say!(
         "ok: {} ops, outputs: {}, components: [{}], lights: {}",

@@ -11,7 +11,7 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub(crate) struct CompileArgs {
-    /// The network file (.json) or MaterialX document (.mtlx).
+    /// The network file (.json), MaterialX document (.mtlx) or shader source (.sl).
     network: PathBuf,
     /// What to print: `ir` (the optimized program), `ir:after=PASS` (the program after every
     /// run of PASS: specialize, fold, dead_branch, cse, dce, hoist), `ir:before` (the
@@ -30,7 +30,7 @@ pub(crate) struct CompileArgs {
     #[command(flatten)]
     opt: OptArgs,
     #[command(flatten)]
-    mtlx: super::MtlxArgs,
+    mtlx: super::SourceArgs,
 }
 
 /// Runs `shadenet compile`.
@@ -94,7 +94,7 @@ pub(crate) fn run(args: &CompileArgs) -> Result<()> {
 /// number it removed (nothing for documents without closures).
 fn lobe_stats(
     path: &std::path::Path,
-    mtlx: &super::MtlxArgs,
+    mtlx: &super::SourceArgs,
     spec: &opt::Specialization,
 ) -> Result<()> {
     let lobes = shadenet::mtlx::mtlx_lobes(path, &mtlx.options(), spec)?;

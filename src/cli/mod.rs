@@ -239,9 +239,17 @@ pub(crate) fn print_out(text: &str) {
     let _ = std::io::stdout().lock().write_all(text.as_bytes());
 }
 
-/// The MaterialX options of `check`, `compile` and `shade` (used for `.mtlx` files).
+/// The source options of `check`, `compile` and `shade`: MaterialX (`.mtlx` files) and the
+/// shader preprocessor (`.sl`, `.osl`).
 #[derive(clap::Args, Clone, Default)]
-pub(crate) struct MtlxArgs {
+pub(crate) struct SourceArgs {
+    /// A folder `#include` searches in shader sources (.sl, .osl), after the including
+    /// file's own; repeatable.
+    #[arg(short = 'I', value_name = "DIR")]
+    pub(crate) include: Vec<std::path::PathBuf>,
+    /// A preprocessor macro for shader sources: NAME or NAME=VALUE; repeatable.
+    #[arg(short = 'D', value_name = "NAME[=VALUE]")]
+    pub(crate) define: Vec<String>,
     /// The MaterialX `libraries` folder (default: SHADENET_MTLX_LIBRARIES, then each
     /// MATERIALX_SEARCH_PATH entry's `libraries/`).
     #[arg(long, value_name = "DIR")]
@@ -255,7 +263,7 @@ pub(crate) struct MtlxArgs {
     pub(crate) mtlx_output: Option<String>,
 }
 
-impl MtlxArgs {
+impl SourceArgs {
     fn options(&self) -> shadenet::MtlxOptions {
         shadenet::MtlxOptions {
             libraries: self.mtlx_libraries.clone(),
@@ -269,8 +277,19 @@ impl MtlxArgs {
 
 /// Reads, links and lowers a network file (`.json`, or `.mtlx` with `mtlx`'s options) and
 /// validates its IR.
-pub(crate) fn load(path: &Path, mtlx: &MtlxArgs) -> Result<shadenet::Compiled> {
+pub(crate) fn load(path: &Path, mtlx: &SourceArgs) -> Result<shadenet::Compiled> {
     let is_mtlx = path.extension().is_some_and(|e| e == "mtlx");
+    let is_shader = path.extension().is_some_and(|e| e == "sl" || e == "osl");
+    let preprocessor = !(mtlx.include.is_empty() && mtlx.define.is_empty());
+    if preprocessor && !is_shader {
+        bail!("-I and -D apply to shader sources (.sl, .osl) only");
+    }
+    if is_shader {
+        let compiled = shadenet::shader::load(path, &mtlx.include, &mtlx.define)?;
+        shadenet::graph::ir::validate(&compiled.program)
+            .with_context(|| format!("{}: internal error: invalid IR", path.display()))?;
+        return Ok(compiled);
+    }
     if !is_mtlx && (mtlx.material.is_some() || mtlx.mtlx_output.is_some()) {
         bail!("--material and --mtlx-output apply to .mtlx documents only");
     }

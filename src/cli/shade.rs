@@ -34,7 +34,7 @@ pub(crate) enum Precision {
 /// `shadenet shade`'s arguments.
 #[derive(clap::Args)]
 pub(crate) struct ShadeArgs {
-    /// The network file (.json) or MaterialX document (.mtlx).
+    /// The network file (.json), MaterialX document (.mtlx) or shader source (.sl).
     network: PathBuf,
     /// Output image: .png (sRGB preview) or .exr (every output and component as f32 layers).
     #[arg(short, long)]
@@ -51,7 +51,7 @@ pub(crate) struct ShadeArgs {
     #[command(flatten)]
     opt: OptArgs,
     #[command(flatten)]
-    mtlx: super::MtlxArgs,
+    mtlx: super::SourceArgs,
     /// Add a light: point:X,Y,Z:INTENSITY[:R,G,B], distant:DX,DY,DZ:INTENSITY[:R,G,B],
     /// spot:X,Y,Z:DX,DY,DZ:INTENSITY:CONE_DEG[:R,G,B], ambient:INTENSITY[:R,G,B].
     #[arg(long)]

@@ -1,0 +1,552 @@
+//! Calls: user functions (overloads chosen by argument types, then inlined) and RSL's
+//! builtins, each lowered to IR ops by the RenderMan Interface's definition: `diffuse`,
+//! `specular` and `phong` are light loops over the scene's lights (with RSL's
+//! normalisation: `diffuse` has no 1/π), `ambient` is the ambient light, `trace` traces a
+//! reflection ray, `noise` is OSL's Perlin noise mapped to [0, 1].
+
+use super::{Lower, Ty, Val};
+use crate::ast::{self, Expr};
+use crate::source::Span;
+use shadenet_graph::Type;
+use shadenet_graph::ir::{BinOp, Builder, Intrinsic, RAY_REFLECTION, Stream, UnOp, Value};
+
+/// The builtins' names (for "did you mean").
+pub(crate) const NAMES: &[&str] = &[
+    "abs",
+    "floor",
+    "ceil",
+    "sqrt",
+    "exp",
+    "log",
+    "sin",
+    "cos",
+    "tan",
+    "asin",
+    "acos",
+    "atan",
+    "pow",
+    "min",
+    "max",
+    "mod",
+    "clamp",
+    "mix",
+    "step",
+    "smoothstep",
+    "radians",
+    "degrees",
+    "length",
+    "normalize",
+    "distance",
+    "faceforward",
+    "reflect",
+    "refract",
+    "xcomp",
+    "ycomp",
+    "zcomp",
+    "comp",
+    "ambient",
+    "diffuse",
+    "specular",
+    "phong",
+    "trace",
+    "noise",
+    "texture",
+];
+
+/// The signatures, for errors: `name(args) -> result`.
+fn signature(name: &str) -> &'static str {
+    match name {
+        "abs" | "floor" | "ceil" | "sqrt" | "exp" | "log" | "sin" | "cos" | "tan" | "asin"
+        | "acos" => "(float or triple) -> same",
+        "atan" => "(float y[, float x]) -> float",
+        "pow" | "min" | "max" | "mod" => "(a, b) of one type (a float widens) -> that type",
+        "clamp" => "(x, lo, hi) -> x's type",
+        "mix" => "(a, b, float t) -> a's type",
+        "step" => "(float edge, float x) -> float",
+        "smoothstep" => "(float e0, float e1, float x) -> float",
+        "radians" | "degrees" => "(float) -> float",
+        "length" => "(vector) -> float",
+        "normalize" => "(vector) -> vector",
+        "distance" => "(point, point) -> float",
+        "faceforward" => "(normal N, vector I[, normal Nref]) -> normal",
+        "reflect" => "(vector I, normal N) -> vector",
+        "refract" => "(vector I, normal N, float eta) -> vector",
+        "xcomp" | "ycomp" | "zcomp" => "(point) -> float",
+        "comp" => "(triple, constant 0, 1 or 2) -> float",
+        "ambient" => "() -> color",
+        "diffuse" => "(normal N) -> color",
+        "specular" => "(normal N, vector V, float roughness) -> color",
+        "phong" => "(normal N, vector V, float size) -> color",
+        "trace" => "(point P, vector R) -> color",
+        "noise" => "(float or point) -> float",
+        "texture" => "(string file[, float s, float t]) -> color",
+        _ => "",
+    }
+}
+
+impl<'a> Lower<'a> {
+    /// A call: a user function if one has the name, else a builtin.
+    pub(crate) fn call(
+        &mut self,
+        b: &mut Builder,
+        callee: &'a ast::Ident,
+        args: &'a [Expr],
+        span: Span,
+    ) -> Val {
+        let vals: Vec<(Val, Span)> = args.iter().map(|a| (self.expr(b, a), a.span)).collect();
+        if let Some(defs) = self.functions.get(callee.name.as_str()).cloned() {
+            let fits = |f: &&&ast::FunctionDef| {
+                f.params.len() == vals.len()
+                    && f.params
+                        .iter()
+                        .zip(&vals)
+                        .all(|(p, (v, _))| accepts(&p.ty.base, v))
+            };
+            return match defs.iter().find(fits) {
+                Some(f) => self.inline(b, f, vals.into_iter().map(|v| v.0).collect(), span),
+                None => {
+                    let got: Vec<&str> = vals.iter().map(|(v, _)| type_name(v)).collect();
+                    let cands: Vec<String> = defs
+                        .iter()
+                        .map(|f| {
+                            let ps: Vec<String> = f
+                                .params
+                                .iter()
+                                .map(|p| format!("{:?}", p.ty.base).to_lowercase())
+                                .collect();
+                            format!("{}({})", f.name.name, ps.join(", "))
+                        })
+                        .collect();
+                    self.error(
+                        format!(
+                            "no `{}` takes ({}); candidates: {}",
+                            callee.name,
+                            got.join(", "),
+                            cands.join("; ")
+                        ),
+                        span,
+                        "no matching overload",
+                    );
+                    Self::poison(b, Ty::Float)
+                }
+            };
+        }
+        match self.builtin(b, &callee.name, &vals, span) {
+            Some(v) => v,
+            None => {
+                if !NAMES.contains(&callee.name.as_str()) {
+                    let names = self.visible_names();
+                    let hint = super::closest(&callee.name, &names)
+                        .map(|c| format!(" (did you mean `{c}`?)"))
+                        .unwrap_or_default();
+                    self.error(
+                        format!("unknown function `{}`{hint}", callee.name),
+                        callee.span,
+                        "not defined",
+                    );
+                } else {
+                    let got: Vec<&str> = vals.iter().map(|(v, _)| type_name(v)).collect();
+                    self.error(
+                        format!(
+                            "`{}` does not take ({}): it takes {}",
+                            callee.name,
+                            got.join(", "),
+                            signature(&callee.name)
+                        ),
+                        span,
+                        "wrong arguments",
+                    );
+                }
+                Self::poison(b, Ty::Float)
+            }
+        }
+    }
+
+    /// A builtin call, or `None` when the name or the arguments do not fit one.
+    fn builtin(
+        &mut self,
+        b: &mut Builder,
+        name: &str,
+        args: &[(Val, Span)],
+        span: Span,
+    ) -> Option<Val> {
+        if name == "texture" {
+            return self.texture(b, args);
+        }
+        let vs: Vec<(Value, Ty, bool)> = args
+            .iter()
+            .map(|(v, _)| match v {
+                Val::V { v, ty, varying } => Some((*v, *ty, *varying)),
+                Val::Str(_) => None,
+            })
+            .collect::<Option<_>>()?;
+        let varying = vs.iter().any(|v| v.2);
+        let out = |v: Value, ty: Ty| Some(Val::V { v, ty, varying });
+        let float = |t: Ty| t == Ty::Float;
+        match (name, vs.as_slice()) {
+            (
+                "abs" | "floor" | "ceil" | "sqrt" | "exp" | "log" | "sin" | "cos" | "tan" | "asin"
+                | "acos",
+                [(x, t, _)],
+            ) if *t != Ty::Bool => {
+                let op = match name {
+                    "abs" => UnOp::Abs,
+                    "floor" => UnOp::Floor,
+                    "ceil" => UnOp::Ceil,
+                    "sqrt" => UnOp::Sqrt,
+                    "exp" => UnOp::Exp,
+                    "log" => UnOp::Log,
+                    "sin" => UnOp::Sin,
+                    "cos" => UnOp::Cos,
+                    "tan" => UnOp::Tan,
+                    "asin" => UnOp::Asin,
+                    _ => UnOp::Acos,
+                };
+                out(b.unary(op, *x), *t)
+            }
+            ("atan", [(y, t, _)]) if float(*t) => {
+                let one = b.float(1.0);
+                out(b.binary(BinOp::Atan2, *y, one), Ty::Float)
+            }
+            ("atan", [(y, ty, _), (x, tx, _)]) if float(*ty) && float(*tx) => {
+                out(b.binary(BinOp::Atan2, *y, *x), Ty::Float)
+            }
+            ("pow" | "min" | "max" | "mod", [(x, tx, _), (y, ty, _)]) => {
+                let (x, y, t) = same(b, (*x, *tx), (*y, *ty))?;
+                let op = match name {
+                    "pow" => BinOp::Pow,
+                    "min" => BinOp::Min,
+                    "max" => BinOp::Max,
+                    _ => BinOp::Mod,
+                };
+                out(b.binary(op, x, y), t)
+            }
+            ("clamp", [(x, tx, _), (lo, tl, _), (hi, th, _)]) => {
+                let (x, lo, t) = same(b, (*x, *tx), (*lo, *tl))?;
+                let (x, hi, t) = same(b, (x, t), (*hi, *th))?;
+                let lo = b.splat_to(t.ir(), lo);
+                out(b.clamp(x, lo, hi), t)
+            }
+            ("mix", [(x, tx, _), (y, ty, _), (t, tt, _)]) if float(*tt) => {
+                let (x, y, ty) = same(b, (*x, *tx), (*y, *ty))?;
+                out(b.mix(x, y, *t), ty)
+            }
+            ("step", [(e, te, _), (x, tx, _)]) if float(*te) && float(*tx) => {
+                let below = b.binary(BinOp::Lt, *x, *e);
+                let (zero, one) = (b.float(0.0), b.float(1.0));
+                out(b.select(below, zero, one), Ty::Float)
+            }
+            ("smoothstep", [(e0, t0, _), (e1, t1, _), (x, tx, _)])
+                if float(*t0) && float(*t1) && float(*tx) =>
+            {
+                out(smoothstep(b, *e0, *e1, *x), Ty::Float)
+            }
+            ("radians" | "degrees", [(x, t, _)]) if float(*t) => {
+                let k = if name == "radians" {
+                    std::f64::consts::PI / 180.0
+                } else {
+                    180.0 / std::f64::consts::PI
+                };
+                let k = b.float(k);
+                out(b.mul(*x, k), Ty::Float)
+            }
+            ("length", [(x, t, _)]) if t.is_geometric() => {
+                out(b.unary(UnOp::Length, *x), Ty::Float)
+            }
+            ("normalize", [(x, t, _)]) if t.is_geometric() => out(
+                b.normalize(*x),
+                if *t == Ty::Normal {
+                    Ty::Normal
+                } else {
+                    Ty::Vector
+                },
+            ),
+            ("distance", [(x, tx, _), (y, ty, _)]) if tx.is_geometric() && ty.is_geometric() => {
+                out(b.binary(BinOp::Distance, *x, *y), Ty::Float)
+            }
+            ("faceforward", [(n, tn, _), (i, ti, _)]) if tn.is_geometric() && ti.is_geometric() => {
+                let ng = b.stream(Stream::Ng);
+                out(faceforward(b, *n, *i, ng), Ty::Normal)
+            }
+            ("faceforward", [(n, tn, _), (i, ti, _), (r, tr, _)])
+                if tn.is_geometric() && ti.is_geometric() && tr.is_geometric() =>
+            {
+                out(faceforward(b, *n, *i, *r), Ty::Normal)
+            }
+            ("reflect", [(i, ti, _), (n, tn, _)]) if ti.is_geometric() && tn.is_geometric() => {
+                out(reflect(b, *i, *n), Ty::Vector)
+            }
+            ("refract", [(i, ti, _), (n, tn, _), (eta, te, _)])
+                if ti.is_geometric() && tn.is_geometric() && float(*te) =>
+            {
+                out(refract(b, *i, *n, *eta), Ty::Vector)
+            }
+            ("xcomp" | "ycomp" | "zcomp", [(p, t, _)]) if t.is_geometric() => {
+                let k = match name {
+                    "xcomp" => 0,
+                    "ycomp" => 1,
+                    _ => 2,
+                };
+                out(b.extract(*p, k), Ty::Float)
+            }
+            ("comp", [(p, t, _), _]) if t.is_triple() => {
+                let k = match &args[1].0 {
+                    Val::V { v, .. } => b.program().exprs[v.index()].op.clone(),
+                    _ => return None,
+                };
+                match k {
+                    shadenet_graph::ir::Op::Const(shadenet_graph::ConstValue::Float(k))
+                        if [0.0, 1.0, 2.0].contains(&k) =>
+                    {
+                        out(b.extract(*p, k as usize), Ty::Float)
+                    }
+                    _ => {
+                        self.error(
+                            "comp's index must be a constant 0, 1 or 2",
+                            args[1].1,
+                            "here",
+                        );
+                        Some(Self::poison(b, Ty::Float))
+                    }
+                }
+            }
+            ("ambient", []) => Some(Val::V {
+                v: b.ambient(),
+                ty: Ty::Color,
+                varying: true,
+            }),
+            ("diffuse" | "specular" | "phong", _) if self.in_illuminance => {
+                self.error(
+                    format!("`{name}` is a light loop: not inside `illuminance`"),
+                    span,
+                    "nested light loop",
+                );
+                Some(Self::poison(b, Ty::Color))
+            }
+            ("diffuse", [(n, t, _)]) if t.is_geometric() => Some(self.lit(b, *n, |b, n, l| {
+                let d = b.dot(n, l);
+                let zero = b.float(0.0);
+                b.max(d, zero)
+            })),
+            ("specular", [(n, tn, _), (v, tv, _), (r, tr, _)])
+                if tn.is_geometric() && tv.is_geometric() && float(*tr) =>
+            {
+                let one = b.float(1.0);
+                let e = b.div(one, *r);
+                let v = b.normalize(*v);
+                Some(self.lit(b, *n, |b, n, l| {
+                    let lv = b.add(l, v);
+                    let h = b.normalize(lv);
+                    let d = b.dot(n, h);
+                    let zero = b.float(0.0);
+                    let d = b.max(d, zero);
+                    b.binary(BinOp::Pow, d, e)
+                }))
+            }
+            ("phong", [(n, tn, _), (v, tv, _), (s, ts, _)])
+                if tn.is_geometric() && tv.is_geometric() && float(*ts) =>
+            {
+                let v = b.normalize(*v);
+                let nv = b.unary(UnOp::Neg, v);
+                let nn = b.normalize(*n);
+                let r = reflect(b, nv, nn);
+                Some(self.lit(b, *n, |b, _, l| {
+                    let d = b.dot(r, l);
+                    let zero = b.float(0.0);
+                    let d = b.max(d, zero);
+                    b.binary(BinOp::Pow, d, *s)
+                }))
+            }
+            ("trace", [(_, tp, _), (r, tr, _)]) if tp.is_geometric() && tr.is_geometric() => {
+                Some(Val::V {
+                    v: b.trace(*r, RAY_REFLECTION),
+                    ty: Ty::Color,
+                    varying: true,
+                })
+            }
+            ("noise", [(x, t, _)]) if float(*t) || t.is_geometric() => {
+                let p = if float(*t) {
+                    let zero = b.float(0.0);
+                    b.construct(Type::Vec3, &[*x, zero, zero])
+                } else {
+                    *x
+                };
+                let n = b.call(Intrinsic::OslPerlin3, &[p]);
+                let half = b.float(0.5);
+                let h = b.mul(n, half);
+                out(b.add(h, half), Ty::Float)
+            }
+            _ => None,
+        }
+    }
+
+    /// `texture("file" [, s, t])`: a filtered lookup (the texture system's default filter,
+    /// footprint from the ray differentials) at `(s, t)`, the globals without them. RSL's
+    /// `t` runs down the image and our `v` up: the lookup reads `(s, 1 − t)`. A relative
+    /// file name is relative to the shader's folder.
+    fn texture(&mut self, b: &mut Builder, args: &[(Val, Span)]) -> Option<Val> {
+        let (Val::Str(file), rest) = args.split_first().map(|(f, r)| (&f.0, r))? else {
+            return None;
+        };
+        let (s, t) = match rest {
+            [] => {
+                let uv = b.stream(Stream::Uv);
+                (b.extract(uv, 0), b.extract(uv, 1))
+            }
+            [
+                (
+                    Val::V {
+                        v: s,
+                        ty: Ty::Float,
+                        ..
+                    },
+                    _,
+                ),
+                (
+                    Val::V {
+                        v: t,
+                        ty: Ty::Float,
+                        ..
+                    },
+                    _,
+                ),
+            ] => (*s, *t),
+            _ => return None,
+        };
+        let one = b.float(1.0);
+        let v = b.sub(one, t);
+        let uv = b.construct(Type::Vec2, &[s, v]);
+        let index = b.texture_index(&shadenet_graph::ir::TextureFile::auto(file.clone()));
+        let c = b.texture(index, uv, shadenet_graph::ir::Sampling::default(), false);
+        Some(Val::V {
+            v: c,
+            ty: Ty::Color,
+            varying: true,
+        })
+    }
+
+    /// RSL's lit builtins: `Σ Cl · w(N̂, L)` over the lights within 90° of `N` (the sample
+    /// blocked: black), as `illuminance(P, N, PI/2) C += Cl * w`.
+    fn lit(
+        &mut self,
+        b: &mut Builder,
+        n: Value,
+        w: impl FnOnce(&mut Builder, Value, Value) -> Value,
+    ) -> Val {
+        let p = b.stream(Stream::P);
+        let n = b.normalize(n);
+        let sum = b.illuminance(p, |b, l, cl| {
+            let d = b.dot(n, l);
+            let zero = b.float(0.0);
+            let facing = b.binary(BinOp::Ge, d, zero);
+            let w = w(b, n, l);
+            let w = b.select(facing, w, zero);
+            let vis = b.light_visible();
+            let w = b.mul(w, vis);
+            let w = b.splat(Type::Color, w);
+            vec![b.mul(cl, w)]
+        });
+        Val::V {
+            v: sum[0],
+            ty: Ty::Color,
+            varying: true,
+        }
+    }
+}
+
+/// Whether a parameter of base type `p` takes the value `v` (RSL's widening).
+fn accepts(p: &ast::BaseType, v: &Val) -> bool {
+    let Val::V { ty, .. } = v else {
+        return matches!(p, ast::BaseType::String);
+    };
+    match p {
+        ast::BaseType::Float => *ty == Ty::Float,
+        ast::BaseType::Color => matches!(ty, Ty::Color | Ty::Float),
+        ast::BaseType::Point | ast::BaseType::Vector | ast::BaseType::Normal => {
+            ty.is_geometric() || *ty == Ty::Float
+        }
+        _ => false,
+    }
+}
+
+fn type_name(v: &Val) -> &'static str {
+    match v {
+        Val::V { ty, .. } => ty.name(),
+        Val::Str(_) => "string",
+    }
+}
+
+/// Two operands brought to one type: equal, a float widened, geometric types mixed.
+fn same(b: &mut Builder, (x, tx): (Value, Ty), (y, ty): (Value, Ty)) -> Option<(Value, Value, Ty)> {
+    match (tx, ty) {
+        _ if tx == Ty::Bool || ty == Ty::Bool => None,
+        _ if tx == ty => Some((x, y, tx)),
+        (Ty::Float, t) => Some((b.splat(t.ir(), x), y, t)),
+        (t, Ty::Float) => Some((x, b.splat(t.ir(), y), t)),
+        (a, c) if a.is_geometric() && c.is_geometric() => Some((x, y, a)),
+        _ => None,
+    }
+}
+
+/// `smoothstep(e0, e1, x)`: 0 below `e0`, 1 above `e1`, the cubic `3t² − 2t³` between.
+fn smoothstep(b: &mut Builder, e0: Value, e1: Value, x: Value) -> Value {
+    let d = b.sub(x, e0);
+    let w = b.sub(e1, e0);
+    let t = b.div(d, w);
+    let (zero, one) = (b.float(0.0), b.float(1.0));
+    let t = b.clamp(t, zero, one);
+    let (two, three) = (b.float(2.0), b.float(3.0));
+    let tt = b.mul(t, t);
+    let twice = b.mul(two, t);
+    let k = b.sub(three, twice);
+    let s = b.mul(tt, k);
+    // Exact ends where the edges coincide (a step at e0).
+    let below = b.binary(BinOp::Lt, x, e0);
+    let s = b.select(below, zero, s);
+    let above = b.binary(BinOp::Ge, x, e1);
+    b.select(above, one, s)
+}
+
+/// `faceforward(N, I, Nref)`: `N` where `−I·Nref ≥ 0` (N faces the viewer), else `−N`.
+fn faceforward(b: &mut Builder, n: Value, i: Value, nref: Value) -> Value {
+    let d = b.dot(i, nref);
+    let zero = b.float(0.0);
+    let away = b.binary(BinOp::Gt, d, zero);
+    let neg = b.unary(UnOp::Neg, n);
+    b.select(away, neg, n)
+}
+
+/// `reflect(I, N) = I − 2 (N·I) N`.
+fn reflect(b: &mut Builder, i: Value, n: Value) -> Value {
+    let d = b.dot(n, i);
+    let two = b.float(2.0);
+    let k = b.mul(two, d);
+    let k = b.splat(Type::Vec3, k);
+    let kn = b.mul(k, n);
+    b.sub(i, kn)
+}
+
+/// `refract(I, N, eta)` (unit `I`, `N`): `eta I − (eta (N·I) + √k) N` with `k = 1 − eta²
+/// (1 − (N·I)²)`; the zero vector under total internal reflection (`k < 0`).
+fn refract(b: &mut Builder, i: Value, n: Value, eta: Value) -> Value {
+    let d = b.dot(n, i);
+    let one = b.float(1.0);
+    let dd = b.mul(d, d);
+    let s = b.sub(one, dd);
+    let ee = b.mul(eta, eta);
+    let es = b.mul(ee, s);
+    let k = b.sub(one, es);
+    let zero = b.float(0.0);
+    let kc = b.max(k, zero);
+    let sk = b.unary(UnOp::Sqrt, kc);
+    let ed = b.mul(eta, d);
+    let m = b.add(ed, sk);
+    let ei = b.splat(Type::Vec3, eta);
+    let ei = b.mul(ei, i);
+    let mn = b.splat(Type::Vec3, m);
+    let mn = b.mul(mn, n);
+    let r = b.sub(ei, mn);
+    let tir = b.binary(BinOp::Lt, k, zero);
+    let z = b.zero(Type::Vec3);
+    b.select(tir, z, r)
+}

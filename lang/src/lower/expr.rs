@@ -1,0 +1,605 @@
+//! Expressions: typing rules (RSL's: a float widens to any triple; points, vectors and
+//! normals mix, a point minus a point is a vector; colors mix only with colors and
+//! floats), operators, constructors, assignments as expressions, calls.
+
+use super::{Lower, Ty, Val, closest};
+use crate::ast::{self, AssignOp, BinaryOp, Expr, ExprKind, UnaryOp};
+use crate::source::Span;
+use shadenet_graph::ir::{BinOp, Builder, Intrinsic, UnOp, Value};
+
+impl<'a> Lower<'a> {
+    /// Lowers `e` where a `ty` is expected: a triple `(a, b, c)` becomes one, a float
+    /// widens, a mismatch is an error naming both types.
+    pub(crate) fn expr_as(&mut self, b: &mut Builder, e: &'a Expr, ty: Ty) -> Val {
+        let v = match &e.kind {
+            ExprKind::Tuple(items) if ty.is_triple() => self.triple(b, items, ty, e.span),
+            _ => self.expr(b, e),
+        };
+        self.coerce(b, v, ty, e.span)
+    }
+
+    /// `v` as a `to`: the same type, a float widened to a triple, a geometric type as
+    /// another; else an error naming both types.
+    pub(crate) fn coerce(&mut self, b: &mut Builder, v: Val, to: Ty, span: Span) -> Val {
+        let Val::V { v, ty, varying } = v else {
+            self.error(
+                format!("expected a {}, found a string", to.name()),
+                span,
+                "a string",
+            );
+            return Self::poison(b, to);
+        };
+        if ty == to || (ty.is_geometric() && to.is_geometric()) {
+            return Val::V { v, ty: to, varying };
+        }
+        if ty == Ty::Float && to.is_triple() {
+            let v = b.splat(to.ir(), v);
+            return Val::V { v, ty: to, varying };
+        }
+        self.error(
+            format!("expected a {}, found a {}", to.name(), ty.name()),
+            span,
+            format!("this is a {}", ty.name()),
+        );
+        Self::poison(b, to)
+    }
+
+    /// A value that must be an IR value (not a string), or an error.
+    pub(crate) fn value(&mut self, b: &mut Builder, e: &'a Expr) -> (Value, Ty, bool) {
+        match self.expr(b, e) {
+            Val::V { v, ty, varying } => (v, ty, varying),
+            Val::Str(_) => {
+                self.error("a string cannot be used here", e.span, "a string");
+                (b.float(0.0), Ty::Float, false)
+            }
+        }
+    }
+
+    /// Lowers an expression.
+    pub(crate) fn expr(&mut self, b: &mut Builder, e: &'a Expr) -> Val {
+        match &e.kind {
+            ExprKind::Float(x) => self.number(b, *x, e.span),
+            ExprKind::Int(i) => self.number(b, *i as f64, e.span),
+            ExprKind::Str(s) => Val::Str(s.clone()),
+            ExprKind::Ident(id) => match self.lookup(&id.name) {
+                Some(v) => v.val.clone(),
+                None => {
+                    let names = self.visible_names();
+                    let hint = closest(&id.name, &names)
+                        .map(|c| format!(" (did you mean `{c}`?)"))
+                        .unwrap_or_default();
+                    self.error(
+                        format!("unknown name `{}`{hint}", id.name),
+                        id.span,
+                        "not defined",
+                    );
+                    Self::poison(b, Ty::Float)
+                }
+            },
+            ExprKind::Tuple(items) => self.triple(b, items, Ty::Point, e.span),
+            ExprKind::Unary { op, operand } => self.unary(b, *op, operand, e.span),
+            ExprKind::Binary { op, lhs, rhs } => self.binary(b, *op, lhs, rhs, e.span),
+            ExprKind::Ternary { cond, then, els } => self.ternary(b, cond, then, els),
+            ExprKind::Assign { op, target, value } => self.assign(b, *op, target, value, e.span),
+            ExprKind::IncDec {
+                increment,
+                prefix,
+                target,
+            } => self.incdec(b, *increment, *prefix, target, e.span),
+            ExprKind::Call { callee, args } => self.call(b, callee, args, e.span),
+            ExprKind::Construct {
+                ty,
+                ty_span,
+                space,
+                args,
+                ..
+            } => self.construct(b, ty, *ty_span, space.as_ref(), args, e.span),
+            ExprKind::Cast { ty, ty_span, expr } => {
+                let to = self.base_type(ty, *ty_span);
+                let v = self.expr(b, expr);
+                self.coerce(b, v, to, expr.span)
+            }
+            ExprKind::Index { base, index } => self.component(b, base, index),
+            ExprKind::Member { .. } | ExprKind::InitList(_) => {
+                self.error(
+                    "struct fields and initialiser lists are not built yet (arrays and structs: issues 21 and 22)",
+                    e.span,
+                    "not built yet",
+                );
+                Self::poison(b, Ty::Float)
+            }
+        }
+    }
+
+    fn number(&mut self, b: &mut Builder, x: f64, span: Span) -> Val {
+        if !(x.is_finite() && x.abs() <= f32::MAX as f64) {
+            self.error(
+                format!("{x} does not fit a 32-bit float"),
+                span,
+                "out of range",
+            );
+        }
+        Val::V {
+            v: b.float(x),
+            ty: Ty::Float,
+            varying: false,
+        }
+    }
+
+    /// `(a, b, c)` as a `ty`.
+    pub(crate) fn triple(&mut self, b: &mut Builder, items: &'a [Expr], ty: Ty, span: Span) -> Val {
+        if items.len() != 3 {
+            self.error(
+                format!("a triple has 3 components, this has {}", items.len()),
+                span,
+                "expected (a, b, c)",
+            );
+            return Self::poison(b, ty);
+        }
+        let mut comps = Vec::new();
+        let mut varying = false;
+        for i in items {
+            if let Val::V { v, varying: vy, .. } = self.expr_as(b, i, Ty::Float) {
+                comps.push(v);
+                varying |= vy;
+            }
+        }
+        if comps.len() != 3 {
+            return Self::poison(b, ty);
+        }
+        Val::V {
+            v: b.construct(ty.ir(), &comps),
+            ty,
+            varying,
+        }
+    }
+
+    /// The language type of a type name in a constructor or cast.
+    fn base_type(&mut self, t: &ast::BaseType, span: Span) -> Ty {
+        match t {
+            ast::BaseType::Float => Ty::Float,
+            ast::BaseType::Point => Ty::Point,
+            ast::BaseType::Vector => Ty::Vector,
+            ast::BaseType::Normal => Ty::Normal,
+            ast::BaseType::Color => Ty::Color,
+            _ => {
+                self.error(
+                    "only float, point, vector, normal and color values are built",
+                    span,
+                    "this type",
+                );
+                Ty::Float
+            }
+        }
+    }
+
+    fn unary(&mut self, b: &mut Builder, op: UnaryOp, operand: &'a Expr, span: Span) -> Val {
+        let (v, ty, varying) = self.value(b, operand);
+        let v = match (op, ty) {
+            (UnaryOp::Plus, _) if ty != Ty::Bool => v,
+            (UnaryOp::Neg, _) if ty != Ty::Bool => b.unary(UnOp::Neg, v),
+            (UnaryOp::Not, Ty::Bool) => b.unary(UnOp::Not, v),
+            _ => {
+                self.error(
+                    format!("this operator does not apply to a {}", ty.name()),
+                    span,
+                    format!("a {}", ty.name()),
+                );
+                return Self::poison(b, ty);
+            }
+        };
+        Val::V { v, ty, varying }
+    }
+
+    /// The two operands of an arithmetic operator brought to one type (a float widened to
+    /// the other's triple), and the result type: RSL's rules.
+    fn arith(
+        &mut self,
+        b: &mut Builder,
+        op: BinaryOp,
+        (a, ta): (Value, Ty),
+        (c, tc): (Value, Ty),
+        span: Span,
+    ) -> Option<(Value, Value, Ty)> {
+        let bad = |me: &mut Self| {
+            me.error(
+                format!(
+                    "`{}` does not combine a {} and a {}",
+                    op_text(op),
+                    ta.name(),
+                    tc.name()
+                ),
+                span,
+                format!("{} and {}", ta.name(), tc.name()),
+            );
+            None
+        };
+        if ta == Ty::Bool || tc == Ty::Bool {
+            return bad(self);
+        }
+        if ta == Ty::Float && tc != Ty::Float {
+            return Some((b.splat(tc.ir(), a), c, tc));
+        }
+        if tc == Ty::Float && ta != Ty::Float {
+            return Some((a, b.splat(ta.ir(), c), ta));
+        }
+        if ta == tc {
+            let ty = if ta == Ty::Point && op == BinaryOp::Sub {
+                Ty::Vector
+            } else {
+                ta
+            };
+            return Some((a, c, ty));
+        }
+        if ta.is_geometric() && tc.is_geometric() {
+            let ty = match (ta, tc, op) {
+                (Ty::Point, _, _) | (_, Ty::Point, BinaryOp::Add) => Ty::Point,
+                _ => Ty::Vector,
+            };
+            return Some((a, c, ty));
+        }
+        bad(self)
+    }
+
+    fn binary(
+        &mut self,
+        b: &mut Builder,
+        op: BinaryOp,
+        lhs: &'a Expr,
+        rhs: &'a Expr,
+        span: Span,
+    ) -> Val {
+        let (a, ta, va) = self.value(b, lhs);
+        let (c, tc, vc) = self.value(b, rhs);
+        let varying = va || vc;
+        let out = |v, ty| Val::V { v, ty, varying };
+        match op {
+            BinaryOp::Add | BinaryOp::Sub | BinaryOp::Mul | BinaryOp::Div | BinaryOp::Rem => {
+                let Some((a, c, ty)) = self.arith(b, op, (a, ta), (c, tc), span) else {
+                    return Self::poison(b, ta);
+                };
+                let ir = match op {
+                    BinaryOp::Add => BinOp::Add,
+                    BinaryOp::Sub => BinOp::Sub,
+                    BinaryOp::Mul => BinOp::Mul,
+                    BinaryOp::Div => BinOp::Div,
+                    _ => BinOp::Mod,
+                };
+                out(b.binary(ir, a, c), ty)
+            }
+            BinaryOp::Dot | BinaryOp::Cross => {
+                if !(ta.is_geometric() && tc.is_geometric()) {
+                    self.error(
+                        format!(
+                            "`{}` takes two points, vectors or normals, not a {} and a {}",
+                            op_text(op),
+                            ta.name(),
+                            tc.name()
+                        ),
+                        span,
+                        "here",
+                    );
+                    return Self::poison(b, Ty::Float);
+                }
+                if op == BinaryOp::Dot {
+                    out(b.dot(a, c), Ty::Float)
+                } else {
+                    out(b.binary(BinOp::Cross, a, c), Ty::Vector)
+                }
+            }
+            BinaryOp::Lt
+            | BinaryOp::Le
+            | BinaryOp::Gt
+            | BinaryOp::Ge
+            | BinaryOp::Eq
+            | BinaryOp::Ne => {
+                if ta != Ty::Float || tc != Ty::Float {
+                    self.error(
+                        format!(
+                            "comparisons are built for floats only, not a {} and a {}",
+                            ta.name(),
+                            tc.name()
+                        ),
+                        span,
+                        "here",
+                    );
+                    return Self::poison(b, Ty::Bool);
+                }
+                let ir = match op {
+                    BinaryOp::Lt => BinOp::Lt,
+                    BinaryOp::Le => BinOp::Le,
+                    BinaryOp::Gt => BinOp::Gt,
+                    BinaryOp::Ge => BinOp::Ge,
+                    BinaryOp::Eq => BinOp::Eq,
+                    _ => BinOp::Ne,
+                };
+                out(b.binary(ir, a, c), Ty::Bool)
+            }
+            BinaryOp::And | BinaryOp::Or => {
+                if ta != Ty::Bool || tc != Ty::Bool {
+                    self.error(
+                        format!(
+                            "`{}` joins conditions, not a {} and a {}",
+                            op_text(op),
+                            ta.name(),
+                            tc.name()
+                        ),
+                        span,
+                        "here",
+                    );
+                    return Self::poison(b, Ty::Bool);
+                }
+                let ir = if op == BinaryOp::And {
+                    BinOp::And
+                } else {
+                    BinOp::Or
+                };
+                out(b.binary(ir, a, c), Ty::Bool)
+            }
+            _ => {
+                self.error(
+                    "bitwise operators are OSL's integer operators (issue 22)",
+                    span,
+                    "not built yet",
+                );
+                Self::poison(b, Ty::Float)
+            }
+        }
+    }
+
+    fn ternary(&mut self, b: &mut Builder, cond: &'a Expr, then: &'a Expr, els: &'a Expr) -> Val {
+        let (c, tc, vc) = self.value(b, cond);
+        if tc != Ty::Bool {
+            self.error(
+                format!("a condition must be a comparison, not a {}", tc.name()),
+                cond.span,
+                "here",
+            );
+        }
+        let (t, tt, vt) = self.value(b, then);
+        let (e, te, ve) = self.value(b, els);
+        let (t, e, ty) = if tt == te {
+            (t, e, tt)
+        } else {
+            match self.arith(b, BinaryOp::Add, (t, tt), (e, te), then.span.to(els.span)) {
+                Some(x) => x,
+                None => return Self::poison(b, tt),
+            }
+        };
+        if tc != Ty::Bool {
+            return Self::poison(b, ty);
+        }
+        Val::V {
+            v: b.select(c, t, e),
+            ty,
+            varying: vc || vt || ve,
+        }
+    }
+
+    /// `x op= value`: the variable rebound to the new value, which is the expression's.
+    fn assign(
+        &mut self,
+        b: &mut Builder,
+        op: AssignOp,
+        target: &'a Expr,
+        value: &'a Expr,
+        span: Span,
+    ) -> Val {
+        let ExprKind::Ident(id) = &target.kind else {
+            self.error(
+                "only variables can be assigned (components through comp/setcomp are not built yet)",
+                target.span,
+                "not a variable",
+            );
+            return self.expr(b, value);
+        };
+        let Some(var) = self.lookup(&id.name).cloned() else {
+            let names = self.visible_names();
+            let hint = closest(&id.name, &names)
+                .map(|c| format!(" (did you mean `{c}`?)"))
+                .unwrap_or_default();
+            self.error(
+                format!("unknown name `{}`{hint}", id.name),
+                id.span,
+                "not defined",
+            );
+            return Self::poison(b, Ty::Float);
+        };
+        let Val::V { ty, .. } = var.val else {
+            self.error("strings cannot be assigned", id.span, "a string");
+            return Self::poison(b, Ty::Float);
+        };
+        let rhs = match op {
+            AssignOp::Set => self.expr_as(b, value, ty),
+            _ => {
+                let bin = match op {
+                    AssignOp::Add => BinaryOp::Add,
+                    AssignOp::Sub => BinaryOp::Sub,
+                    AssignOp::Mul => BinaryOp::Mul,
+                    AssignOp::Div => BinaryOp::Div,
+                    AssignOp::Rem => BinaryOp::Rem,
+                    _ => {
+                        self.error(
+                            "bitwise assignments are OSL's (issue 22)",
+                            span,
+                            "not built yet",
+                        );
+                        return Self::poison(b, ty);
+                    }
+                };
+                let v = self.binary(b, bin, target, value, span);
+                self.coerce(b, v, ty, span)
+            }
+        };
+        self.rebind(id, rhs.clone(), var.uniform, span);
+        rhs
+    }
+
+    /// Stores `val` in the variable `id` where it lives; a uniform variable may not take a
+    /// varying value.
+    pub(crate) fn rebind(&mut self, id: &ast::Ident, val: Val, uniform: bool, span: Span) {
+        if uniform && matches!(val, Val::V { varying: true, .. }) {
+            let decl = self.lookup(&id.name).and_then(|v| v.decl);
+            let mut d = crate::diag::Diagnostic::error(
+                format!("uniform variable `{}` is assigned a varying value", id.name),
+                span,
+                "varying value",
+            );
+            if let Some(at) = decl {
+                d = d.with_secondary(at, "declared uniform here");
+            }
+            if !self.stopped() {
+                self.diags.push(d);
+            }
+        }
+        for scope in self.scopes.iter_mut().rev() {
+            if let Some(v) = scope.get_mut(&id.name) {
+                v.val = val;
+                return;
+            }
+        }
+    }
+
+    fn incdec(
+        &mut self,
+        b: &mut Builder,
+        increment: bool,
+        prefix: bool,
+        target: &'a Expr,
+        span: Span,
+    ) -> Val {
+        let before = self.expr(b, target);
+        let ExprKind::Ident(id) = &target.kind else {
+            self.error(
+                "only variables can be incremented",
+                target.span,
+                "not a variable",
+            );
+            return before;
+        };
+        let Val::V {
+            v,
+            ty: Ty::Float,
+            varying,
+        } = before.clone()
+        else {
+            self.error("`++` and `--` apply to floats", span, "not a float");
+            return before;
+        };
+        let one = b.float(1.0);
+        let after = if increment {
+            b.add(v, one)
+        } else {
+            b.sub(v, one)
+        };
+        let after = Val::V {
+            v: after,
+            ty: Ty::Float,
+            varying,
+        };
+        let uniform = self.lookup(&id.name).is_some_and(|v| v.uniform);
+        self.rebind(id, after.clone(), uniform, span);
+        if prefix { after } else { before }
+    }
+
+    /// `p[i]` with a constant index: a component of a triple.
+    fn component(&mut self, b: &mut Builder, base: &'a Expr, index: &'a Expr) -> Val {
+        let (v, ty, varying) = self.value(b, base);
+        let k = match &index.kind {
+            ExprKind::Int(k) if (0..3).contains(k) && ty.is_triple() => *k as usize,
+            _ => {
+                self.error(
+                    "indexing is built for a constant component 0, 1 or 2 of a triple (arrays: issue 21)",
+                    index.span,
+                    "here",
+                );
+                return Self::poison(b, Ty::Float);
+            }
+        };
+        Val::V {
+            v: b.extract(v, k),
+            ty: Ty::Float,
+            varying,
+        }
+    }
+
+    fn construct(
+        &mut self,
+        b: &mut Builder,
+        ty: &ast::BaseType,
+        ty_span: Span,
+        space: Option<&(String, Span)>,
+        args: &'a [Expr],
+        span: Span,
+    ) -> Val {
+        let to = self.base_type(ty, ty_span);
+        let hsv = match space {
+            None => false,
+            Some((s, _)) if to == Ty::Color && s == "rgb" => false,
+            Some((s, _)) if to == Ty::Color && s == "hsv" => true,
+            Some((s, _)) if to.is_geometric() && (s == "current" || s == "world") => false,
+            Some((s, at)) => {
+                self.error(
+                    format!(
+                        "the space \"{s}\" is not built yet for a {} (built: \"rgb\" and \"hsv\" colors; \"current\" and \"world\" points, which are the same space here)",
+                        to.name()
+                    ),
+                    *at,
+                    "not built yet",
+                );
+                return Self::poison(b, to);
+            }
+        };
+        let v = match args {
+            [one] => self.expr_as(b, one, to),
+            [_, _, _] if to.is_triple() => self.triple(b, args, to, span),
+            _ => {
+                self.error(
+                    format!(
+                        "a {} is made of 1 or {} values, not {}",
+                        to.name(),
+                        if to.is_triple() { 3 } else { 1 },
+                        args.len()
+                    ),
+                    span,
+                    "here",
+                );
+                return Self::poison(b, to);
+            }
+        };
+        match v {
+            Val::V { v, ty, varying } if hsv => Val::V {
+                v: b.call(Intrinsic::HsvToRgb, &[v]),
+                ty,
+                varying,
+            },
+            v => v,
+        }
+    }
+}
+
+/// An operator as written (for messages).
+pub(crate) fn op_text(op: BinaryOp) -> &'static str {
+    match op {
+        BinaryOp::Mul => "*",
+        BinaryOp::Div => "/",
+        BinaryOp::Rem => "%",
+        BinaryOp::Add => "+",
+        BinaryOp::Sub => "-",
+        BinaryOp::Dot => ".",
+        BinaryOp::Cross => "^",
+        BinaryOp::Shl => "<<",
+        BinaryOp::Shr => ">>",
+        BinaryOp::Lt => "<",
+        BinaryOp::Le => "<=",
+        BinaryOp::Gt => ">",
+        BinaryOp::Ge => ">=",
+        BinaryOp::Eq => "==",
+        BinaryOp::Ne => "!=",
+        BinaryOp::BitAnd => "&",
+        BinaryOp::BitXor => "^",
+        BinaryOp::BitOr => "|",
+        BinaryOp::And => "&&",
+        BinaryOp::Or => "||",
+    }
+}

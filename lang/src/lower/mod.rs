@@ -1,0 +1,513 @@
+//! The checker and the lowering of a shader to the IR, in one pass over the AST: every
+//! expression is typed and lowered through `shadenet_graph::ir::Builder`, mutable locals
+//! become SSA values (an `if` yields what its branches assign), RSL's `illuminance` becomes
+//! the IR's light-loop region, instance parameters become the program's parameters. Errors
+//! are collected as [`Diagnostic`]s on the source spans (both types of a mismatch, the
+//! closest name of an unknown one, the candidate signatures of a call).
+//!
+//! What is built: RSL `surface` shaders with `float`, `point`/`vector`/`normal`, `color` and
+//! `string` values; declarations, assignments (all compound forms), `if`/`else`, blocks,
+//! `illuminance`; the operators (`.` dot, `^` cross); constructors in `"rgb"`,
+//! `"current"` and `"world"`; user functions (inlined); the builtins of [`builtins`]. What
+//! is not yet — loops, arrays, matrices, other spaces, light/volume/displacement shaders,
+//! OSL — is an error that says so, naming the construct. It owns the rules of the language;
+//! it must not hold op semantics (the IR's) nor touch the renderer.
+
+mod builtins;
+mod expr;
+mod stmt;
+
+use crate::ast::{self, Item, ShaderKind};
+use crate::diag::{Diagnostic, Diagnostics};
+use crate::source::Span;
+use crate::{Dialect, Parsed};
+use shadenet_graph::ir::{Builder, Program, Stream, Value};
+use shadenet_graph::{ConstValue, Type};
+use std::collections::HashMap;
+
+/// The most errors collected before lowering stops.
+const MAX_ERRORS: usize = 20;
+
+/// How deep inlined user-function calls may nest (recursion is refused before this).
+const MAX_INLINE_DEPTH: usize = 64;
+
+/// The language's value types (RSL's; `Bool` is the type of conditions).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Ty {
+    /// `float`.
+    Float,
+    /// `point`.
+    Point,
+    /// `vector`.
+    Vector,
+    /// `normal`.
+    Normal,
+    /// `color`.
+    Color,
+    /// A condition (comparisons, `&&`, `!`).
+    Bool,
+}
+
+impl Ty {
+    /// The IR type that holds it.
+    pub(crate) fn ir(self) -> Type {
+        match self {
+            Ty::Float => Type::Float,
+            Ty::Point | Ty::Vector | Ty::Normal => Type::Vec3,
+            Ty::Color => Type::Color,
+            Ty::Bool => Type::Bool,
+        }
+    }
+
+    /// Its name in messages.
+    pub(crate) fn name(self) -> &'static str {
+        match self {
+            Ty::Float => "float",
+            Ty::Point => "point",
+            Ty::Vector => "vector",
+            Ty::Normal => "normal",
+            Ty::Color => "color",
+            Ty::Bool => "bool (a condition)",
+        }
+    }
+
+    /// Whether it is one of the three-component geometric types.
+    pub(crate) fn is_geometric(self) -> bool {
+        matches!(self, Ty::Point | Ty::Vector | Ty::Normal)
+    }
+
+    /// Whether it has three components (geometric or color).
+    pub(crate) fn is_triple(self) -> bool {
+        self.is_geometric() || self == Ty::Color
+    }
+}
+
+/// A typed value: an IR value, or a string known at compile time (strings are never
+/// varying: space names, texture names).
+#[derive(Clone, Debug)]
+pub(crate) enum Val {
+    /// An IR value of a language type; `varying` when it may differ between fragments.
+    V {
+        /// The IR value.
+        v: Value,
+        /// Its type.
+        ty: Ty,
+        /// Whether it may vary per fragment.
+        varying: bool,
+    },
+    /// A string constant.
+    Str(String),
+}
+
+/// A variable: its current value and whether it was declared `uniform`.
+#[derive(Clone, Debug)]
+pub(crate) struct Var {
+    pub(crate) val: Val,
+    pub(crate) uniform: bool,
+    /// Where it was declared (`None`: a global).
+    pub(crate) decl: Option<Span>,
+}
+
+/// The lowering state: scopes of variables, the user functions, the diagnostics.
+pub(crate) struct Lower<'a> {
+    pub(crate) scopes: Vec<HashMap<String, Var>>,
+    pub(crate) functions: HashMap<&'a str, Vec<&'a ast::FunctionDef>>,
+    /// The user functions being inlined, innermost last (recursion check).
+    pub(crate) inlining: Vec<(&'a str, Span)>,
+    pub(crate) diags: Diagnostics,
+    /// Inside an `illuminance` body: `L` and `Cl` are bound.
+    pub(crate) in_illuminance: bool,
+}
+
+/// Compiles shader `name` (the file's only or first shader when `None`) of a parsed file to
+/// an IR program named after it: its parameters the program's, `Ci` and `Oi` its outputs.
+/// Runs on the front end's own thread ([`crate::STACK_BYTES`]): the lowering recurses over
+/// the tree as the parser does.
+pub fn compile(parsed: &Parsed, name: Option<&str>) -> Result<Program, Diagnostics> {
+    crate::on_big_stack(|| compile_here(parsed, name))
+}
+
+fn compile_here(parsed: &Parsed, name: Option<&str>) -> Result<Program, Diagnostics> {
+    let shaders: Vec<&ast::ShaderDef> = parsed
+        .file
+        .items
+        .iter()
+        .filter_map(|i| match i {
+            Item::Shader(s) => Some(s),
+            _ => None,
+        })
+        .collect();
+    let shader = match name {
+        Some(n) => shaders.iter().find(|s| s.name.name == n).copied(),
+        None => shaders.first().copied(),
+    };
+    let Some(shader) = shader else {
+        let known: Vec<&str> = shaders.iter().map(|s| s.name.name.as_str()).collect();
+        return Err(Diagnostic::error_nowhere(match name {
+            Some(n) => format!(
+                "no shader `{n}` in the file (its shaders: {})",
+                known.join(", ")
+            ),
+            None => "the file defines no shader".to_string(),
+        })
+        .into());
+    };
+    if parsed.dialect == Dialect::Osl {
+        return Err(Diagnostic::error(
+            "OSL shaders are parsed but not compiled yet (issue 22)",
+            shader.kind_span,
+            "not built yet",
+        )
+        .into());
+    }
+    if shader.kind != ShaderKind::Surface {
+        return Err(Diagnostic::error(
+            format!(
+                "{} shaders are not compiled yet: only surface shaders are built (issue 21)",
+                kind_name(shader.kind)
+            ),
+            shader.kind_span,
+            "not built yet",
+        )
+        .into());
+    }
+    let mut functions: HashMap<&str, Vec<&ast::FunctionDef>> = HashMap::new();
+    for item in &parsed.file.items {
+        if let Item::Function(f) = item {
+            functions.entry(f.name.name.as_str()).or_default().push(f);
+        }
+    }
+    let mut lower = Lower {
+        scopes: vec![HashMap::new()],
+        functions,
+        inlining: Vec::new(),
+        diags: Diagnostics::new(),
+        in_illuminance: false,
+    };
+    let mut b = Builder::new(&shader.name.name);
+    lower.surface(&mut b, shader);
+    if lower.diags.has_errors() {
+        return Err(lower.diags);
+    }
+    b.finish().map_err(|e| {
+        Diagnostic::error(
+            format!("internal error: the lowered program is invalid: {e}"),
+            shader.span,
+            "while lowering this shader",
+        )
+        .into()
+    })
+}
+
+fn kind_name(k: ShaderKind) -> &'static str {
+    match k {
+        ShaderKind::Surface => "surface",
+        ShaderKind::Light => "light",
+        ShaderKind::Volume => "volume",
+        ShaderKind::Displacement => "displacement",
+        ShaderKind::Imager => "imager",
+        ShaderKind::Shader => "generic (OSL `shader`)",
+    }
+}
+
+impl<'a> Lower<'a> {
+    /// A surface shader: the globals, the parameters, the body, the outputs.
+    fn surface(&mut self, b: &mut Builder, shader: &'a ast::ShaderDef) {
+        self.globals(b);
+        for p in &shader.params {
+            self.param(b, p);
+        }
+        self.scopes.push(HashMap::new());
+        self.block(b, &shader.body);
+        self.scopes.pop();
+        for out in ["Ci", "Oi"] {
+            let v = match self.lookup(out).map(|v| v.val.clone()) {
+                Some(Val::V { v, .. }) => v,
+                _ => b.zero(Type::Color),
+            };
+            b.output(out, None, v);
+        }
+    }
+
+    /// RSL's surface globals: the streams, `E`, `s`/`t`, `Cs`/`Os` (white: the scene gives
+    /// no per-object color yet) and `Ci`/`Oi` (black and opaque until assigned).
+    fn globals(&mut self, b: &mut Builder) {
+        let set = |me: &mut Self, name: &str, v: Value, ty: Ty, varying: bool| {
+            me.scopes[0].insert(
+                name.to_string(),
+                Var {
+                    val: Val::V { v, ty, varying },
+                    uniform: false,
+                    decl: None,
+                },
+            );
+        };
+        let p = b.stream(Stream::P);
+        set(self, "P", p, Ty::Point, true);
+        let n = b.stream(Stream::N);
+        set(self, "N", n, Ty::Normal, true);
+        let ng = b.stream(Stream::Ng);
+        set(self, "Ng", ng, Ty::Normal, true);
+        let i = b.stream(Stream::I);
+        set(self, "I", i, Ty::Vector, true);
+        let e = b.sub(p, i);
+        set(self, "E", e, Ty::Point, true);
+        let uv = b.stream(Stream::Uv);
+        for (k, names) in [["u", "s"], ["v", "t"]].into_iter().enumerate() {
+            let c = b.extract(uv, k);
+            for name in names {
+                set(self, name, c, Ty::Float, true);
+            }
+        }
+        let dpdu = b.stream(Stream::DPdu);
+        set(self, "dPdu", dpdu, Ty::Vector, true);
+        let dpdv = b.stream(Stream::DPdv);
+        set(self, "dPdv", dpdv, Ty::Vector, true);
+        let white = b.color([1.0; 3]);
+        set(self, "Cs", white, Ty::Color, false);
+        set(self, "Os", white, Ty::Color, false);
+        let black = b.color([0.0; 3]);
+        set(self, "Ci", black, Ty::Color, false);
+        set(self, "Oi", white, Ty::Color, false);
+    }
+
+    /// An instance parameter: a program parameter when its default is a constant, else
+    /// (a default computed from earlier parameters) that expression, evaluated once per
+    /// instance as uniform code.
+    fn param(&mut self, b: &mut Builder, p: &'a ast::Param) {
+        if let Some(a) = &p.array {
+            self.error(
+                "array parameters are not built yet (issue 21: arrays)",
+                a.span,
+                "an array",
+            );
+            return;
+        }
+        let Some(ty) = self.declared_type(&p.ty) else {
+            return;
+        };
+        if p.ty.output.is_some() {
+            self.error("output parameters are not built yet", p.span, "`output`");
+            return;
+        }
+        let uniform = !matches!(p.ty.rate, Some((ast::Rate::Varying, _)));
+        let Some(default) = &p.default else {
+            self.error(
+                format!("parameter `{}` needs a default value", p.name.name),
+                p.name.span,
+                "no default",
+            );
+            return;
+        };
+        let val = match const_eval(default, ty) {
+            Some(c) => Val::V {
+                v: b.param(&p.name.name, c),
+                ty,
+                varying: false,
+            },
+            None => self.expr_as(b, default, ty),
+        };
+        if let Val::V { varying: true, .. } = val
+            && uniform
+        {
+            self.error(
+                format!(
+                    "uniform parameter `{}` gets a varying default (it reads a varying global)",
+                    p.name.name
+                ),
+                p.span,
+                "varying value",
+            );
+        }
+        self.declare(&p.name, val, uniform);
+    }
+
+    /// The language type of a declared type, or an error for what is not built.
+    pub(crate) fn declared_type(&mut self, t: &ast::Type) -> Option<Ty> {
+        if let Some(s) = t.closure {
+            self.error("closures are OSL's (issue 22)", s, "not built yet");
+            return None;
+        }
+        match &t.base {
+            ast::BaseType::Float => Some(Ty::Float),
+            ast::BaseType::Point => Some(Ty::Point),
+            ast::BaseType::Vector => Some(Ty::Vector),
+            ast::BaseType::Normal => Some(Ty::Normal),
+            ast::BaseType::Color => Some(Ty::Color),
+            other => {
+                let what = match other {
+                    ast::BaseType::Matrix => "matrix values are not built yet (issue 21)",
+                    ast::BaseType::String => "string variables are not built yet",
+                    ast::BaseType::Int => "RSL has no `int`: use float",
+                    ast::BaseType::Void => "a variable cannot be void",
+                    _ => "structs are OSL's (issue 22)",
+                };
+                self.error(what, t.base_span, "this type");
+                None
+            }
+        }
+    }
+
+    /// Binds a new variable in the innermost scope.
+    pub(crate) fn declare(&mut self, name: &ast::Ident, val: Val, uniform: bool) {
+        let scope = self.scopes.last_mut().expect("a scope");
+        scope.insert(
+            name.name.clone(),
+            Var {
+                val,
+                uniform,
+                decl: Some(name.span),
+            },
+        );
+    }
+
+    /// The variable `name`, innermost scope first.
+    pub(crate) fn lookup(&self, name: &str) -> Option<&Var> {
+        self.scopes.iter().rev().find_map(|s| s.get(name))
+    }
+
+    /// Every visible name, for "did you mean".
+    pub(crate) fn visible_names(&self) -> Vec<String> {
+        let mut v: Vec<String> = self.scopes.iter().flat_map(|s| s.keys().cloned()).collect();
+        v.extend(self.functions.keys().map(|k| k.to_string()));
+        v.extend(builtins::NAMES.iter().map(|s| s.to_string()));
+        v.sort();
+        v.dedup();
+        v
+    }
+
+    /// Records an error (up to [`MAX_ERRORS`]).
+    pub(crate) fn error(
+        &mut self,
+        message: impl Into<String>,
+        span: Span,
+        label: impl Into<String>,
+    ) {
+        if self.diags.len() < MAX_ERRORS {
+            self.diags.push(Diagnostic::error(message, span, label));
+        }
+    }
+
+    /// Whether lowering should stop (too many errors).
+    pub(crate) fn stopped(&self) -> bool {
+        self.diags.len() >= MAX_ERRORS
+    }
+
+    /// A placeholder value of `ty` after an error.
+    pub(crate) fn poison(b: &mut Builder, ty: Ty) -> Val {
+        Val::V {
+            v: b.zero(ty.ir()),
+            ty,
+            varying: false,
+        }
+    }
+}
+
+/// A parameter default that is a constant of type `ty` (literals, signs, triples,
+/// constructors of constants, arithmetic on them), as the program's parameter value.
+fn const_eval(e: &ast::Expr, ty: Ty) -> Option<ConstValue> {
+    let v = eval(e)?;
+    match (ty, v.as_slice()) {
+        (Ty::Float, [x]) => Some(ConstValue::Float(*x)),
+        (Ty::Color, [x]) => Some(ConstValue::Color([*x; 3])),
+        (Ty::Color, [r, g, b]) => Some(ConstValue::Color([*r, *g, *b])),
+        (t, [x]) if t.is_geometric() => Some(ConstValue::Vec3([*x; 3])),
+        (t, [x, y, z]) if t.is_geometric() => Some(ConstValue::Vec3([*x, *y, *z])),
+        _ => None,
+    }
+}
+
+/// The components of a constant expression (one for a float, three for a triple).
+fn eval(e: &ast::Expr) -> Option<Vec<f64>> {
+    use ast::ExprKind as K;
+    let finite = |v: Vec<f64>| v.iter().all(|x| x.is_finite()).then_some(v);
+    match &e.kind {
+        K::Float(x) => finite(vec![*x]),
+        K::Int(i) => Some(vec![*i as f64]),
+        K::Unary { op, operand } => {
+            let v = eval(operand)?;
+            match op {
+                ast::UnaryOp::Neg => Some(v.iter().map(|x| -x).collect()),
+                ast::UnaryOp::Plus => Some(v),
+                _ => None,
+            }
+        }
+        K::Tuple(items) if items.len() == 3 => {
+            let mut out = Vec::new();
+            for i in items {
+                match eval(i)?.as_slice() {
+                    [x] => out.push(*x),
+                    _ => return None,
+                }
+            }
+            Some(out)
+        }
+        K::Construct {
+            space, args, ty, ..
+        } if matches!(
+            ty,
+            ast::BaseType::Color
+                | ast::BaseType::Point
+                | ast::BaseType::Vector
+                | ast::BaseType::Normal
+                | ast::BaseType::Float
+        ) && space
+            .as_ref()
+            .is_none_or(|(s, _)| matches!(s.as_str(), "rgb" | "current" | "world")) =>
+        {
+            let parts: Option<Vec<Vec<f64>>> = args.iter().map(eval).collect();
+            let parts = parts?;
+            match parts.as_slice() {
+                [one] => Some(one.clone()),
+                [a, b, c] if a.len() == 1 && b.len() == 1 && c.len() == 1 => {
+                    Some(vec![a[0], b[0], c[0]])
+                }
+                _ => None,
+            }
+        }
+        K::Binary { op, lhs, rhs } => {
+            let (a, b) = (eval(lhs)?, eval(rhs)?);
+            let n = a.len().max(b.len());
+            if a.len() != b.len() && a.len() != 1 && b.len() != 1 {
+                return None;
+            }
+            let at = |v: &Vec<f64>, i: usize| if v.len() == 1 { v[0] } else { v[i] };
+            let f = |x: f64, y: f64| match op {
+                ast::BinaryOp::Add => Some(x + y),
+                ast::BinaryOp::Sub => Some(x - y),
+                ast::BinaryOp::Mul => Some(x * y),
+                ast::BinaryOp::Div => Some(x / y),
+                _ => None,
+            };
+            finite(
+                (0..n)
+                    .map(|i| f(at(&a, i), at(&b, i)))
+                    .collect::<Option<Vec<f64>>>()?,
+            )
+        }
+        _ => None,
+    }
+}
+
+/// The name among `names` closest to `name` (edit distance at most a third of its length).
+pub(crate) fn closest<'n>(name: &str, names: &'n [String]) -> Option<&'n str> {
+    let d = |a: &str, b: &str| -> usize {
+        let b: Vec<char> = b.chars().collect();
+        let mut prev: Vec<usize> = (0..=b.len()).collect();
+        for (i, ca) in a.chars().enumerate() {
+            let mut cur = vec![i + 1];
+            for (j, cb) in b.iter().enumerate() {
+                let sub = prev[j] + usize::from(ca != *cb);
+                cur.push(sub.min(prev[j + 1] + 1).min(cur[j] + 1));
+            }
+            prev = cur;
+        }
+        prev[b.len()]
+    };
+    names
+        .iter()
+        .map(|n| (d(name, n), n))
+        .filter(|(k, _)| *k <= (name.len() / 3).max(1))
+        .min()
+        .map(|(_, n)| n.as_str())
+}

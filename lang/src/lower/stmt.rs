@@ -1,0 +1,534 @@
+//! Statements: declarations, expression statements, blocks, `if` (an IR `if` region
+//! yielding every outer variable its branches assign), `illuminance` (the IR's light loop:
+//! the body's contributions to outer variables are summed over the light samples), and
+//! user functions, inlined at each call.
+
+use super::{Lower, MAX_INLINE_DEPTH, Ty, Val, Var};
+use crate::ast::{self, AssignOp, Expr, ExprKind, Stmt, StmtKind};
+use crate::source::Span;
+use shadenet_graph::ir::{Builder, Value};
+use std::cell::RefCell;
+use std::collections::HashMap;
+
+impl<'a> Lower<'a> {
+    /// The statements of a block, in a scope of their own.
+    pub(crate) fn block(&mut self, b: &mut Builder, block: &'a ast::Block) {
+        self.scopes.push(HashMap::new());
+        for s in &block.stmts {
+            if self.stopped() {
+                break;
+            }
+            self.stmt(b, s);
+        }
+        self.scopes.pop();
+    }
+
+    /// One statement.
+    pub(crate) fn stmt(&mut self, b: &mut Builder, s: &'a Stmt) {
+        match &s.kind {
+            StmtKind::Block(block) => self.block(b, block),
+            StmtKind::Decl(d) => self.decl(b, d),
+            StmtKind::Expr(e) => {
+                self.expr(b, e);
+            }
+            StmtKind::Empty => {}
+            StmtKind::If { cond, then, els } => self.if_stmt(b, cond, then, els.as_deref()),
+            StmtKind::Illuminance {
+                category,
+                args,
+                body,
+            } => self.illuminance(b, category.as_ref(), args, body, s.span),
+            StmtKind::For { .. }
+            | StmtKind::While { .. }
+            | StmtKind::DoWhile { .. }
+            | StmtKind::Break { .. }
+            | StmtKind::Continue { .. } => self.error(
+                "loops are not compiled yet: they need the IR's loop region (issue 21)",
+                s.span,
+                "not built yet",
+            ),
+            StmtKind::Return(_) => self.error(
+                "`return` is built only as the last statement of a function",
+                s.span,
+                "here",
+            ),
+            StmtKind::Illuminate { .. } | StmtKind::Solar { .. } => self.error(
+                "`illuminate` and `solar` belong to light shaders, which are not compiled yet (issue 21)",
+                s.span,
+                "not built yet",
+            ),
+        }
+    }
+
+    fn decl(&mut self, b: &mut Builder, d: &'a ast::Decl) {
+        let Some(ty) = self.declared_type(&d.ty) else {
+            return;
+        };
+        let uniform = matches!(d.ty.rate, Some((ast::Rate::Uniform, _)));
+        for v in &d.vars {
+            if let Some(a) = &v.array {
+                self.error("arrays are not built yet (issue 21)", a.span, "an array");
+                continue;
+            }
+            let val = match &v.init {
+                Some(e) => self.expr_as(b, e, ty),
+                None => Self::poison(b, ty),
+            };
+            if uniform && matches!(val, Val::V { varying: true, .. }) {
+                self.error(
+                    format!(
+                        "uniform variable `{}` is initialised with a varying value",
+                        v.name.name
+                    ),
+                    v.span,
+                    "varying value",
+                );
+            }
+            self.declare(&v.name, val, uniform);
+        }
+    }
+
+    /// The outer variables `stmts` assign, in order of first assignment, that are visible
+    /// here (the values an `if` or `illuminance` region must yield).
+    fn assigned_outer(&self, stmts: &[&'a Stmt]) -> Vec<(ast::Ident, Ty)> {
+        let mut names: Vec<ast::Ident> = Vec::new();
+        for s in stmts {
+            walk_stmt(s, &mut |e| {
+                let target = match &e.kind {
+                    ExprKind::Assign { target, .. } | ExprKind::IncDec { target, .. } => target,
+                    _ => return,
+                };
+                if let ExprKind::Ident(id) = &target.kind
+                    && !names.iter().any(|n| n.name == id.name)
+                {
+                    names.push(id.clone());
+                }
+            });
+        }
+        names
+            .into_iter()
+            .filter_map(|n| match self.lookup(&n.name) {
+                Some(Var {
+                    val: Val::V { ty, .. },
+                    ..
+                }) => Some((n, *ty)),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// The current values of `names`, for a region's yields.
+    fn current(&self, b: &mut Builder, names: &[(ast::Ident, Ty)]) -> Vec<Value> {
+        names
+            .iter()
+            .map(|(n, ty)| match self.lookup(&n.name).map(|v| &v.val) {
+                Some(Val::V { v, .. }) => *v,
+                _ => b.zero(ty.ir()),
+            })
+            .collect()
+    }
+
+    fn snapshot(&self, names: &[(ast::Ident, Ty)]) -> Vec<Option<Var>> {
+        names
+            .iter()
+            .map(|(n, _)| self.lookup(&n.name).cloned())
+            .collect()
+    }
+
+    fn restore(&mut self, names: &[(ast::Ident, Ty)], saved: Vec<Option<Var>>) {
+        for ((n, _), var) in names.iter().zip(saved) {
+            if let Some(var) = var {
+                for scope in self.scopes.iter_mut().rev() {
+                    if let Some(v) = scope.get_mut(&n.name) {
+                        *v = var;
+                        break;
+                    }
+                }
+            }
+        }
+    }
+
+    /// One arm of an `if`: lowered from the values before the `if`, yielding `names`' values
+    /// at its end; the variables are then put back for the other arm.
+    fn arm(
+        &mut self,
+        b: &mut Builder,
+        s: Option<&'a Stmt>,
+        names: &[(ast::Ident, Ty)],
+    ) -> (Vec<Value>, bool) {
+        let saved = self.snapshot(names);
+        self.scopes.push(HashMap::new());
+        if let Some(s) = s {
+            self.stmt(b, s);
+        }
+        self.scopes.pop();
+        let out = self.current(b, names);
+        let varying = names.iter().any(|(n, _)| {
+            matches!(
+                self.lookup(&n.name).map(|v| &v.val),
+                Some(Val::V { varying: true, .. })
+            )
+        });
+        self.restore(names, saved);
+        (out, varying)
+    }
+
+    fn if_stmt(&mut self, b: &mut Builder, cond: &'a Expr, then: &'a Stmt, els: Option<&'a Stmt>) {
+        let (c, tc, vc) = self.value(b, cond);
+        if tc != Ty::Bool {
+            self.error(
+                format!(
+                    "an `if` condition must be a comparison, not a {}",
+                    tc.name()
+                ),
+                cond.span,
+                "here",
+            );
+            return;
+        }
+        let arms: Vec<&Stmt> = [Some(then), els].into_iter().flatten().collect();
+        let names = self.assigned_outer(&arms);
+        let uniform: Vec<bool> = names
+            .iter()
+            .map(|(n, _)| self.lookup(&n.name).is_some_and(|v| v.uniform))
+            .collect();
+        let varying = RefCell::new(vc);
+        let me = RefCell::new(&mut *self);
+        let values = b.if_(
+            c,
+            |b| {
+                let (v, vy) = me.borrow_mut().arm(b, Some(then), &names);
+                *varying.borrow_mut() |= vy;
+                v
+            },
+            |b| {
+                let (v, vy) = me.borrow_mut().arm(b, els, &names);
+                *varying.borrow_mut() |= vy;
+                v
+            },
+        );
+        let varying = varying.into_inner();
+        for (((n, ty), v), uniform) in names.iter().zip(values).zip(uniform) {
+            let val = Val::V {
+                v,
+                ty: *ty,
+                varying,
+            };
+            self.rebind(n, val, uniform, n.span);
+        }
+    }
+
+    /// `illuminance(P [, N, angle]) body`: the IR's light loop over the light samples seen
+    /// from `P` (within `angle` of `N`), with `L` the unit direction to the sample and `Cl`
+    /// its color as it arrives (shadowed samples black). The loop sums what the body adds to
+    /// outer variables, so the body may change them only by `+=` / `-=` and not read them.
+    fn illuminance(
+        &mut self,
+        b: &mut Builder,
+        category: Option<&'a Expr>,
+        args: &'a [Expr],
+        body: &'a Stmt,
+        span: Span,
+    ) {
+        if let Some(c) = category {
+            self.error(
+                "light categories are not built yet",
+                c.span,
+                "not built yet",
+            );
+            return;
+        }
+        if self.in_illuminance {
+            self.error(
+                "`illuminance` inside `illuminance`",
+                span,
+                "nested light loop",
+            );
+            return;
+        }
+        let p = self.expr_as(b, &args[0], Ty::Point);
+        let cone = match args {
+            [_] => None,
+            [_, n, angle] => Some((
+                self.expr_as(b, n, Ty::Normal),
+                self.expr_as(b, angle, Ty::Float),
+            )),
+            _ => {
+                self.error("illuminance takes (P) or (P, N, angle)", span, "here");
+                return;
+            }
+        };
+        let (Val::V { v: p, .. }, cone) = (p, cone) else {
+            return;
+        };
+        let names = self.assigned_outer(&[body]);
+        self.only_accumulated(body, &names);
+        let zero: Vec<(ast::Ident, Ty)> = names.clone();
+        let me = RefCell::new(&mut *self);
+        let sums = b.illuminance(p, |b, l, cl| {
+            let mut me = me.borrow_mut();
+            let saved = me.snapshot(&zero);
+            let mut scope = HashMap::new();
+            let vis = b.light_visible();
+            let cl = b.mul(cl, vis);
+            for (name, v, ty) in [("L", l, Ty::Vector), ("Cl", cl, Ty::Color)] {
+                let val = Val::V {
+                    v,
+                    ty,
+                    varying: true,
+                };
+                scope.insert(
+                    name.to_string(),
+                    Var {
+                        val,
+                        uniform: false,
+                        decl: None,
+                    },
+                );
+            }
+            me.scopes.push(scope);
+            for (n, ty) in &zero {
+                let val = Self::poison(b, *ty);
+                me.rebind(n, val, false, n.span);
+            }
+            me.in_illuminance = true;
+            let deltas = match &cone {
+                None => {
+                    me.stmt(b, body);
+                    me.current(b, &zero)
+                }
+                Some((Val::V { v: n, .. }, Val::V { v: angle, .. })) => {
+                    let n = b.normalize(*n);
+                    let d = b.dot(n, l);
+                    let c = b.unary(shadenet_graph::ir::UnOp::Cos, *angle);
+                    let inside = b.binary(shadenet_graph::ir::BinOp::Ge, d, c);
+                    let inner = RefCell::new(&mut **me);
+                    b.if_(
+                        inside,
+                        |b| {
+                            let mut me = inner.borrow_mut();
+                            me.stmt(b, body);
+                            me.current(b, &zero)
+                        },
+                        |b| zero.iter().map(|(_, t)| b.zero(t.ir())).collect(),
+                    )
+                }
+                Some(_) => Vec::new(),
+            };
+            me.in_illuminance = false;
+            me.scopes.pop();
+            me.restore(&zero, saved);
+            deltas
+        });
+        if sums.len() != names.len() {
+            return;
+        }
+        for ((n, ty), s) in names.iter().zip(sums) {
+            let Some(var) = self.lookup(&n.name).cloned() else {
+                continue;
+            };
+            if let Val::V { v, .. } = var.val {
+                let total = b.add(v, s);
+                self.rebind(
+                    n,
+                    Val::V {
+                        v: total,
+                        ty: *ty,
+                        varying: true,
+                    },
+                    var.uniform,
+                    n.span,
+                );
+            }
+        }
+    }
+
+    /// Inside an `illuminance` body, the outer variables it changes may only be added to
+    /// (`+=`, `-=`): anything else is an error at the place.
+    fn only_accumulated(&mut self, body: &'a Stmt, names: &[(ast::Ident, Ty)]) {
+        let mut bad: Vec<(String, Span)> = Vec::new();
+        walk_stmt(body, &mut |e| {
+            if let ExprKind::Assign { op, target, .. } = &e.kind
+                && let ExprKind::Ident(id) = &target.kind
+                && names.iter().any(|(n, _)| n.name == id.name)
+                && !matches!(op, AssignOp::Add | AssignOp::Sub)
+            {
+                bad.push((id.name.clone(), e.span));
+            }
+        });
+        reads(body, names, &mut bad);
+        for (name, at) in bad {
+            self.error(
+                format!(
+                    "inside `illuminance`, `{name}` (declared outside it) may only be accumulated with += or -=: the light loop sums its body over the lights"
+                ),
+                at,
+                "here",
+            );
+        }
+    }
+
+    /// Inlines a call of user function `f` with `args`: its parameters bound to the
+    /// arguments in a scope that sees only the globals, its body lowered, its value the
+    /// expression of its final `return`.
+    pub(crate) fn inline(
+        &mut self,
+        b: &mut Builder,
+        f: &'a ast::FunctionDef,
+        args: Vec<Val>,
+        span: Span,
+    ) -> Val {
+        if let Some((_, at)) = self.inlining.iter().find(|(n, _)| *n == f.name.name) {
+            let chain: Vec<&str> = self
+                .inlining
+                .iter()
+                .map(|(n, _)| *n)
+                .chain([f.name.name.as_str()])
+                .collect();
+            let d = crate::diag::Diagnostic::error(
+                format!("recursion is not allowed: {}", chain.join(" → ")),
+                span,
+                "this call recurses",
+            )
+            .with_secondary(*at, "first called here");
+            if !self.stopped() {
+                self.diags.push(d);
+            }
+            return Self::poison(b, Ty::Float);
+        }
+        if self.inlining.len() >= MAX_INLINE_DEPTH {
+            self.error("functions nest too deeply", span, "here");
+            return Self::poison(b, Ty::Float);
+        }
+        let ret = match &f.ret.base {
+            ast::BaseType::Void => None,
+            _ => self.declared_type(&f.ret),
+        };
+        let (last, body) = match f.body.stmts.split_last() {
+            Some((
+                Stmt {
+                    kind: StmtKind::Return(e),
+                    ..
+                },
+                rest,
+            )) => (e.as_ref(), rest),
+            _ => (None, f.body.stmts.as_slice()),
+        };
+        let globals = self.scopes[0].clone();
+        let saved = std::mem::replace(&mut self.scopes, vec![globals, HashMap::new()]);
+        for (p, a) in f.params.iter().zip(args) {
+            if p.ty.output.is_some() {
+                self.error("output parameters are not built yet", p.span, "`output`");
+            }
+            if let Some(ty) = self.declared_type(&p.ty) {
+                let v = self.coerce(b, a, ty, span);
+                self.declare(&p.name, v, false);
+            }
+        }
+        self.inlining.push((f.name.name.as_str(), span));
+        for s in body {
+            self.stmt(b, s);
+        }
+        let out = match (ret, last) {
+            (Some(ty), Some(e)) => self.expr_as(b, e, ty),
+            (Some(ty), None) => {
+                self.error(
+                    format!("function `{}` must end with `return`", f.name.name),
+                    f.name.span,
+                    "no return",
+                );
+                Self::poison(b, ty)
+            }
+            (None, _) => Self::poison(b, Ty::Float),
+        };
+        self.inlining.pop();
+        self.scopes = saved;
+        out
+    }
+}
+
+/// Calls `f` on every expression of `s`, nested ones included.
+fn walk_stmt<'s>(s: &'s Stmt, f: &mut dyn FnMut(&'s Expr)) {
+    match &s.kind {
+        StmtKind::Block(b) => b.stmts.iter().for_each(|s| walk_stmt(s, f)),
+        StmtKind::Decl(d) => d
+            .vars
+            .iter()
+            .filter_map(|v| v.init.as_ref())
+            .for_each(|e| walk_expr(e, f)),
+        StmtKind::Expr(e) => walk_expr(e, f),
+        StmtKind::If { cond, then, els } => {
+            walk_expr(cond, f);
+            walk_stmt(then, f);
+            if let Some(e) = els {
+                walk_stmt(e, f);
+            }
+        }
+        StmtKind::Illuminance { args, body, .. }
+        | StmtKind::Illuminate { args, body }
+        | StmtKind::Solar { args, body } => {
+            args.iter().for_each(|e| walk_expr(e, f));
+            walk_stmt(body, f);
+        }
+        StmtKind::For { .. } | StmtKind::While { .. } | StmtKind::DoWhile { .. } => {}
+        StmtKind::Return(Some(e)) => walk_expr(e, f),
+        _ => {}
+    }
+}
+
+/// Calls `f` on `e` and every expression inside it.
+fn walk_expr<'s>(e: &'s Expr, f: &mut dyn FnMut(&'s Expr)) {
+    f(e);
+    match &e.kind {
+        ExprKind::Call { args, .. } | ExprKind::Tuple(args) | ExprKind::InitList(args) => {
+            args.iter().for_each(|a| walk_expr(a, f))
+        }
+        ExprKind::Construct { args, .. } => args.iter().for_each(|a| walk_expr(a, f)),
+        ExprKind::Cast { expr, .. } => walk_expr(expr, f),
+        ExprKind::Unary { operand, .. } => walk_expr(operand, f),
+        ExprKind::Binary { lhs, rhs, .. } => {
+            walk_expr(lhs, f);
+            walk_expr(rhs, f);
+        }
+        ExprKind::Ternary { cond, then, els } => {
+            walk_expr(cond, f);
+            walk_expr(then, f);
+            walk_expr(els, f);
+        }
+        ExprKind::Assign { target, value, .. } => {
+            walk_expr(target, f);
+            walk_expr(value, f);
+        }
+        ExprKind::IncDec { target, .. } => walk_expr(target, f),
+        ExprKind::Index { base, index } => {
+            walk_expr(base, f);
+            walk_expr(index, f);
+        }
+        ExprKind::Member { base, .. } => walk_expr(base, f),
+        _ => {}
+    }
+}
+
+/// Reads of `names` in `s` other than as the target of `+=` / `-=`.
+fn reads(s: &Stmt, names: &[(ast::Ident, Ty)], out: &mut Vec<(String, Span)>) {
+    let mut targets: Vec<Span> = Vec::new();
+    walk_stmt(s, &mut |e| {
+        if let ExprKind::Assign {
+            op: AssignOp::Add | AssignOp::Sub,
+            target,
+            ..
+        } = &e.kind
+        {
+            targets.push(target.span);
+        }
+    });
+    walk_stmt(s, &mut |e| {
+        if let ExprKind::Ident(id) = &e.kind
+            && names.iter().any(|(n, _)| n.name == id.name)
+            && !targets.contains(&e.span)
+            && !out.iter().any(|(_, at)| *at == e.span)
+        {
+            out.push((id.name.clone(), e.span));
+        }
+    });
+}
