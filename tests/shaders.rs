@@ -123,6 +123,50 @@ fn statements_functions_and_operators() {
     }
 }
 
+/// A user-written light loop: `illuminance(P, N, PI/2)` accumulating `Cl · N·L` is
+/// `diffuse(N)`; the one-argument form also sums the lights behind the surface; lights
+/// outside the cone add nothing.
+#[test]
+fn illuminance_sums_the_lights_in_its_cone() {
+    let lights = [point([0.5, 0.2, 1.0], 2.0), point([0.3, 0.0, -1.0], 5.0)];
+    let src = |args: &str| {
+        format!(
+            "surface s() {{ color c = 0; illuminance({args}) {{ c += Cl * max(0, normalize(L) . N); }} \
+             color d = 0; illuminance({args}) {{ d += Cl; }} Ci = c; Oi = d; }}"
+        )
+    };
+    let f = plane_fragment();
+    let cone = run_program(
+        &compile(&src("P, N, PI / 2")).unwrap(),
+        &f,
+        &lights,
+        u32::MAX,
+    );
+    let diffuse = run_program(
+        &compile("surface s() { Ci = diffuse(N); }").unwrap(),
+        &f,
+        &lights,
+        u32::MAX,
+    );
+    assert_close(
+        &cone.get("Ci"),
+        &diffuse.get("Ci"),
+        1e-12,
+        "illuminance(P, N, π/2) = diffuse(N)",
+    );
+    // Only the light above the plane is inside the cone: Oi is its Cl.
+    let r2 = 0.25 + 0.04 + 1.0;
+    assert_close(&cone.get("Oi"), &[2.0 / r2; 3], 1e-8, "the cone's Cl sum");
+    let all = run_program(&compile(&src("P")).unwrap(), &f, &lights, u32::MAX);
+    let r2b = 0.09 + 1.0;
+    assert_close(
+        &all.get("Oi"),
+        &[2.0 / r2 + 5.0 / r2b; 3],
+        1e-8,
+        "every light",
+    );
+}
+
 /// The optimizer sees through the language: plastic's uniform parameters fold into the
 /// program, and with only the diffuse-free passes the light loops go.
 #[test]

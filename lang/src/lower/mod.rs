@@ -266,6 +266,8 @@ impl<'a> Lower<'a> {
         let white = b.color([1.0; 3]);
         set(self, "Cs", white, Ty::Color, false);
         set(self, "Os", white, Ty::Color, false);
+        let pi = b.float(std::f64::consts::PI);
+        set(self, "PI", pi, Ty::Float, false);
         let black = b.color([0.0; 3]);
         set(self, "Ci", black, Ty::Color, false);
         set(self, "Oi", white, Ty::Color, false);

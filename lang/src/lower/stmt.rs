@@ -270,6 +270,7 @@ impl<'a> Lower<'a> {
             let saved = me.snapshot(&zero);
             let mut scope = HashMap::new();
             let vis = b.light_visible();
+            let vis = b.splat(shadenet_graph::Type::Color, vis);
             let cl = b.mul(cl, vis);
             for (name, v, ty) in [("L", l, Ty::Vector), ("Cl", cl, Ty::Color)] {
                 let val = Val::V {
