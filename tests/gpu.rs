@@ -409,3 +409,36 @@ fn compile_emit_wgsl_plans_without_a_device() {
     assert_eq!(code, 1);
     assert!(err.contains("--gpu-passes applies to --emit wgsl"), "{err}");
 }
+
+/// An RSL shader (`plastic.sl`, two light loops) shades on the GPU as on the JIT: the
+/// language lowers into the same IR every back end runs (issue 21: "RenderMan on graphics
+/// hardware"), within the GPU bounds `shadenet diff` checks.
+#[test]
+fn rsl_shaders_shade_on_the_gpu_within_the_bounds() {
+    if !gpu_or_skip("rsl_shaders_shade_on_the_gpu_within_the_bounds") {
+        return;
+    }
+    let mut outs = Vec::new();
+    for backend in ["jit", "gpu"] {
+        let exr = tmp(&format!("plastic-sl-{backend}.exr"));
+        let args = [
+            "shade",
+            "lang/tests/shaders/plastic.sl",
+            "-o",
+            exr.to_str().unwrap(),
+            "--res",
+            "40x24",
+            "--light",
+            "point:1,1,2:3",
+            "--backend",
+            backend,
+            "-q",
+        ];
+        let (code, out, err) = shadenet(&args);
+        assert_eq!(code, 0, "{args:?}\n{out}\n{err}");
+        outs.push(exr);
+    }
+    let (a, b) = (outs[0].to_str().unwrap(), outs[1].to_str().unwrap());
+    let (code, out, err) = shadenet(&["diff", a, b, "--max-abs", "1e-4", "--rmse", "1e-6"]);
+    assert_eq!(code, 0, "{out}\n{err}");
+}
