@@ -268,6 +268,37 @@ pub fn mult_tree(levels: u32, space: Space) -> Result<Value, GenError> {
     }))
 }
 
+/// [`mult_tree`] written as an RSL surface shader (world space): one `point` local per
+/// multiply, the leaves `P`, the root converted to `Ci` (RSL has no point-to-color
+/// assignment: three `xcomp`-style extracts and a constructor).
+pub fn mult_tree_sl(levels: u32) -> Result<String, GenError> {
+    if !MULT_TREE_LEVELS.contains(&levels) {
+        return Err(GenError::Levels { levels });
+    }
+    let leaves = 1usize << levels;
+    let mut s = format!(
+        "/* Benchmark B1 (Larsson 2005, §5.1.1) as a shader: {} multiplies over {leaves} leaves. */\nsurface mult_tree_{levels}()\n{{\n",
+        leaves - 1
+    );
+    for l in 1..=levels {
+        for i in 0..leaves >> l {
+            let (a, b) = if l == 1 {
+                ("P".to_string(), "P".to_string())
+            } else {
+                (
+                    format!("m{}_{}", l - 1, 2 * i),
+                    format!("m{}_{}", l - 1, 2 * i + 1),
+                )
+            };
+            s += &format!("    point m{l}_{i} = {a} * {b};\n");
+        }
+    }
+    s += &format!(
+        "    Ci = color \"rgb\" (xcomp(m{levels}_0), ycomp(m{levels}_0), zcomp(m{levels}_0));\n}}\n"
+    );
+    Ok(s)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

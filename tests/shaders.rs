@@ -306,3 +306,45 @@ fn the_cli_compiles_and_shades_shader_files() {
     assert_eq!(code, 1);
     assert!(err.contains("-I and -D apply to shader sources"), "{err}");
 }
+
+/// Benchmark B1's tree written as a shader (`shadenet gen mult-tree -o tree.sl`) optimizes
+/// to the network's program: the same products (all of them with CSE off, one per level
+/// with it on), plus the point-to-color conversion RSL needs for `Ci` (three extracts and a
+/// construct).
+#[test]
+fn the_multiplication_tree_as_a_shader_reaches_the_networks_program() {
+    use shadenet::graph::ir::Op;
+    for levels in [1u32, 4, 7] {
+        let net = shadenet::generate::mult_tree(levels, shadenet::graph::ir::Space::World).unwrap();
+        let net = compile_json(&net.to_string(), &NodeLibrary::standard())
+            .unwrap()
+            .program;
+        let sl = compile(&shadenet::generate::mult_tree_sl(levels).unwrap()).unwrap();
+        for cse in [false, true] {
+            let mut spec = Specialization::default();
+            spec.passes.cse = cse;
+            let count = |p: &shadenet::graph::ir::Program, f: &dyn Fn(&Op) -> bool| {
+                opt::run(p, &spec)
+                    .0
+                    .exprs
+                    .iter()
+                    .filter(|e| f(&e.op))
+                    .count()
+            };
+            let muls = |op: &Op| matches!(op, Op::Binary(shadenet::graph::ir::BinOp::Mul, ..));
+            let want = if cse {
+                levels as usize
+            } else {
+                (1 << levels) - 1
+            };
+            assert_eq!(
+                count(&net, &muls),
+                want,
+                "network, level {levels}, cse {cse}"
+            );
+            assert_eq!(count(&sl, &muls), want, "shader, level {levels}, cse {cse}");
+            let conv = |op: &Op| matches!(op, Op::Extract(..) | Op::Construct(_));
+            assert_eq!((count(&net, &conv), count(&sl, &conv)), (0, 4));
+        }
+    }
+}

@@ -1,7 +1,7 @@
 //! `shadenet gen`: generated networks for the benchmarks, the procedural sky map and the
 //! test texture.
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use clap::{Subcommand, ValueEnum};
 use shadenet::graph::ir::Space;
 use shadenet::output::write_bytes_atomic;
@@ -19,7 +19,8 @@ pub(crate) enum GenCmd {
         /// The space the leaves read P in.
         #[arg(long, value_enum, default_value_t = GenSpace::World)]
         space: GenSpace,
-        /// The network file to write (.json).
+        /// The file to write: a network (.json), or the same tree as an RSL surface shader
+        /// (.sl, world space).
         #[arg(short, long)]
         output: PathBuf,
     },
@@ -79,9 +80,18 @@ pub(crate) fn run(what: GenCmd) -> Result<()> {
                 GenSpace::World => Space::World,
                 GenSpace::Camera => Space::Camera,
             };
-            let net = shadenet::generate::mult_tree(levels, space).context("--levels")?;
-            let mut text = serde_json::to_string_pretty(&net)?;
-            text.push('\n');
+            // `-o tree.sl`: the same tree written as an RSL surface shader.
+            let text = if output.extension().is_some_and(|e| e == "sl") {
+                if !matches!(space, Space::World) {
+                    bail!("--space camera: the shader form reads P in world space only");
+                }
+                shadenet::generate::mult_tree_sl(levels).context("--levels")?
+            } else {
+                let net = shadenet::generate::mult_tree(levels, space).context("--levels")?;
+                let mut text = serde_json::to_string_pretty(&net)?;
+                text.push('\n');
+                text
+            };
             write_bytes_atomic(&output, text.as_bytes())?;
             Ok(())
         }
