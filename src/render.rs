@@ -241,6 +241,11 @@ pub fn compile_material(
         source_name: source_name.clone(),
         message,
     };
+    if let MaterialSource::File(p) = &m.source
+        && p.extension().is_some_and(|e| e == "sl")
+    {
+        return shader_material(m, p, files).map_err(fail);
+    }
     let standard;
     let (mut network, lib): (Network, &NodeLibrary) = match &m.source {
         MaterialSource::File(p) => {
@@ -287,6 +292,67 @@ pub fn compile_material(
         program,
         ignored_lights: linked.lights.len(),
     })
+}
+
+/// A material that is an RSL surface shader (`network = "plastic.sl"`): compiled by the
+/// shading-language front end, its `set` overrides (`"shader.param" = value`, the shader
+/// named as in the file) changing its parameters' values.
+fn shader_material(m: &MaterialRef, path: &Path, files: Files) -> Result<CompiledMaterial, String> {
+    if files == Files::Embedded {
+        return Err("shader sources are read from disk only".into());
+    }
+    let compiled = crate::shader::load(path, &[], &[]).map_err(|e| e.to_string())?;
+    let mut program = compiled.program;
+    for (node, input, value) in &m.overrides {
+        if node != &program.name {
+            return Err(format!(
+                "set \"{node}.{input}\": the shader is `{}` (write \"{}.{input}\")",
+                program.name, program.name
+            ));
+        }
+        let names: Vec<String> = program.params.iter().map(|p| p.name.clone()).collect();
+        let Some(param) = program.params.iter_mut().find(|p| &p.name == input) else {
+            return Err(format!(
+                "set \"{node}.{input}\": the shader has no parameter `{input}` (its parameters: {})",
+                names.join(", ")
+            ));
+        };
+        param.default = param_value(&param.default, value)
+            .ok_or_else(|| format!("set \"{node}.{input}\": {value} is not a {}", param.ty))?;
+    }
+    shadenet_graph::ir::validate(&program)
+        .map_err(|e| format!("internal error: invalid IR: {e}"))?;
+    program.name = m.name.clone();
+    Ok(CompiledMaterial {
+        program,
+        ignored_lights: 0,
+    })
+}
+
+/// `value` (a number, or three for a color or point) as a parameter value of `like`'s type.
+fn param_value(
+    like: &shadenet_graph::ConstValue,
+    value: &serde_json::Value,
+) -> Option<shadenet_graph::ConstValue> {
+    use shadenet_graph::ConstValue as C;
+    let num = |v: &serde_json::Value| {
+        v.as_f64()
+            .filter(|x| x.is_finite() && x.abs() <= f32::MAX as f64)
+    };
+    let three = || -> Option<[f64; 3]> {
+        match value {
+            serde_json::Value::Array(a) if a.len() == 3 => {
+                Some([num(&a[0])?, num(&a[1])?, num(&a[2])?])
+            }
+            v => num(v).map(|x| [x; 3]),
+        }
+    };
+    match like {
+        C::Float(_) => num(value).map(C::Float),
+        C::Color(_) => three().map(C::Color),
+        C::Vec3(_) => three().map(C::Vec3),
+        _ => None,
+    }
 }
 
 /// Applies one `set` override: `node.input` on a node of the network, or

@@ -285,6 +285,23 @@ impl<'a> Lower<'a> {
             );
             return;
         }
+        if p.ty.base == ast::BaseType::String {
+            // A string parameter is a compile-time constant (a texture name).
+            match p.default.as_ref().map(|d| &d.kind) {
+                Some(ast::ExprKind::Str(text)) => {
+                    self.declare(&p.name, Val::Str(text.clone()), true)
+                }
+                _ => self.error(
+                    format!(
+                        "string parameter `{}` needs a string literal default",
+                        p.name.name
+                    ),
+                    p.span,
+                    "here",
+                ),
+            }
+            return;
+        }
         let Some(ty) = self.declared_type(&p.ty) else {
             return;
         };
