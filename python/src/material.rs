@@ -1,4 +1,4 @@
-//! `shadenet.compile` and the compiled material: loading a network (a `.json` or `.mtlx`
+//! `shadenet.compile` and the compiled material: loading a network (a `.json`, `.mtlx` or `.sl`
 //! file, or either as text) as the CLI's `load` does, its optimized IR and statistics as
 //! `compile --emit ir --stats` reports them, and shading fragments with a chosen back end.
 
@@ -22,7 +22,7 @@ const BACKENDS: &str = "interp, jit, jit-batch or gpu";
 
 /// What `compile` reads: a file, or network text in one of the two formats.
 enum Source<'a> {
-    /// A `.json` network or `.mtlx` document on disk.
+    /// A `.json` network, `.mtlx` document or `.sl` shader on disk.
     Path(&'a Path),
     /// The JSON text of a network.
     Json(&'a str),
@@ -65,8 +65,11 @@ fn load(source: &Source, opts: &Options) -> PyResult<Compiled> {
                     "material= and output= apply to MaterialX documents only",
                 ));
             }
+            let is_shader = path.extension().is_some_and(|e| e == "sl" || e == "osl");
             let c = if is_mtlx {
                 shadenet::compile_mtlx(path, &opts.mtlx()).map_err(|e| shadenet_error(&e))?
+            } else if is_shader {
+                shadenet::shader::load(path, &[], &[]).map_err(|e| shadenet_error(&e))?
             } else {
                 shadenet::load_network(path).map_err(|e| shadenet_error(&e))?
             };

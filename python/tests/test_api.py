@@ -347,3 +347,16 @@ def test_write_exr_is_atomic_and_checks_shapes(tmp_path):
         shadenet.write_exr(tmp_path / "no" / "dir" / "y.exr", {"c": a})
     assert path.read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["x.exr"]
+
+
+def test_rsl_shader_files_compile_and_shade_as_the_cli_does(tmp_path):
+    """A `.sl` path compiles like a network: its IR is the CLI's and its outputs Ci, Oi."""
+    mat = shadenet.compile(REPO / "examples" / "shaders" / "plastic.sl")
+    assert mat.name == "plastic"
+    out = mat.shade(shadenet.grid(8, 4), lights=["point:1,1,2:3"])
+    assert out["Ci"].shape == (32, 3) and out["Oi"].shape == (32, 3)
+    assert np.all(out["Oi"] == 1.0) and np.all(out["Ci"] > 0)
+    bad = tmp_path / "bad.sl"
+    bad.write_text("surface s() { Ci = colr(1); }\n")
+    with pytest.raises(shadenet.ShadenetError, match=r"unknown function `colr`"):
+        shadenet.compile(str(bad))
