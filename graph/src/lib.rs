@@ -19,7 +19,7 @@ pub mod opt;
 pub mod transport;
 pub mod types;
 
-pub use link::{LinkError, LinkErrors, Linked, link};
+pub use link::{LinkError, LinkErrors, Linked, edit_distance, link};
 pub use lower::{CompileError, Compiled, compile_json, lower};
 pub use network::Network;
 pub use nodes::NodeLibrary;

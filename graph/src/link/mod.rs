@@ -42,7 +42,7 @@ mod values;
 
 pub use error::{LinkError, LinkErrors};
 pub use linked::{Linked, LinkedInput, LinkedNode, Source};
-pub(crate) use names::edit_distance;
+pub use names::edit_distance;
 pub use values::{coercible, literal};
 
 use crate::network::Network;

@@ -31,7 +31,7 @@ pub(super) fn suggest<'a>(ty: &str, lib: &'a NodeLibrary) -> Option<&'a str> {
 }
 
 /// Levenshtein distance between two names (for "did you mean" suggestions).
-pub(crate) fn edit_distance(a: &str, b: &str) -> usize {
+pub fn edit_distance(a: &str, b: &str) -> usize {
     let b: Vec<char> = b.chars().collect();
     let mut prev: Vec<usize> = (0..=b.len()).collect();
     for (i, ca) in a.chars().enumerate() {

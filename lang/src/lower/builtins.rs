@@ -135,15 +135,7 @@ impl<'a> Lower<'a> {
             Some(v) => v,
             None => {
                 if !NAMES.contains(&callee.name.as_str()) {
-                    let names = self.visible_names();
-                    let hint = super::closest(&callee.name, &names)
-                        .map(|c| format!(" (did you mean `{c}`?)"))
-                        .unwrap_or_default();
-                    self.error(
-                        format!("unknown function `{}`{hint}", callee.name),
-                        callee.span,
-                        "not defined",
-                    );
+                    return self.unknown(b, callee, "function");
                 } else {
                     let got: Vec<&str> = vals.iter().map(|(v, _)| type_name(v)).collect();
                     self.error(

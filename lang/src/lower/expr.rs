@@ -63,18 +63,7 @@ impl<'a> Lower<'a> {
             ExprKind::Str(s) => Val::Str(s.clone()),
             ExprKind::Ident(id) => match self.lookup(&id.name) {
                 Some(v) => v.val.clone(),
-                None => {
-                    let names = self.visible_names();
-                    let hint = closest(&id.name, &names)
-                        .map(|c| format!(" (did you mean `{c}`?)"))
-                        .unwrap_or_default();
-                    self.error(
-                        format!("unknown name `{}`{hint}", id.name),
-                        id.span,
-                        "not defined",
-                    );
-                    Self::poison(b, Ty::Float)
-                }
+                None => self.unknown(b, id, "name"),
             },
             ExprKind::Tuple(items) => self.triple(b, items, Ty::Point, e.span),
             ExprKind::Unary { op, operand } => self.unary(b, *op, operand, e.span),
@@ -109,6 +98,20 @@ impl<'a> Lower<'a> {
                 Self::poison(b, Ty::Float)
             }
         }
+    }
+
+    /// The error for an unknown `what` (name, function), with the closest visible name.
+    pub(crate) fn unknown(&mut self, b: &mut Builder, id: &ast::Ident, what: &str) -> Val {
+        let names = self.visible_names();
+        let hint = closest(&id.name, &names)
+            .map(|c| format!(" (did you mean `{c}`?)"))
+            .unwrap_or_default();
+        self.error(
+            format!("unknown {what} `{}`{hint}", id.name),
+            id.span,
+            "not defined",
+        );
+        Self::poison(b, Ty::Float)
     }
 
     fn number(&mut self, b: &mut Builder, x: f64, span: Span) -> Val {
@@ -205,7 +208,7 @@ impl<'a> Lower<'a> {
             me.error(
                 format!(
                     "`{}` does not combine a {} and a {}",
-                    op_text(op),
+                    op.as_str(),
                     ta.name(),
                     tc.name()
                 ),
@@ -272,7 +275,7 @@ impl<'a> Lower<'a> {
                     self.error(
                         format!(
                             "`{}` takes two points, vectors or normals, not a {} and a {}",
-                            op_text(op),
+                            op.as_str(),
                             ta.name(),
                             tc.name()
                         ),
@@ -320,7 +323,7 @@ impl<'a> Lower<'a> {
                     self.error(
                         format!(
                             "`{}` joins conditions, not a {} and a {}",
-                            op_text(op),
+                            op.as_str(),
                             ta.name(),
                             tc.name()
                         ),
@@ -394,16 +397,7 @@ impl<'a> Lower<'a> {
             return self.expr(b, value);
         };
         let Some(var) = self.lookup(&id.name).cloned() else {
-            let names = self.visible_names();
-            let hint = closest(&id.name, &names)
-                .map(|c| format!(" (did you mean `{c}`?)"))
-                .unwrap_or_default();
-            self.error(
-                format!("unknown name `{}`{hint}", id.name),
-                id.span,
-                "not defined",
-            );
-            return Self::poison(b, Ty::Float);
+            return self.unknown(b, id, "name");
         };
         let Val::V { ty, .. } = var.val else {
             self.error("strings cannot be assigned", id.span, "a string");
@@ -575,31 +569,5 @@ impl<'a> Lower<'a> {
             },
             v => v,
         }
-    }
-}
-
-/// An operator as written (for messages).
-pub(crate) fn op_text(op: BinaryOp) -> &'static str {
-    match op {
-        BinaryOp::Mul => "*",
-        BinaryOp::Div => "/",
-        BinaryOp::Rem => "%",
-        BinaryOp::Add => "+",
-        BinaryOp::Sub => "-",
-        BinaryOp::Dot => ".",
-        BinaryOp::Cross => "^",
-        BinaryOp::Shl => "<<",
-        BinaryOp::Shr => ">>",
-        BinaryOp::Lt => "<",
-        BinaryOp::Le => "<=",
-        BinaryOp::Gt => ">",
-        BinaryOp::Ge => ">=",
-        BinaryOp::Eq => "==",
-        BinaryOp::Ne => "!=",
-        BinaryOp::BitAnd => "&",
-        BinaryOp::BitXor => "^",
-        BinaryOp::BitOr => "|",
-        BinaryOp::And => "&&",
-        BinaryOp::Or => "||",
     }
 }

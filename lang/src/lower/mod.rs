@@ -510,22 +510,9 @@ fn eval(e: &ast::Expr) -> Option<Vec<f64>> {
 
 /// The name among `names` closest to `name` (edit distance at most a third of its length).
 pub(crate) fn closest<'n>(name: &str, names: &'n [String]) -> Option<&'n str> {
-    let d = |a: &str, b: &str| -> usize {
-        let b: Vec<char> = b.chars().collect();
-        let mut prev: Vec<usize> = (0..=b.len()).collect();
-        for (i, ca) in a.chars().enumerate() {
-            let mut cur = vec![i + 1];
-            for (j, cb) in b.iter().enumerate() {
-                let sub = prev[j] + usize::from(ca != *cb);
-                cur.push(sub.min(prev[j + 1] + 1).min(cur[j] + 1));
-            }
-            prev = cur;
-        }
-        prev[b.len()]
-    };
     names
         .iter()
-        .map(|n| (d(name, n), n))
+        .map(|n| (shadenet_graph::edit_distance(name, n), n))
         .filter(|(k, _)| *k <= (name.len() / 3).max(1))
         .min()
         .map(|(_, n)| n.as_str())
