@@ -9,7 +9,7 @@ use criterion::{Criterion, criterion_group};
 use shadenet::graph::opt::{self, Specialization};
 use shadenet::lang::{Options, SourceMap, lower, parse_file};
 use shadenet::runtime::Backend;
-use shadenet_jit::JitBackend;
+use shadenet_jit::{JitBackend, JitOptions};
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -18,8 +18,10 @@ fn shader() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/shaders/big.sl")
 }
 
-/// Every step once: (parse, lower, optimize, JIT) times and (ops before, ops after).
-fn steps(path: &Path) -> ([Duration; 4], (usize, usize)) {
+/// Every step once: (parse, lower, optimize, JIT) times and (ops before, ops after); the
+/// JIT compiles both entries (the default) or, with `scalar_only`, the scalar entry the
+/// renderer calls per hit.
+fn steps(path: &Path, scalar_only: bool) -> ([Duration; 4], (usize, usize)) {
     let t0 = Instant::now();
     let mut sources = SourceMap::new();
     let parsed = parse_file(&mut sources, path, &Options::default()).expect("big.sl parses");
@@ -45,7 +47,7 @@ fn steps(path: &Path) -> ([Duration; 4], (usize, usize)) {
 fn bench(c: &mut Criterion) {
     let path = shader();
     c.bench_function("lang/big_sl_front_end_optimize_jit", |b| {
-        b.iter(|| black_box(steps(&path)))
+        b.iter(|| black_box(steps(&path, false)))
     });
 }
 
@@ -59,7 +61,7 @@ fn main() {
         .count();
     if !std::env::args().any(|a| a == "--bench") {
         assert!(lines >= 500, "big.sl has {lines} lines, not ≥ 500");
-        steps(&path);
+        steps(&path, false);
         println!(
             "lang bench smoke check: big.sl ({lines} lines) compiles (run `cargo bench --bench lang`)"
         );
@@ -70,19 +72,21 @@ fn main() {
         .build_global()
         .ok();
     let ms = |d: Duration| d.as_secs_f64() * 1e3;
-    let best = (0..10)
-        .map(|_| steps(&path))
-        .min_by_key(|r| r.0.iter().sum::<Duration>())
-        .unwrap();
-    let (t, (before, after)) = best;
-    println!(
-        "big.sl ({lines} lines; {before} IR values lowered, {after} after optimization): front end {:.2} ms, lower {:.2} ms, optimize {:.2} ms, JIT {:.2} ms, total {:.2} ms (best of 10, one thread)",
-        ms(t[0]),
-        ms(t[1]),
-        ms(t[2]),
-        ms(t[3]),
-        ms(t.iter().sum())
-    );
+    for (what, scalar_only) in [("both JIT entries", false), ("scalar entry only", true)] {
+        let best = (0..10)
+            .map(|_| steps(&path, scalar_only))
+            .min_by_key(|r| r.0.iter().sum::<Duration>())
+            .unwrap();
+        let (t, (before, after)) = best;
+        println!(
+            "big.sl ({lines} lines; {before} IR values lowered, {after} after optimization; {what}): front end {:.2} ms, lower {:.2} ms, optimize {:.2} ms, JIT {:.2} ms, total {:.2} ms (best of 10, one thread)",
+            ms(t[0]),
+            ms(t[1]),
+            ms(t[2]),
+            ms(t[3]),
+            ms(t.iter().sum())
+        );
+    }
     benches();
     Criterion::default().configure_from_args().final_summary();
 }
