@@ -33,9 +33,11 @@ fn steps(path: &Path, scalar_only: bool) -> ([Duration; 4], (usize, usize)) {
     let (optimized, _) = opt::run(&program, &spec);
     let t3 = Instant::now();
     // The JIT optimizes again inside `compile` (its own copy); the step here is the rest.
-    let material = JitBackend::new()
-        .compile(&program, &spec)
-        .expect("the JIT compiles big.sl");
+    let jit = JitBackend::with_options(JitOptions {
+        batch: !scalar_only,
+        ..JitOptions::default()
+    });
+    let material = jit.compile(&program, &spec).expect("the JIT compiles big.sl");
     let t4 = Instant::now();
     black_box(material);
     (
