@@ -79,7 +79,9 @@ pub struct JitOptions {
     /// one-fragment packet).
     pub scalar: bool,
     /// Compile the batch entry (without it, [`Material::shade_x4`] runs the scalar entry per
-    /// lane).
+    /// lane). With the scalar entry as well, the batch entry is compiled when a batch call
+    /// first needs it (most renders call only the scalar entry; its compile time is then not
+    /// in the material's [`CompileStats`]); `emit_clif` compiles both at once.
     pub batch: bool,
     /// Cranelift's optimization level.
     pub opt: OptLevel,
@@ -287,6 +289,8 @@ impl Drop for Code {
 pub struct JitMaterial {
     scalar: Option<ScalarFn>,
     batch: Option<BatchFn>,
+    /// The batch entry, compiled when first needed (with both entries asked for).
+    lazy_batch: Option<LazyBatch>,
     uniforms: Box<[u32]>,
     textures: Box<TextureSet>,
     layout: Vec<OutputSlot>,
@@ -297,6 +301,11 @@ pub struct JitMaterial {
 }
 
 impl JitMaterial {
+    /// The batch entry: compiled with the material, or on first use.
+    fn batch(&self) -> Option<BatchFn> {
+        self.batch.or_else(|| self.lazy_batch.as_ref()?.get())
+    }
+
     /// The call context; `scene` is the shading context's `scene` field (scalar calls), a
     /// batch's services (`shade_many` with a scene: set `batch_scene` and the lane memos
     /// after) or `None` (no scene).
@@ -340,7 +349,7 @@ impl Material for JitMaterial {
         let memos: [abi::VisibilityMemo; LANES] = Default::default();
         let mut cc = self.call_ctx(ctx.env, ctx.mask, Some(&ctx.scene), Some(&memo));
         cc.visibility_x4 = &memos;
-        match (self.scalar, self.batch) {
+        match (self.scalar, self.batch()) {
             // SAFETY: the function was compiled for this material's layout; `out` holds
             // `width` floats; the context's pointers live for the call.
             (Some(f), _) => unsafe { f(&cc, &ctx.frag, out.as_mut_ptr()) },
@@ -368,7 +377,7 @@ impl Material for JitMaterial {
     ) -> u32 {
         assert!(out.len() >= self.width * LANES, "output buffer too small");
         let mut cc = self.call_ctx(env, mask, None, None);
-        match (self.batch, self.scalar) {
+        match (self.batch(), self.scalar) {
             // SAFETY: the function was compiled for this material's layout; `out` holds
             // `width * 4` floats; the context's pointers live for the call.
             (Some(f), _) => unsafe {
@@ -407,7 +416,7 @@ impl Material for JitMaterial {
         out: &mut [f32],
     ) -> BatchResult {
         let t = std::time::Instant::now();
-        let nonfinite = match (scene, self.batch) {
+        let nonfinite = match (scene, self.batch()) {
             (_, Some(f)) if !frags.is_empty() => {
                 assert!(
                     out.len() >= packed_len(self.width, frags.len()),
@@ -484,74 +493,33 @@ fn compile(
         }));
     }
     let textures = TextureSet::load(&program.textures).map_err(Fail::Texture)?;
-    let isa = isa(speed).map_err(Fail::Codegen)?;
-    let cg = |e: cranelift_module::ModuleError| Fail::Codegen(format!("{e:?}"));
-    let mut builder = JITBuilder::with_isa(isa, default_libcall_names());
-    builder.symbols(Helpers::symbols());
-    let mut module = JITModule::new(builder);
-    let helpers = Helpers::declare(&mut module).map_err(Fail::Codegen)?;
-    let layout = UniformLayout::new(program);
-    let mut text = String::new();
-    if want_clif {
-        let _ = writeln!(text, "; helper functions (u0:N = symbol):");
-        for (id, decl) in module.declarations().get_functions() {
-            let _ = writeln!(text, ";   u0:{} = {}", id.as_u32(), decl.linkage_name(id));
-        }
-    }
     let mut stats = CompileStats {
         optimize,
         ops: program.op_count(),
         ..CompileStats::default()
     };
+    // With both entries asked for, the batch entry is compiled when a batch call first needs
+    // it (most renders only call the scalar entry); `--emit clif` shows both.
+    let lazy = options.scalar && options.batch && !want_clif;
     let mut modes = Vec::new();
     if !program.prelude.body.is_empty() {
-        modes.push((Mode::Prelude, "prelude"));
+        modes.push(Mode::Prelude);
     }
     if options.scalar {
-        modes.push((Mode::Scalar, "scalar"));
+        modes.push(Mode::Scalar);
     }
-    if options.batch {
-        modes.push((Mode::Batch, "batch"));
+    if options.batch && !lazy {
+        modes.push(Mode::Batch);
     }
-    let mut ids = Vec::new();
-    let mut fbc = FunctionBuilderContext::new();
-    let mut ctx = module.make_context();
-    for (mode, name) in &modes {
-        let t = Instant::now();
-        let sig = lower::signature(&module, *mode);
-        let id = module
-            .declare_function(name, Linkage::Local, &sig)
-            .map_err(cg)?;
-        ctx.func.signature = sig;
-        ctx.func.name = UserFuncName::user(0, id.as_u32());
-        {
-            let fb = FunctionBuilder::new(&mut ctx.func, &mut fbc);
-            Lowerer::new(program, *mode, fb, &mut module, &helpers, &layout)
-                .finish()
-                .map_err(Fail::Unsupported)?;
-        }
-        stats.lower += t.elapsed();
-        let f = &ctx.func;
-        stats.ir_insts += f
-            .layout
-            .blocks()
-            .map(|b| f.layout.block_insts(b).count())
-            .sum::<usize>();
-        if want_clif {
-            let _ = writeln!(text, "; {name} entry of material `{}`", program.name);
-            let _ = writeln!(text, "{}", ctx.func.display());
-        }
-        let t = Instant::now();
-        module.define_function(id, &mut ctx).map_err(cg)?;
-        stats.codegen += t.elapsed();
-        stats.code_bytes += ctx.compiled_code().map_or(0, |c| c.code_buffer().len());
-        module.clear_context(&mut ctx);
-        ids.push((*mode, id));
-    }
-    let t = Instant::now();
-    module.finalize_definitions().map_err(cg)?;
-    stats.link = t.elapsed();
-
+    let mut text = String::new();
+    let (module, entries) = define_entries(
+        program,
+        &modes,
+        speed,
+        &mut stats,
+        want_clif.then_some(&mut text),
+    )?;
+    let layout = UniformLayout::new(program);
     let mut uniforms = vec![0u32; layout.size].into_boxed_slice();
     for (d, &slot) in program.params.iter().zip(&layout.params) {
         for (k, bits) in const_bits(&d.default).into_iter().enumerate() {
@@ -559,8 +527,7 @@ fn compile(
         }
     }
     let (mut scalar, mut batch, mut prelude) = (None, None, None);
-    for (mode, id) in ids {
-        let ptr = module.get_finalized_function(id);
+    for (mode, ptr) in entries {
         // SAFETY: each function was compiled with the signature of its mode (see
         // `lower::signature`), which these types transcribe.
         unsafe {
@@ -597,6 +564,11 @@ fn compile(
         JitMaterial {
             scalar,
             batch,
+            lazy_batch: lazy.then(|| LazyBatch {
+                program: program.clone(),
+                speed,
+                entry: OnceLock::new(),
+            }),
             uniforms,
             textures,
             layout: slots,
@@ -610,4 +582,109 @@ fn compile(
         },
         text,
     ))
+}
+
+/// Each compiled entry's mode and address.
+type Entries = Vec<(Mode, *const u8)>;
+
+/// Declares, lowers and defines the entries `modes` of `program` in a fresh JIT module and
+/// finalizes it: the module (which owns the code) and each entry's address. Adds the lower
+/// and codegen times and sizes to `stats`; `clif` receives the Cranelift IR text.
+fn define_entries(
+    program: &Program,
+    modes: &[Mode],
+    speed: bool,
+    stats: &mut CompileStats,
+    mut clif: Option<&mut String>,
+) -> Result<(JITModule, Entries), Fail> {
+    let isa = isa(speed).map_err(Fail::Codegen)?;
+    let cg = |e: cranelift_module::ModuleError| Fail::Codegen(format!("{e:?}"));
+    let mut builder = JITBuilder::with_isa(isa, default_libcall_names());
+    builder.symbols(Helpers::symbols());
+    let mut module = JITModule::new(builder);
+    let helpers = Helpers::declare(&mut module).map_err(Fail::Codegen)?;
+    let layout = UniformLayout::new(program);
+    if let Some(text) = clif.as_deref_mut() {
+        let _ = writeln!(text, "; helper functions (u0:N = symbol):");
+        for (id, decl) in module.declarations().get_functions() {
+            let _ = writeln!(text, ";   u0:{} = {}", id.as_u32(), decl.linkage_name(id));
+        }
+    }
+    let mut ids = Vec::new();
+    let mut fbc = FunctionBuilderContext::new();
+    let mut ctx = module.make_context();
+    for &mode in modes {
+        let name = match mode {
+            Mode::Prelude => "prelude",
+            Mode::Scalar => "scalar",
+            Mode::Batch => "batch",
+        };
+        let t = Instant::now();
+        let sig = lower::signature(&module, mode);
+        let id = module
+            .declare_function(name, Linkage::Local, &sig)
+            .map_err(cg)?;
+        ctx.func.signature = sig;
+        ctx.func.name = UserFuncName::user(0, id.as_u32());
+        {
+            let fb = FunctionBuilder::new(&mut ctx.func, &mut fbc);
+            Lowerer::new(program, mode, fb, &mut module, &helpers, &layout)
+                .finish()
+                .map_err(Fail::Unsupported)?;
+        }
+        stats.lower += t.elapsed();
+        let f = &ctx.func;
+        stats.ir_insts += f
+            .layout
+            .blocks()
+            .map(|b| f.layout.block_insts(b).count())
+            .sum::<usize>();
+        if let Some(text) = clif.as_deref_mut() {
+            let _ = writeln!(text, "; {name} entry of material `{}`", program.name);
+            let _ = writeln!(text, "{}", ctx.func.display());
+        }
+        let t = Instant::now();
+        module.define_function(id, &mut ctx).map_err(cg)?;
+        stats.codegen += t.elapsed();
+        stats.code_bytes += ctx.compiled_code().map_or(0, |c| c.code_buffer().len());
+        module.clear_context(&mut ctx);
+        ids.push((mode, id));
+    }
+    let t = Instant::now();
+    module.finalize_definitions().map_err(cg)?;
+    stats.link = t.elapsed();
+    let entries = ids
+        .into_iter()
+        .map(|(mode, id)| (mode, module.get_finalized_function(id)))
+        .collect();
+    Ok((module, entries))
+}
+
+/// A batch entry compiled on first use: the program it is compiled from and, once it has
+/// been, the entry with the module that owns its code (`None`: it could not be compiled,
+/// and batch calls run the scalar entry per lane).
+struct LazyBatch {
+    program: Program,
+    speed: bool,
+    entry: OnceLock<Option<(BatchFn, Code)>>,
+}
+
+impl LazyBatch {
+    /// The batch entry, compiling it the first time.
+    fn get(&self) -> Option<BatchFn> {
+        self.entry
+            .get_or_init(|| {
+                let mut stats = CompileStats::default();
+                let (module, entries) =
+                    define_entries(&self.program, &[Mode::Batch], self.speed, &mut stats, None)
+                        .ok()?;
+                let ptr = entries.first()?.1;
+                // SAFETY: compiled with the batch mode's signature, which `BatchFn`
+                // transcribes; the module owning the code lives beside the pointer.
+                let f = unsafe { std::mem::transmute::<*const u8, BatchFn>(ptr) };
+                Some((f, Code(Some(module))))
+            })
+            .as_ref()
+            .map(|(f, _)| *f)
+    }
 }
