@@ -131,3 +131,32 @@ def test_renderer_crops_hold_the_full_render_bits():
         r.render(crop=(1, 2, 3))
     assert shadenet.frame_size(res=(7, 9)) == (7, 9)
     assert shadenet.frame_size() == (640, 360)
+
+
+def test_frames_of_a_sequence_render_one_task_each(cluster, tmp_path):
+    """`frames=[...]`: one task per scene file, each written where the pattern says, each
+    the bytes `shadenet render` writes for it."""
+    scenes = []
+    for k, x in enumerate([-0.5, 0.5]):
+        p = tmp_path / f"frame{k}.toml"
+        p.write_text(
+            "[camera]\nposition = [0, 0, 4]\nlook_at = [0, 0, 0]\nresolution = [24, 16]\n"
+            "[render]\nspp = 1\n"
+            "[materials.m.inline]\nnodes = [{ name = \"l\", type = \"lambert\" }]\n"
+            "outputs = { color = \"l.outColor\" }\n"
+            "[meshes.b]\ntype = \"sphere\"\n"
+            f"[[instances]]\nmesh = \"b\"\nmaterial = \"m\"\ntranslate = [{x}, 0, 0]\n"
+            "[[lights]]\ntype = \"point\"\nposition = [2, 2, 4]\nintensity = 20\n"
+        )
+        scenes.append(p)
+    out = tmp_path / "out"
+    out.mkdir()
+    r = dist.render(frames=scenes, output=str(out / "{stem}.exr"), progress=False)
+    assert r.tasks == 2 and r.retries == {}
+    assert r.outputs == [str(out / "frame0.exr"), str(out / "frame1.exr")]
+    for scene, written in zip(scenes, r.outputs):
+        single = tmp_path / (scene.stem + "-cli.exr")
+        subprocess.run([shadenet_bin(), "render", str(scene), "-o", str(single), "-q"], check=True)
+        assert open(written, "rb").read() == single.read_bytes()
+    with pytest.raises(ValueError, match="names two frames the same file"):
+        dist.render(frames=scenes, output=str(out / "same.exr"), progress=False)
