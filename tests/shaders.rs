@@ -430,3 +430,38 @@ fn the_rsl_scene_renders_and_overrides_set_parameters() {
         assert!(e.contains(want) && e.contains("`m`"), "{set}: {e}");
     }
 }
+
+/// A parameter whose default is an expression of earlier parameters is uniform code: class
+/// compilation (parameters left uniform) hoists it into the prelude, evaluated once per
+/// instance; an instance compilation folds it.
+#[test]
+fn parameter_default_expressions_are_hoisted_once_per_instance() {
+    use shadenet::graph::ir::{BinOp, Op};
+    let p = compile("surface s(float a = 2; float b = a * 3) { Ci = b * Cs * u; }").unwrap();
+    assert_eq!(
+        p.params.iter().map(|d| d.name.as_str()).collect::<Vec<_>>(),
+        ["a"]
+    );
+    let class = Specialization {
+        bake: false,
+        ..Specialization::default()
+    };
+    let (o, _) = opt::run(&p, &class);
+    let muls = o
+        .prelude
+        .body
+        .iter()
+        .filter(|v| matches!(o.op(**v), Op::Binary(BinOp::Mul, ..)))
+        .count();
+    assert_eq!(muls, 1, "{o}");
+    let (baked, _) = opt::run(&p, &Specialization::default());
+    assert!(baked.prelude.body.is_empty(), "{baked}");
+    let f = plane_fragment();
+    let out = run_program(&p, &f, &[], u32::MAX);
+    assert_close(
+        &out.get("Ci"),
+        &[3.0; 3],
+        1e-12,
+        "b = a·3 = 6, times u = 0.5",
+    );
+}
