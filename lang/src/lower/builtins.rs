@@ -302,6 +302,23 @@ impl<'a> Lower<'a> {
                     }
                 }
             }
+            _ => self.shading_builtin(b, name, &vs, span),
+        }
+    }
+
+    /// The builtins that read the scene: `ambient`, the lit builtins (light loops),
+    /// `trace`, and `noise`; `None` when the arguments do not fit.
+    fn shading_builtin(
+        &mut self,
+        b: &mut Builder,
+        name: &str,
+        vs: &[(Value, Ty, bool)],
+        span: Span,
+    ) -> Option<Val> {
+        let varying = vs.iter().any(|v| v.2);
+        let out = |v: Value, ty: Ty| Some(Val::V { v, ty, varying });
+        let float = |t: Ty| t == Ty::Float;
+        match (name, vs) {
             ("ambient", []) => Some(Val::V {
                 v: b.ambient(),
                 ty: Ty::Color,
