@@ -402,6 +402,24 @@ fn set_input(
     Ok(())
 }
 
+/// How many worker threads a render or shade may ask for per core: enough to oversubscribe,
+/// not enough to exhaust the machine (`--threads 100000` used to run for minutes).
+pub const MAX_THREADS_PER_CORE: usize = 8;
+
+/// Checks a worker-thread count against 1 to [`MAX_THREADS_PER_CORE`] × this machine's
+/// cores; the error starts with the count, for the caller to prefix with its option's name
+/// (`--threads`, `threads=`).
+pub fn check_threads(n: usize) -> Result<usize, String> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let max = MAX_THREADS_PER_CORE * cores;
+    if n == 0 || n > max {
+        return Err(format!(
+            "{n}: expected 1 to {max} ({MAX_THREADS_PER_CORE} × the {cores} cores of this machine)"
+        ));
+    }
+    Ok(n)
+}
+
 /// The back end for a kind.
 pub fn backend(kind: BackendKind) -> Result<Box<dyn ShaderBackend>, SetupError> {
     match kind {

@@ -12,9 +12,6 @@ use shadenet::tracer::{Film, RenderStats, Renderer, Window};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// How many worker threads `threads=` may ask for per core (the CLI's `--threads` rule).
-const MAX_THREADS_PER_CORE: usize = 8;
-
 /// A rendered film and what the render reports: the window's size, its layers, the
 /// statistics, the window `(x0, y0, x1, y1)` and the full frame's size.
 type Rendered<'py> = (
@@ -179,14 +176,8 @@ struct Info {
 
 /// The thread pool of `threads` workers (1 to 8 × the cores; `None`: all cores).
 fn thread_pool(threads: Option<usize>) -> PyResult<rayon::ThreadPool> {
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let max = MAX_THREADS_PER_CORE * cores;
-    if let Some(n) = threads
-        && (n == 0 || n > max)
-    {
-        return Err(value_error(format!(
-            "threads={n}: expected 1 to {max} ({MAX_THREADS_PER_CORE} × the {cores} cores of this machine)"
-        )));
+    if let Some(n) = threads {
+        r::check_threads(n).map_err(|e| value_error(format!("threads={e}")))?;
     }
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads.unwrap_or(0))

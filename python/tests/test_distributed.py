@@ -30,6 +30,12 @@ def shadenet_bin():
     return os.environ.get("SHADENET_BIN", os.path.join(root, "target", "debug", "shadenet"))
 
 
+def cli_render(out, *args):
+    """``shadenet render ARGS -o OUT -q`` (the single-process reference); returns ``out``."""
+    subprocess.run([shadenet_bin(), "render", *args, "-o", str(out), "-q"], check=True)
+    return out
+
+
 def test_split_frame_tiles_the_frame_exactly():
     for (w, h, n) in [(640, 360, 16), (64, 36, 16), (7, 5, 7), (10, 1, 4), (3, 3, 9), (5, 4, 1)]:
         wins = dist.split_frame(w, h, tiles=n)
@@ -50,11 +56,7 @@ def test_split_frame_tiles_the_frame_exactly():
 
 
 def test_sixteen_tiles_merge_bit_identically_to_one_process(cluster, tmp_path):
-    single = tmp_path / "single.exr"
-    subprocess.run(
-        [shadenet_bin(), "render", "-o", str(single), "--res", "%dx%d" % RES, "--spp", str(SPP), "-q"],
-        check=True,
-    )
+    single = cli_render(tmp_path / "single.exr", "--res", "%dx%d" % RES, "--spp", str(SPP))
     out = tmp_path / "tiles.exr"
     r = dist.render(None, out, tiles=16, res=RES, spp=SPP, progress=False)
     assert r.tasks == 16 and r.retries == {}
@@ -70,11 +72,7 @@ def test_sixteen_tiles_merge_bit_identically_to_one_process(cluster, tmp_path):
 def test_a_killed_worker_is_retried_and_the_image_is_unchanged(cluster, tmp_path, monkeypatch):
     marker = tmp_path / "tile5-failed"
     monkeypatch.setenv(dist.FAIL_TILE_ENV, f"5:{marker}")
-    single = tmp_path / "single.exr"
-    subprocess.run(
-        [shadenet_bin(), "render", "-o", str(single), "--res", "%dx%d" % RES, "--spp", str(SPP), "-q"],
-        check=True,
-    )
+    single = cli_render(tmp_path / "single.exr", "--res", "%dx%d" % RES, "--spp", str(SPP))
     out = tmp_path / "retried.exr"
     r = dist.render(None, out, tiles=8, res=RES, spp=SPP, progress=False)
     # The first attempt of tile 5 exited its worker process; Ray ran it again.
@@ -155,8 +153,7 @@ def test_frames_of_a_sequence_render_one_task_each(cluster, tmp_path):
     assert r.tasks == 2 and r.retries == {}
     assert r.outputs == [str(out / "frame0.exr"), str(out / "frame1.exr")]
     for scene, written in zip(scenes, r.outputs):
-        single = tmp_path / (scene.stem + "-cli.exr")
-        subprocess.run([shadenet_bin(), "render", str(scene), "-o", str(single), "-q"], check=True)
+        single = cli_render(tmp_path / (scene.stem + "-cli.exr"), str(scene))
         assert open(written, "rb").read() == single.read_bytes()
     with pytest.raises(ValueError, match="names two frames the same file"):
         dist.render(frames=scenes, output=str(out / "same.exr"), progress=False)

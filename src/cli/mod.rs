@@ -87,10 +87,6 @@ impl GpuPassesArg {
     }
 }
 
-/// How many worker threads `--threads` may ask for per core: enough to oversubscribe, not
-/// enough to exhaust the machine (`--threads 100000` used to run for minutes).
-pub(crate) const MAX_THREADS_PER_CORE: usize = 8;
-
 /// `--threads`, shared by `shade` and `render`.
 #[derive(clap::Args, Clone, Copy)]
 pub(crate) struct ThreadsArg {
@@ -102,17 +98,11 @@ pub(crate) struct ThreadsArg {
 impl ThreadsArg {
     /// The checked count (`None`: all cores), or an error naming the range.
     pub(crate) fn count(&self) -> Result<Option<usize>> {
-        let Some(n) = self.threads else {
-            return Ok(None);
-        };
-        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-        let max = MAX_THREADS_PER_CORE * cores;
-        if n == 0 || n > max {
-            bail!(
-                "--threads {n}: expected 1 to {max} ({MAX_THREADS_PER_CORE} × the {cores} cores of this machine)"
-            );
-        }
-        Ok(Some(n))
+        self.threads
+            .map(|n| {
+                shadenet::render::check_threads(n).map_err(|e| anyhow::anyhow!("--threads {e}"))
+            })
+            .transpose()
     }
 
     /// A thread pool of the checked size.

@@ -56,7 +56,7 @@ pub fn merge(parts: &[(PathBuf, ExrImage)]) -> Result<ExrImage, String> {
     // overlaps; counting first keeps a hostile display window from sizing an allocation.
     let covered: u64 = parts.iter().map(|(_, p)| p.window.pixels() as u64).sum();
     if covered < full.pixels() as u64 {
-        return Err(gap_error(parts, full));
+        return Err(gap_error(parts, full, covered));
     }
     let owner = owners(parts, full)?;
     if let Some(first_gap) = owner.iter().position(|&o| o == NONE) {
@@ -121,9 +121,9 @@ fn owners(parts: &[(PathBuf, ExrImage)], full: Window) -> Result<Vec<u32>, Strin
     Ok(owner)
 }
 
-/// The error for parts whose pixels do not add up to the frame: the windows they have.
-fn gap_error(parts: &[(PathBuf, ExrImage)], full: Window) -> String {
-    let covered: u64 = parts.iter().map(|(_, p)| p.window.pixels() as u64).sum();
+/// The error for parts whose `covered` pixels do not add up to the frame: the windows they
+/// have.
+fn gap_error(parts: &[(PathBuf, ExrImage)], full: Window, covered: u64) -> String {
     let list: Vec<String> = parts
         .iter()
         .map(|(p, i)| format!("{} {}", p.display(), i.window))

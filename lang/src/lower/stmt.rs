@@ -263,11 +263,10 @@ impl<'a> Lower<'a> {
         };
         let names = self.assigned_outer(&[body]);
         self.only_accumulated(body, &names);
-        let zero: Vec<(ast::Ident, Ty)> = names.clone();
         let me = RefCell::new(&mut *self);
         let sums = b.illuminance(p, |b, l, cl| {
             let mut me = me.borrow_mut();
-            let saved = me.snapshot(&zero);
+            let saved = me.snapshot(&names);
             let mut scope = HashMap::new();
             let vis = b.light_visible();
             let vis = b.splat(shadenet_graph::Type::Color, vis);
@@ -288,7 +287,7 @@ impl<'a> Lower<'a> {
                 );
             }
             me.scopes.push(scope);
-            for (n, ty) in &zero {
+            for (n, ty) in &names {
                 let val = Self::poison(b, *ty);
                 me.rebind(n, val, false, n.span);
             }
@@ -296,7 +295,7 @@ impl<'a> Lower<'a> {
             let deltas = match &cone {
                 None => {
                     me.stmt(b, body);
-                    me.current(b, &zero)
+                    me.current(b, &names)
                 }
                 Some((Val::V { v: n, .. }, Val::V { v: angle, .. })) => {
                     let n = b.normalize(*n);
@@ -309,16 +308,16 @@ impl<'a> Lower<'a> {
                         |b| {
                             let mut me = inner.borrow_mut();
                             me.stmt(b, body);
-                            me.current(b, &zero)
+                            me.current(b, &names)
                         },
-                        |b| zero.iter().map(|(_, t)| b.zero(t.ir())).collect(),
+                        |b| names.iter().map(|(_, t)| b.zero(t.ir())).collect(),
                     )
                 }
                 Some(_) => Vec::new(),
             };
             me.in_illuminance = false;
             me.scopes.pop();
-            me.restore(&zero, saved);
+            me.restore(&names, saved);
             deltas
         });
         if sums.len() != names.len() {
