@@ -156,10 +156,7 @@ pub fn shade_grid<F: Real>(
         .enumerate()
         .map(|(y, row)| {
             let mut scratch = Default::default();
-            let mut out = ShadeOut {
-                values: Vec::new(),
-                nonfinite: 0,
-            };
+            let mut out = ShadeOut::default();
             let mut bad = 0u64;
             for (x, dst) in row.chunks_mut(stride.max(1)).enumerate() {
                 let mut ctx = ShadeCtx::new(grid_fragment(x as u32, y as u32, w, h), env);

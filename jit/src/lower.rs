@@ -885,6 +885,9 @@ impl<'a, 'b> Lowerer<'a, 'b> {
                 self.regions.insert(v.index(), res);
                 Ok(Vec::new())
             }
+            Op::Loop { .. } | Op::LoopVar(_) => {
+                Err(self.unsupported(v, "the JIT does not compile loops yet"))
+            }
             Op::Illuminance { p: point, body } => {
                 let pt = self.get(*point)?;
                 let res = self.illuminance(v, pt, body)?;

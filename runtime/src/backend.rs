@@ -25,6 +25,7 @@ use std::cell::RefCell;
 use std::collections::HashMap;
 use std::fmt;
 use std::hash::{Hash, Hasher};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -115,6 +116,14 @@ pub trait Material: Send + Sync {
 
     /// Which back end runs it, whether it is a fallback, and compile statistics.
     fn info(&self) -> &MaterialInfo;
+
+    /// Loop executions of this material, over all its calls and threads so far, that
+    /// stopped at [`LOOP_ITERATION_LIMIT`](shadenet_graph::ir::LOOP_ITERATION_LIMIT) with
+    /// their condition still true (a shader bug that would otherwise hang the render). A
+    /// back end that cannot count returns 0; one whose programs have no loop too.
+    fn loop_limits(&self) -> u64 {
+        0
+    }
 
     /// Shades any number of fragments, every one with the same environment, component mask
     /// and scene. `out` receives the outputs in the packets' layout
@@ -377,6 +386,8 @@ pub struct InterpMaterial {
     interp: Interpreter<f32>,
     width: usize,
     info: MaterialInfo,
+    /// Loop executions stopped at the iteration limit, all calls and threads.
+    loop_limits: AtomicU64,
 }
 
 type InterpState = (Scratch<f32>, ShadeOut<f32>);
@@ -385,7 +396,7 @@ thread_local! {
     /// Per-thread interpreter registers, reused across calls.
     static SCRATCH: RefCell<InterpState> = RefCell::new((
         Scratch::default(),
-        ShadeOut { values: Vec::new(), nonfinite: 0 },
+        ShadeOut::default(),
     ));
 }
 
@@ -406,7 +417,16 @@ impl InterpMaterial {
                     ..CompileStats::default()
                 },
             },
+            loop_limits: AtomicU64::new(0),
         })
+    }
+
+    /// Adds one call's loop stops to the material's total.
+    fn count(&self, o: &ShadeOut<f32>) {
+        if o.loop_limits > 0 {
+            let n = u64::from(o.loop_limits);
+            self.loop_limits.fetch_add(n, Ordering::Relaxed);
+        }
     }
 
     /// The same material, marked as standing in for another back end that could not
@@ -420,13 +440,7 @@ impl InterpMaterial {
         SCRATCH.with(|s| match s.try_borrow_mut() {
             Ok(mut state) => f(&mut state),
             // Re-entered (a shader shading from inside a shader): use fresh registers.
-            Err(_) => f(&mut (
-                Scratch::default(),
-                ShadeOut {
-                    values: Vec::new(),
-                    nonfinite: 0,
-                },
-            )),
+            Err(_) => f(&mut (Scratch::default(), ShadeOut::default())),
         })
     }
 }
@@ -443,6 +457,7 @@ impl Material for InterpMaterial {
     fn shade(&self, ctx: &ShadeCtx, out: &mut [f32]) -> u32 {
         self.with_state(|(scratch, o)| {
             self.interp.shade_with(ctx, scratch, o);
+            self.count(o);
             out[..self.width].copy_from_slice(&o.values);
             o.nonfinite
         })
@@ -471,6 +486,7 @@ impl Material for InterpMaterial {
                 }
                 if lane < active {
                     bad += o.nonfinite;
+                    self.count(o);
                 }
             }
             bad
@@ -479,6 +495,10 @@ impl Material for InterpMaterial {
 
     fn info(&self) -> &MaterialInfo {
         &self.info
+    }
+
+    fn loop_limits(&self) -> u64 {
+        self.loop_limits.load(Ordering::Relaxed)
     }
 }
 

@@ -1,8 +1,9 @@
 //! The interpreter: runs any valid program, in f32 (shading) or f64 (the accuracy reference).
 //!
 //! It walks the program's blocks in order, evaluating each op with [`shadenet_graph::ops`];
-//! an `If` runs only the arm its condition picks, and `Illuminance` runs its body once per
-//! light sample. Every output then passes the guard: a non-finite component becomes 0 and is
+//! an `If` runs only the arm its condition picks, `Illuminance` runs its body once per
+//! light sample, and `Loop` runs its condition and body until the condition fails or the
+//! iteration limit stops it (counted in [`ShadeOut::loop_limits`]). Every output then passes the guard: a non-finite component becomes 0 and is
 //! counted in [`ShadeOut::nonfinite`].
 //!
 //! # The scene
@@ -29,7 +30,9 @@
 use crate::ctx::{SceneServices, ShadeCtx, ShadeEnv};
 use crate::lights;
 use crate::texture::{TextureError, TextureSet};
-use shadenet_graph::ir::{BinOp, Block, Op, Program, Space, Stream, Value, XformKind};
+use shadenet_graph::ir::{
+    BinOp, Block, LOOP_ITERATION_LIMIT, Op, Program, Space, Stream, Value, XformKind,
+};
 use shadenet_graph::ops::{self, Real, Val};
 use shadenet_graph::types::{ConstValue, Type};
 
@@ -54,6 +57,20 @@ pub struct ShadeOut<F> {
     pub values: Vec<F>,
     /// Non-finite floats the guard replaced with 0 in this call.
     pub nonfinite: u32,
+    /// Loop executions in this call that stopped at
+    /// [`LOOP_ITERATION_LIMIT`](shadenet_graph::ir::LOOP_ITERATION_LIMIT) with their
+    /// condition still true.
+    pub loop_limits: u32,
+}
+
+impl<F> Default for ShadeOut<F> {
+    fn default() -> Self {
+        ShadeOut {
+            values: Vec::new(),
+            nonfinite: 0,
+            loop_limits: 0,
+        }
+    }
 }
 
 /// A program prepared for interpretation in precision `F`.
@@ -117,6 +134,11 @@ pub struct Scratch<F> {
     sums: Vec<Vec<Val<F>>>,
     /// Matrices computed in this shading call (see `Interpreter::mat_index`).
     mats: Vec<[F; 16]>,
+    /// The carried values of the loops running now, innermost last (buffers come from and
+    /// return to `sums`).
+    loops: Vec<Vec<Val<F>>>,
+    /// Loop executions stopped at the iteration limit in this shading call.
+    loop_limits: u32,
 }
 
 impl<F> Default for Scratch<F> {
@@ -128,6 +150,8 @@ impl<F> Default for Scratch<F> {
             visibility_at: None,
             sums: Vec::new(),
             mats: Vec::new(),
+            loops: Vec::new(),
+            loop_limits: 0,
         }
     }
 }
@@ -242,6 +266,7 @@ impl<F: Real> Interpreter<F> {
         let mut out = ShadeOut {
             values: Vec::new(),
             nonfinite: 0,
+            loop_limits: 0,
         };
         self.shade_with(ctx, &mut scratch, &mut out);
         out
@@ -253,6 +278,8 @@ impl<F: Real> Interpreter<F> {
         scratch.regs.resize(self.program.exprs.len(), Val::Int(0));
         scratch.light = None;
         scratch.visibility_at = None;
+        scratch.loops.clear();
+        scratch.loop_limits = 0;
         scratch.mats.resize(self.body_mats, [F::ZERO; 16]);
         for &(i, v) in &self.prelude {
             scratch.regs[i] = v;
@@ -261,6 +288,7 @@ impl<F: Real> Interpreter<F> {
         out.values.clear();
         out.values.resize(self.width, F::ZERO);
         out.nonfinite = 0;
+        out.loop_limits = scratch.loop_limits;
         for (o, slot) in self.program.outputs.iter().zip(&self.slots) {
             let v = scratch.regs[o.value.index()];
             let dst = &mut out.values[slot.offset..];
@@ -401,6 +429,23 @@ impl<F: Real> Interpreter<F> {
                 s.sums.push(sums);
                 Val::Int(0)
             }
+            Op::Loop { init, cond, body } => {
+                let mut cur = s.sums.pop().unwrap_or_default();
+                cur.clear();
+                cur.extend(init.iter().map(reg));
+                s.loops.push(cur);
+                self.run_loop(cond, body, ctx, s);
+                let cur = s.loops.pop().unwrap_or_default();
+                self.store_sums(v, &cur, s);
+                s.sums.push(cur);
+                Val::Int(0)
+            }
+            Op::LoopVar(k) => s
+                .loops
+                .last()
+                .and_then(|c| c.get(*k as usize))
+                .copied()
+                .unwrap_or(Val::Int(0)),
             Op::LightL => Val::Vec3(s.light.map_or([F::ZERO; 3], |l| l.0.l)),
             Op::LightCl => Val::Vec3(s.light.map_or([F::ZERO; 3], |l| l.0.cl)),
             Op::LightVisible => Val::Float(s.light.map_or(F::ONE, |l| l.1)),
@@ -444,6 +489,34 @@ impl<F: Real> Interpreter<F> {
                 reg(samples).as_int(),
                 reg(max_distance).as_float(),
             )),
+        }
+    }
+
+    /// Runs a loop whose carried values are `s.loops`' last entry: the condition, then the
+    /// body while it holds, at most [`LOOP_ITERATION_LIMIT`] times.
+    fn run_loop(&self, cond: &Block, body: &Block, ctx: &ShadeCtx, s: &mut Scratch<F>) {
+        let mut n = 0;
+        loop {
+            self.block(cond, ctx, s);
+            if !cond
+                .yields
+                .first()
+                .is_some_and(|c| s.regs[c.index()].as_bool())
+            {
+                return;
+            }
+            if n == LOOP_ITERATION_LIMIT {
+                s.loop_limits += 1;
+                return;
+            }
+            self.block(body, ctx, s);
+            let regs = &s.regs;
+            if let Some(cur) = s.loops.last_mut() {
+                for (c, y) in cur.iter_mut().zip(&body.yields) {
+                    *c = regs[y.index()];
+                }
+            }
+            n += 1;
         }
     }
 

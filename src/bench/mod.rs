@@ -230,10 +230,7 @@ fn reference_frame(
     let interp = Interpreter::<f64>::new(&p).expect("no textures");
     let stride: usize = interp.slots().iter().map(|s| s.ty.width().max(1)).sum();
     let mut scratch = Default::default();
-    let mut out = shadenet_runtime::ShadeOut {
-        values: Vec::new(),
-        nonfinite: 0,
-    };
+    let mut out = shadenet_runtime::ShadeOut::default();
     let mut v = Vec::with_capacity(frags.len() * stride);
     for f in frags {
         interp.shade_with(&ShadeCtx::new(*f, env), &mut scratch, &mut out);

@@ -94,15 +94,9 @@ thread_local! {
 
 impl Shader for F64Shader {
     fn shade(&self, ctx: &ShadeCtx, out: &mut ShadeOut<f32>) {
-        let (mut scratch, mut o) = SCRATCH64.with(|s| s.borrow_mut().pop()).unwrap_or_else(|| {
-            (
-                Scratch::default(),
-                ShadeOut {
-                    values: Vec::new(),
-                    nonfinite: 0,
-                },
-            )
-        });
+        let (mut scratch, mut o) = SCRATCH64
+            .with(|s| s.borrow_mut().pop())
+            .unwrap_or_else(|| (Scratch::default(), ShadeOut::default()));
         self.0.shade_with(ctx, &mut scratch, &mut o);
         out.values.clear();
         out.values.extend(o.values.iter().map(|v| *v as f32));

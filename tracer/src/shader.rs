@@ -45,10 +45,7 @@ pub trait Shader: Send + Sync {
     ) -> BatchResult {
         let t = Instant::now();
         out.clear();
-        let mut one = ShadeOut {
-            values: Vec::new(),
-            nonfinite: 0,
-        };
+        let mut one = ShadeOut::default();
         let mut nonfinite = 0u64;
         for i in 0..frags.len() {
             let ctx = ShadeCtx {

@@ -127,6 +127,10 @@ impl Linearizer<'_> {
                         cost: cost.max(1),
                     }));
                 }
+                Op::Loop { .. } | Op::LoopVar(_) => {
+                    let why = "the GPU back end does not run loops yet".to_string();
+                    return Err(unsupported(p, self.names, v, why));
+                }
                 Op::Trace { .. } => self
                     .entries
                     .push(Entry::Host(HostKind::Trace(v), guard.clone())),

@@ -560,6 +560,53 @@ impl Builder {
         self.projections(region, &tys)
     }
 
+    /// A loop carrying `init` (see [`Op::Loop`]): `cond` and `body` receive the builder and
+    /// the carried values' current values (`loop.var`s); `cond` returns the bool that runs
+    /// the body again, `body` the next values (as many, of the same types). Returns the
+    /// values the loop ends with.
+    pub fn loop_(
+        &mut self,
+        init: &[Value],
+        cond: impl FnOnce(&mut Builder, &[Value]) -> Value,
+        body: impl FnOnce(&mut Builder, &[Value]) -> Vec<Value>,
+    ) -> Vec<Value> {
+        let tys: Vec<Type> = init.iter().map(|v| self.ty(*v)).collect();
+        if tys.len() > u8::MAX as usize + 1 {
+            self.fail(format!("a loop carries {} values; at most 256", tys.len()));
+            return Vec::new();
+        }
+        let vars = |b: &mut Builder| -> Vec<Value> {
+            let ks = tys.iter().enumerate();
+            ks.map(|(k, t)| b.push(Op::LoopVar(k as u8), Some(*t)))
+                .collect()
+        };
+        let c = self.build_block(|b| {
+            let vs = vars(b);
+            vec![cond(b, &vs)]
+        });
+        let body = self.build_block(|b| {
+            let vs = vars(b);
+            body(b, &vs)
+        });
+        let ct: Vec<Type> = c.yields.iter().map(|v| self.ty(*v)).collect();
+        let bt: Vec<Type> = body.yields.iter().map(|v| self.ty(*v)).collect();
+        if ct != [Type::Bool] || bt != tys {
+            self.fail(format!(
+                "a loop carrying {tys:?} has a condition of {ct:?} and a body yielding {bt:?}"
+            ));
+        }
+        let init = init.to_vec();
+        let region = self.push(
+            Op::Loop {
+                init,
+                cond: c,
+                body,
+            },
+            None,
+        );
+        self.projections(region, &tys)
+    }
+
     /// Declares a material output (or one component part of it).
     pub fn output(&mut self, name: &str, component: Option<u8>, value: Value) {
         self.program.outputs.push(Output {

@@ -178,7 +178,7 @@ impl Builder {
             if !inside.contains(&x) || !need.insert(x) {
                 continue;
             }
-            if matches!(self.program().op(x), Op::If { .. } | Op::Illuminance { .. }) {
+            if self.program().op(x).is_region() {
                 return None;
             }
             self.program().op(x).for_each_operand(|o| stack.push(o));

@@ -19,12 +19,15 @@ impl Op {
             | Op::LightCl
             | Op::LightVisible
             | Op::LightPdf
+            | Op::LoopVar(_)
             | Op::Ambient => Vec::new(),
             Op::Transform { arg, .. } => vec![arg],
             Op::Unary(_, a) | Op::Extract(a, _) | Op::Splat(a) | Op::Convert(a) => vec![a],
             Op::Binary(_, a, b) => vec![a, b],
             Op::Select { cond, a, b } => vec![cond, a, b],
-            Op::Construct(args) | Op::Call(_, args) => args.iter_mut().collect(),
+            Op::Construct(args) | Op::Call(_, args) | Op::Loop { init: args, .. } => {
+                args.iter_mut().collect()
+            }
             Op::If { cond, .. } => vec![cond],
             Op::Illuminance { p, .. } => vec![p],
             Op::Proj(r, _) => vec![r],
@@ -54,13 +57,17 @@ impl Op {
         match self {
             Op::If { then_, else_, .. } => vec![then_, else_],
             Op::Illuminance { body, .. } => vec![body],
+            Op::Loop { cond, body, .. } => vec![cond, body],
             _ => Vec::new(),
         }
     }
 
-    /// Whether the op is a region (`If`, `Illuminance`).
+    /// Whether the op is a region (`If`, `Illuminance`, `Loop`).
     pub fn is_region(&self) -> bool {
-        matches!(self, Op::If { .. } | Op::Illuminance { .. })
+        matches!(
+            self,
+            Op::If { .. } | Op::Illuminance { .. } | Op::Loop { .. }
+        )
     }
 }
 

@@ -14,6 +14,12 @@
 //!   samples run the body too, with `light.visible = 0`: a shader multiplies what it lights by
 //!   it, and can sum what the shadows take away.
 //!
+//! - [`Op::Loop`] carries values through iterations: with the carried values' current
+//!   values readable as [`Op::LoopVar`], its `cond` block decides whether its `body` block
+//!   runs again, and the body yields the next values; its results are the carried values
+//!   when the condition fails, or after [`LOOP_ITERATION_LIMIT`] iterations (the loop then
+//!   stops, keeps the values it has, and the back end counts it).
+//!
 //! Two ops ask the renderer's scene for secondary rays: [`Op::Trace`] (radiance along a
 //! direction) and [`Op::Occlusion`] (ambient occlusion). Like the light ops they read the
 //! scene, so they are varying, never folded and never hoisted.
@@ -588,8 +594,27 @@ pub enum Op {
     LightPdf,
     /// Sum of the ambient lights' colors (color): light without direction.
     Ambient,
-    /// Result `index` of a region (`If` or `Illuminance`).
+    /// Result `index` of a region (`If`, `Illuminance` or `Loop`).
     Proj(Value, u8),
+    /// Structured loop with loop-carried values (a `while` loop in SSA form). The carried
+    /// values start as `init`; before each iteration `cond` runs and yields one bool; where
+    /// it is true `body` runs and yields the next carried values (as many, of the same types
+    /// as `init`). Inside both blocks, [`Op::LoopVar`] reads a carried value's current
+    /// value. The results (read with [`Op::Proj`]) are the carried values once `cond` yields
+    /// false, or after the body has run [`LOOP_ITERATION_LIMIT`] times in one execution of
+    /// the loop: then it stops with the values it has and the back end counts the stop
+    /// (`ShadeOut::loop_limits`), the same on every back end.
+    Loop {
+        /// The carried values' initial values.
+        init: Vec<Value>,
+        /// Evaluated before every iteration: yields one bool, whether the body runs again.
+        cond: Block,
+        /// One iteration: yields the carried values' next values.
+        body: Block,
+    },
+    /// Inside the `cond` or `body` of a loop: the current value of carried value `index` of
+    /// the innermost enclosing [`Op::Loop`] (its type is that of `init[index]`).
+    LoopVar(u8),
     /// A filtered lookup of texture `texture` (index into `Program::textures`) at `uv`: its
     /// linear RGB color (type color) or its alpha (type float). The footprint is the
     /// parallelogram spanned by the screen-space derivatives of `uv`; `sampling` says how
@@ -670,6 +695,8 @@ impl Op {
             Op::Ambient => "ambient".into(),
             Op::Proj(..) => "proj".into(),
             Op::Texture { .. } => "texture".into(),
+            Op::Loop { .. } => "loop".into(),
+            Op::LoopVar(k) => format!("loop.var {k}"),
         }
     }
 
@@ -684,6 +711,7 @@ impl Op {
             | Op::LightCl
             | Op::LightVisible
             | Op::LightPdf
+            | Op::LoopVar(_)
             | Op::Ambient => {}
             Op::Transform { arg, .. } => f(*arg),
             Op::Unary(_, a) | Op::Extract(a, _) | Op::Splat(a) | Op::Convert(a) => f(*a),
@@ -696,7 +724,9 @@ impl Op {
                 f(*a);
                 f(*b)
             }
-            Op::Construct(args) | Op::Call(_, args) => args.iter().copied().for_each(f),
+            Op::Construct(args) | Op::Call(_, args) | Op::Loop { init: args, .. } => {
+                args.iter().copied().for_each(f)
+            }
             Op::If { cond, .. } => f(*cond),
             Op::Illuminance { p, .. } => f(*p),
             Op::Proj(r, _) => f(*r),
@@ -730,10 +760,17 @@ impl Op {
         match self {
             Op::If { then_, else_, .. } => vec![then_, else_],
             Op::Illuminance { body, .. } => vec![body],
+            Op::Loop { cond, body, .. } => vec![cond, body],
             _ => Vec::new(),
         }
     }
 }
+
+/// How many times the body of one [`Op::Loop`] runs at most, per execution of the loop and
+/// per fragment, on every back end: a shader whose loop never ends stops there with the
+/// values it has (and the stop is counted) instead of hanging a render. Nested loops
+/// multiply: an inner loop is a new execution in every iteration of the outer one.
+pub const LOOP_ITERATION_LIMIT: u32 = 4096;
 
 /// A declared uniform parameter of a program (class compilation).
 #[derive(Clone, Debug, PartialEq)]
@@ -821,7 +858,7 @@ impl Program {
     pub fn region_types(&self, v: Value) -> Vec<Type> {
         let block = match self.op(v) {
             Op::If { then_, .. } => then_,
-            Op::Illuminance { body, .. } => body,
+            Op::Illuminance { body, .. } | Op::Loop { body, .. } => body,
             _ => return Vec::new(),
         };
         block.yields.iter().map(|y| self.ty(*y)).collect()
@@ -897,12 +934,14 @@ impl Rate {
 /// yields.
 pub fn rates(program: &Program) -> Vec<Rate> {
     let mut rates = vec![Rate::Const; program.exprs.len()];
-    rate_block(program, &program.prelude, &mut rates);
-    rate_block(program, &program.body, &mut rates);
+    let mut carried = Vec::new();
+    rate_block(program, &program.prelude, &mut rates, &mut carried);
+    rate_block(program, &program.body, &mut rates, &mut carried);
     rates
 }
 
-fn rate_block(program: &Program, block: &Block, rates: &mut [Rate]) {
+/// `carried`: the rates of the carried values of the enclosing loops, innermost last.
+fn rate_block(program: &Program, block: &Block, rates: &mut [Rate], carried: &mut Vec<Vec<Rate>>) {
     for &v in &block.body {
         let op = program.op(v);
         let mut r = match op {
@@ -917,15 +956,61 @@ fn rate_block(program: &Program, block: &Block, rates: &mut [Rate]) {
             | Op::Trace { .. }
             | Op::Occlusion { .. } => Rate::Varying,
             Op::Illuminance { .. } => Rate::Varying,
+            Op::LoopVar(k) => carried
+                .last()
+                .and_then(|c| c.get(*k as usize))
+                .copied()
+                .unwrap_or(Rate::Const),
             _ => Rate::Const,
         };
         op.for_each_operand(|a| r = r.max(rates[a.index()]));
+        if let Op::Loop { init, cond, body } = op {
+            r = rate_loop(program, init, cond, body, rates, carried);
+        }
         for inner in op.blocks() {
-            rate_block(program, inner, rates);
+            if matches!(op, Op::Loop { .. }) {
+                break;
+            }
+            rate_block(program, inner, rates, carried);
             for y in &inner.yields {
                 r = r.max(rates[y.index()]);
             }
         }
         rates[v.index()] = r;
+    }
+}
+
+/// A loop's carried values are as varying as their initial values, their next values and
+/// the condition (a varying trip count makes every carried value varying): iterated to the
+/// fixed point (each round raises at least one rate, so it ends within 2·n + 1 rounds).
+/// Returns the loop's rate: the highest carried rate and the condition's.
+fn rate_loop(
+    program: &Program,
+    init: &[Value],
+    cond: &Block,
+    body: &Block,
+    rates: &mut [Rate],
+    carried: &mut Vec<Vec<Rate>>,
+) -> Rate {
+    let mut cur: Vec<Rate> = init.iter().map(|v| rates[v.index()]).collect();
+    loop {
+        carried.push(cur.clone());
+        rate_block(program, cond, rates, carried);
+        rate_block(program, body, rates, carried);
+        carried.pop();
+        let c = cond.yields.iter().map(|y| rates[y.index()]).max();
+        let c = c.unwrap_or(Rate::Const);
+        let next: Vec<Rate> = cur
+            .iter()
+            .enumerate()
+            .map(|(k, r)| {
+                let y = body.yields.get(k).map_or(Rate::Const, |y| rates[y.index()]);
+                (*r).max(y).max(c)
+            })
+            .collect();
+        if next == cur {
+            return cur.into_iter().fold(c, Rate::max);
+        }
+        cur = next;
     }
 }

@@ -95,6 +95,8 @@
 //! | `call noise3 %a, …` | [`Op::Call`] ([`Intrinsic::name`]) |
 //! | `if %c { … } else { … }` | [`Op::If`] |
 //! | `illuminance %p { … }` | [`Op::Illuminance`] |
+//! | `loop %a, %b while { … } do { … }` | [`Op::Loop`] (the initial values, possibly none; the condition block, then the body) |
+//! | `loop.var 0` | [`Op::LoopVar`] |
 //! | `light.L`, `light.Cl`, `light.visible`, `light.pdf`, `ambient` | [`Op::LightL`], [`Op::LightCl`], [`Op::LightVisible`], [`Op::LightPdf`], [`Op::Ambient`] |
 //! | `proj %r, 0` | [`Op::Proj`] |
 //! | `texture #0 %uv`, `texture.alpha #0 trilinear clamp mirror %uv, %dudx, %dvdx` | [`Op::Texture`] (index into the texture table; then the filter if not `anisotropic`, the u and v wrap modes if not both `periodic`, uv and its optional derivatives ∂uv/∂x, ∂uv/∂y) |
@@ -358,6 +360,17 @@ impl<W: fmt::Write> Printer<'_, W> {
                 self.block(body, depth + 1)?;
                 return write!(self.out, "{ind}}}");
             }
+            Op::Loop { init, cond, body } => {
+                match init.is_empty() {
+                    true => writeln!(self.out, "loop while {{")?,
+                    false => writeln!(self.out, "loop {} while {{", self.vals(init))?,
+                }
+                self.block(cond, depth + 1)?;
+                writeln!(self.out, "{ind}}} do {{")?;
+                self.block(body, depth + 1)?;
+                return write!(self.out, "{ind}}}");
+            }
+            Op::LoopVar(k) => format!("loop.var {k}"),
             Op::LightL => "light.L".to_string(),
             Op::LightCl => "light.Cl".to_string(),
             Op::LightVisible => "light.visible".to_string(),
@@ -1200,6 +1213,14 @@ impl Parser {
                 let body = self.braced_block()?;
                 Ok(Parsed::Op(Op::Illuminance { p, body }))
             }
+            "loop" => {
+                let init = self.operand_list()?;
+                self.keyword("while")?;
+                let cond = self.braced_block()?;
+                self.keyword("do")?;
+                let body = self.braced_block()?;
+                Ok(Parsed::Op(Op::Loop { init, cond, body }))
+            }
             _ => self.plain_op(word, t),
         }
     }
@@ -1280,6 +1301,7 @@ impl Parser {
             "light.visible" => Op::LightVisible,
             "light.pdf" => Op::LightPdf,
             "ambient" => Op::Ambient,
+            "loop.var" => Op::LoopVar(self.index("a carried value's index")?),
             "trace" => {
                 let ray_type = self.ray_type()?;
                 let dir = self.operand()?;
@@ -1513,6 +1535,7 @@ mod tests {
             | Op::LightCl
             | Op::LightVisible
             | Op::LightPdf
+            | Op::LoopVar(_)
             | Op::Ambient => op.clone(),
             Op::Transform {
                 kind,
@@ -1544,6 +1567,11 @@ mod tests {
             },
             Op::Illuminance { p, body } => Op::Illuminance {
                 p: m(*p),
+                body: remap_block(body, m),
+            },
+            Op::Loop { init, cond, body } => Op::Loop {
+                init: all(init),
+                cond: remap_block(cond, m),
                 body: remap_block(body, m),
             },
             Op::Proj(r, i) => Op::Proj(m(*r), *i),

@@ -157,6 +157,26 @@ pub enum ValidationError {
         /// The offending type.
         ty: Type,
     },
+    /// A loop's `cond` block does not yield exactly one bool, or its `body` does not yield
+    /// the carried values' types.
+    #[error("{value:?}: {reason}")]
+    LoopYields {
+        /// The `Loop`.
+        value: Value,
+        /// What does not fit.
+        reason: String,
+    },
+    /// `loop.var` outside a loop's blocks, or with an index past the innermost loop's
+    /// carried values.
+    #[error("{value:?} reads carried value {index}, but {reason}")]
+    LoopVar {
+        /// The `loop.var`.
+        value: Value,
+        /// Its index.
+        index: u8,
+        /// Why it is not there.
+        reason: String,
+    },
     /// `trace` with a ray type it cannot trace (see [`super::is_traceable_ray_type`]).
     #[error(
         "{value:?} traces rays of type {ray_type}: only reflection (4), refraction (8) and diffuse (16) rays can be traced"
@@ -268,6 +288,7 @@ pub fn validate(p: &Program) -> Result<(), ValidationError> {
         visible: vec![false; p.exprs.len()],
         region_types: HashMap::new(),
         illuminance_depth: 0,
+        loops: Vec::new(),
     };
     v.list(&p.prelude)?;
     v.list(&p.body)?;
@@ -286,7 +307,10 @@ pub fn validate(p: &Program) -> Result<(), ValidationError> {
             }
             Op::Trace { .. } | Op::Occlusion { .. } => Some("it asks the scene for rays"),
             Op::Texture { .. } => Some("it reads a texture"),
-            Op::If { .. } | Op::Illuminance { .. } | Op::Proj(..) => Some("it is a region"),
+            Op::If { .. } | Op::Illuminance { .. } | Op::Loop { .. } | Op::Proj(..) => {
+                Some("it is a region")
+            }
+            Op::LoopVar(_) => Some("it reads a loop's carried value"),
             _ => None,
         };
         if let Some(reason) = reason {
@@ -365,6 +389,8 @@ struct Validator<'a> {
     region_types: HashMap<Value, Vec<Type>>,
     /// How many illuminance bodies enclose the current point.
     illuminance_depth: usize,
+    /// The carried types of the loops enclosing the current point, innermost last.
+    loops: Vec<Vec<Type>>,
 }
 
 impl Validator<'_> {
@@ -401,6 +427,36 @@ impl Validator<'_> {
             self.visible[value.index()] = false;
         }
         Ok(tys)
+    }
+
+    /// A loop's blocks: `cond` yields one bool, `body` the carried types.
+    fn loop_region(
+        &mut self,
+        value: Value,
+        carried: Vec<Type>,
+        cond: &Block,
+        body: &Block,
+    ) -> Result<(), ValidationError> {
+        self.loops.push(carried.clone());
+        let ct = self.block(value, cond);
+        let bt = self.block(value, body);
+        self.loops.pop();
+        let (ct, bt) = (ct?, bt?);
+        let names = |ts: &[Type]| ts.iter().map(|t| t.name()).collect::<Vec<_>>().join(", ");
+        if ct != [Type::Bool] {
+            let reason = format!("the loop condition yields ({}), not one bool", names(&ct));
+            return Err(ValidationError::LoopYields { value, reason });
+        }
+        if bt != carried {
+            let reason = format!(
+                "the loop body yields ({}) but the loop carries ({})",
+                names(&bt),
+                names(&carried)
+            );
+            return Err(ValidationError::LoopYields { value, reason });
+        }
+        self.region_types.insert(value, carried);
+        Ok(())
     }
 
     /// An operand that must be visible here, with its expr.
@@ -588,6 +644,32 @@ impl Validator<'_> {
                 self.region_types.insert(value, bt);
                 None
             }
+            Op::Loop { init, cond, body } => {
+                let types = self.operands(value, init)?;
+                self.loop_region(value, types, cond, body)?;
+                None
+            }
+            Op::LoopVar(index) => {
+                let Some(carried) = self.loops.last() else {
+                    let reason = "it is not inside a loop".into();
+                    return Err(ValidationError::LoopVar {
+                        value,
+                        index: *index,
+                        reason,
+                    });
+                };
+                match carried.get(*index as usize) {
+                    Some(t) => Some(*t),
+                    None => {
+                        let reason = format!("the innermost loop carries {}", carried.len());
+                        return Err(ValidationError::LoopVar {
+                            value,
+                            index: *index,
+                            reason,
+                        });
+                    }
+                }
+            }
             Op::LightL | Op::LightCl | Op::LightVisible | Op::LightPdf => {
                 if self.illuminance_depth == 0 {
                     return Err(ValidationError::LightOutsideIlluminance { value });
@@ -635,7 +717,7 @@ impl Validator<'_> {
             Op::Proj(region, index) => {
                 let region = *region;
                 self.visible_operand(value, region)?;
-                if !matches!(p.op(region), Op::If { .. } | Op::Illuminance { .. }) {
+                if !p.op(region).is_region() {
                     return Err(ValidationError::ProjOfNonRegion {
                         value,
                         operand: region,
@@ -785,6 +867,7 @@ mod tests {
         match &mut p.exprs[region.index()].op {
             Op::If { then_, else_, .. } => vec![then_, else_],
             Op::Illuminance { body, .. } => vec![body],
+            Op::Loop { cond, body, .. } => vec![cond, body],
             _ => panic!("not a region"),
         }
     }

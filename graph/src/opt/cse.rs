@@ -23,7 +23,8 @@
 //! and each `Illuminance` body opens a scope that closes after it: a value defined inside a
 //! block may replace values of the same block or of blocks nested in it, never values outside
 //! it or in a sibling arm (it is not computed there); a value of an enclosing block may
-//! replace one inside. `light.L` and `light.Cl` are the same value within one illuminance
+//! replace one inside. A loop's condition and body are two such scopes; `loop.var k` is one
+//! value within one loop's blocks and different across loops (nested ones included). `light.L` and `light.Cl` are the same value within one illuminance
 //! body (nested `If` arms included) and different across bodies, including an illuminance
 //! nested in another one.
 //!
@@ -46,6 +47,7 @@ pub fn run(p: &mut Program, _spec: &Specialization) -> usize {
         table: HashMap::new(),
         repl: vec![None; p.exprs.len()],
         light: None,
+        loop_: None,
         changes: 0,
     };
     // The prelude is visible to the whole body: one scope for both, never closed.
@@ -90,6 +92,7 @@ enum Key {
     LightCl(Option<Value>),
     LightVisible(Option<Value>),
     LightPdf(Option<Value>),
+    LoopVar(Option<Value>, u8),
     Trace(Value, i32, Option<Value>),
     Occlusion(Value, Value, Value),
     Ambient,
@@ -146,6 +149,8 @@ struct Numbering<'a> {
     repl: Vec<Option<Value>>,
     /// The innermost illuminance region around the current point.
     light: Option<Value>,
+    /// The innermost loop around the current point.
+    loop_: Option<Value>,
     changes: usize,
 }
 
@@ -164,6 +169,13 @@ impl Numbering<'_> {
                     let outer = self.light.replace(v);
                     self.nested(body);
                     self.light = outer;
+                    continue;
+                }
+                Op::Loop { cond, body, .. } => {
+                    let outer = self.loop_.replace(v);
+                    self.nested(cond);
+                    self.nested(body);
+                    self.loop_ = outer;
                     continue;
                 }
                 op => match self.key(op) {
@@ -252,7 +264,8 @@ impl Numbering<'_> {
                 *sampling,
                 *alpha,
             ),
-            Op::If { .. } | Op::Illuminance { .. } => return None,
+            Op::LoopVar(k) => Key::LoopVar(self.loop_, *k),
+            Op::If { .. } | Op::Illuminance { .. } | Op::Loop { .. } => return None,
         })
     }
 }

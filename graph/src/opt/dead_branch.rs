@@ -105,7 +105,7 @@ impl DeadBranch {
                         }
                     }
                 }
-                Op::Illuminance { .. } => {
+                Op::Illuminance { .. } | Op::Loop { .. } => {
                     self.region(p, i);
                     out.push(v);
                 }

@@ -12,7 +12,7 @@
 //!   `param`.
 //!
 //! It is moved from wherever it is listed (the top-level block or any nested block: `If`
-//! arms, illuminance bodies) to the end of the prelude. Every op is total, so computing a
+//! arms, illuminance bodies, loop blocks: a loop-invariant value) to the end of the prelude. Every op is total, so computing a
 //! value unconditionally, once, instead of only when its arm runs or once per light sample,
 //! gives the same bits and cannot fail. The operands of hoisted values move with them
 //! (constants, parameters, and constant-only computations that feed a hoisted value), so a
@@ -118,6 +118,8 @@ fn allowed(op: &Op) -> bool {
         | Op::Occlusion { .. }
         | Op::If { .. }
         | Op::Illuminance { .. }
+        | Op::Loop { .. }
+        | Op::LoopVar(_)
         | Op::Proj(..) => false,
     }
 }

@@ -25,10 +25,7 @@ impl Renderer {
         let mut rays = Vec::with_capacity(row * spp as usize);
         let mut hits = Vec::with_capacity(row * spp as usize);
         let mut samples = vec![0.0f32; row * spp as usize * stride];
-        let mut out = ShadeOut {
-            values: Vec::new(),
-            nonfinite: 0,
-        };
+        let mut out = ShadeOut::default();
         let mut t = Instant::now();
         for y in y0..y1 {
             rays.clear();

@@ -149,10 +149,7 @@ impl Renderer {
         let action = self.action(ray.ray, ray.depth);
         let uv = self.needs_uv(action, self.material_of(&hit));
         let prep = self.prepare(ray, &hit, uv);
-        let mut out = ShadeOut {
-            values: Vec::new(),
-            nonfinite: 0,
-        };
+        let mut out = ShadeOut::default();
         match action {
             Action::Material(a) => {
                 let sp = &self.shaders[prep.material][*a];
