@@ -42,6 +42,7 @@ fn run_env(program: &Program, frag: &Fragment, env: &ShadeEnv) -> Outputs {
     Outputs {
         entries,
         nonfinite32: o32.nonfinite,
+        loop_limits: [o32.loop_limits, 0],
     }
 }
 

@@ -846,6 +846,7 @@ fn specialization(s: &SpecChoice, components: usize) -> Specialization {
             cse,
             dce,
             hoist,
+            unroll: true,
         },
         budget: s.budget,
     }

@@ -14,7 +14,7 @@ pub(crate) struct CompileArgs {
     /// The network file (.json), MaterialX document (.mtlx) or shader source (.sl).
     network: PathBuf,
     /// What to print: `ir` (the optimized program), `ir:after=PASS` (the program after every
-    /// run of PASS: specialize, fold, dead_branch, cse, dce, hoist), `ir:before` (the
+    /// run of PASS: specialize, fold, dead_branch, unroll, cse, dce, hoist), `ir:before` (the
     /// unoptimized program), `clif` (the Cranelift IR the JIT compiles: prelude, scalar and
     /// batch entries), `wgsl` (the GPU kernels of the program's pass plan, each headed by a
     /// comment naming its pass and items; with --stats also the plan) or `none`. Default:
@@ -48,7 +48,7 @@ pub(crate) fn run(args: &CompileArgs) -> Result<()> {
         e => match e.strip_prefix("ir:after=") {
             Some(pass) if opt::pass(pass).is_some() => Some(pass.to_string()),
             _ => bail!(
-                "--emit `{e}`: expected ir, ir:before, ir:after=PASS (specialize, fold, dead_branch, cse, dce, hoist), clif, wgsl or none"
+                "--emit `{e}`: expected ir, ir:before, ir:after=PASS (specialize, fold, dead_branch, unroll, cse, dce, hoist), clif, wgsl or none"
             ),
         },
     };

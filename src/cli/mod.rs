@@ -148,7 +148,7 @@ pub(crate) struct OptArgs {
     /// Switch common-subexpression elimination off (to measure per-node cost).
     #[arg(long)]
     pub(crate) no_cse: bool,
-    /// Switch passes off, comma separated: specialize, fold, dead_branch, cse, dce, hoist.
+    /// Switch passes off, comma separated: specialize, fold, dead_branch, unroll, cse, dce, hoist.
     #[arg(long, value_delimiter = ',')]
     pub(crate) disable: Vec<String>,
     /// Do not optimize at all.
@@ -193,8 +193,9 @@ impl OptArgs {
                 "cse" => &mut spec.passes.cse,
                 "dce" => &mut spec.passes.dce,
                 "hoist" => &mut spec.passes.hoist,
+                "unroll" => &mut spec.passes.unroll,
                 other => bail!(
-                    "--disable: `{other}` is not a pass (specialize, fold, dead_branch, cse, dce, hoist)"
+                    "--disable: `{other}` is not a pass (specialize, fold, dead_branch, unroll, cse, dce, hoist)"
                 ),
             };
             *flag = false;

@@ -300,6 +300,13 @@ fn summary(run: &Run, film: &Film, s: &RenderStats) {
         s.shading_calls,
         s.nonfinite
     );
+    if s.loop_limits > 0 {
+        say!(
+            "{} loop executions stopped at the iteration limit ({} iterations): a shader loop that does not end",
+            s.loop_limits,
+            shadenet::graph::ir::LOOP_ITERATION_LIMIT
+        );
+    }
     // The texture cache's files, hits, evictions and resident bytes (when any were opened).
     let textures = shadenet_runtime::texture::stats();
     if textures.files_opened + textures.cache_hits > 0 {

@@ -20,6 +20,8 @@ pub struct Outputs {
     pub entries: Vec<Entry>,
     /// Non-finite values caught by the guard in the f32 run.
     pub nonfinite32: u32,
+    /// Loop executions the iteration limit stopped, in the f32 run and in the f64 run.
+    pub loop_limits: [u32; 2],
 }
 
 impl Outputs {
@@ -93,6 +95,7 @@ pub fn run_program(program: &Program, frag: &Fragment, lights: &[LightDesc], mas
     Outputs {
         entries,
         nonfinite32: o32.nonfinite,
+        loop_limits: [o32.loop_limits, o64.loop_limits],
     }
 }
 

@@ -28,6 +28,12 @@ pub trait Shader: Send + Sync {
     /// hit on the same thread before this call returns).
     fn shade(&self, ctx: &ShadeCtx, out: &mut ShadeOut<f32>);
 
+    /// Loop executions stopped at the IR's iteration limit over all calls so far (see
+    /// `Material::loop_limits`); 0 where the back end does not count.
+    fn loop_limits(&self) -> u64 {
+        0
+    }
+
     /// Shades a batch: every fragment with the same environment and component mask, and
     /// fragment `i` with the scene services `scene.fragment(i)` where the scene gives
     /// per-fragment services (see `SceneServices::fragment`), else `scene`. `out` is
@@ -99,6 +105,10 @@ impl Shader for MaterialShader {
     fn shade(&self, ctx: &ShadeCtx, out: &mut ShadeOut<f32>) {
         out.values.resize(self.0.width(), 0.0);
         out.nonfinite = self.0.shade(ctx, &mut out.values);
+    }
+
+    fn loop_limits(&self) -> u64 {
+        self.0.loop_limits()
     }
 
     fn shade_many(

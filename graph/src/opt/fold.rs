@@ -170,7 +170,7 @@ fn fold(p: &Program, op: &Op, ty: Type) -> Option<ConstValue> {
 
 /// A foldable `op` of type `ty` evaluated on its constant operands `consts` (in operand
 /// order), as [`fold`] does.
-fn fold_consts(op: &Op, ty: Type, consts: &[&ConstValue]) -> Option<ConstValue> {
+pub(super) fn fold_consts(op: &Op, ty: Type, consts: &[&ConstValue]) -> Option<ConstValue> {
     // Matrices and strings have no f32 register form: a select picks its operand as is; a
     // matrix construct keeps its elements rounded to f32, as every back end holds them.
     if ty.is_matrix() || ty == Type::String {

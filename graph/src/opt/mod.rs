@@ -9,8 +9,8 @@
 //!    `component_enabled(k)` into constants from the active mask, and ray-type tests into
 //!    constants from the ray types the material will see;
 //! 2. to a fixed point, at most `budget` rounds: [`fold`] (constants, exact identities),
-//!    [`dead_branch`] (constant conditions), [`cse`] (value numbering), [`dce`] (unused
-//!    values);
+//!    [`dead_branch`] (constant conditions), [`unroll`] (loops with a constant trip count,
+//!    within a budget), [`cse`] (value numbering), [`dce`] (unused values);
 //! 3. [`hoist`] once: move values that depend on parameters into the prelude (computed once
 //!    per material instance), then, if it moved anything, `cse` (sibling arms may have
 //!    computed the same uniform value) and `dce`; then compaction;
@@ -29,6 +29,7 @@ pub mod fold;
 pub mod hoist;
 pub mod needs;
 pub mod specialize;
+pub mod unroll;
 
 pub use needs::Needs;
 
@@ -54,6 +55,8 @@ pub struct Passes {
     pub dce: bool,
     /// Uniform hoisting into the prelude.
     pub hoist: bool,
+    /// Loops with a constant trip count become copies of their body ([`unroll`]).
+    pub unroll: bool,
 }
 
 impl Default for Passes {
@@ -65,6 +68,7 @@ impl Default for Passes {
             cse: true,
             dce: true,
             hoist: true,
+            unroll: true,
         }
     }
 }
@@ -78,6 +82,7 @@ impl Passes {
         cse: false,
         dce: false,
         hoist: false,
+        unroll: false,
     };
 }
 
@@ -189,6 +194,7 @@ pub const PASSES: &[(&str, PassFn)] = &[
     ("cse", cse::run),
     ("dce", dce::run),
     ("hoist", hoist::run),
+    ("unroll", unroll::run),
 ];
 
 /// The pass called `name`.
@@ -261,6 +267,9 @@ pub fn run_observed(
         }
         if ps.dead_branch {
             changed += step("dead_branch", dead_branch::run, &mut p);
+        }
+        if ps.unroll {
+            changed += step("unroll", unroll::run, &mut p);
         }
         if ps.cse {
             changed += step("cse", cse::run, &mut p);

@@ -15,6 +15,7 @@
 
 mod builtins;
 mod expr;
+mod loops;
 mod stmt;
 
 use crate::ast::{self, Item, ShaderKind};
@@ -117,6 +118,9 @@ pub(crate) struct Lower<'a> {
     pub(crate) diags: Diagnostics,
     /// Inside an `illuminance` body: `L` and `Cl` are bound.
     pub(crate) in_illuminance: bool,
+    /// The hidden flags of the loops enclosing the current point, innermost last (emptied
+    /// inside light-loop bodies and inlined functions, which no jump may leave).
+    pub(crate) loops: Vec<loops::LoopFlags>,
 }
 
 /// Compiles shader `name` (the file's only or first shader when `None`) of a parsed file to
@@ -183,6 +187,7 @@ fn compile_here(parsed: &Parsed, name: Option<&str>) -> Result<Program, Diagnost
         inlining: Vec::new(),
         diags: Diagnostics::new(),
         in_illuminance: false,
+        loops: Vec::new(),
     };
     let mut b = Builder::new(&shader.name.name);
     lower.surface(&mut b, shader);

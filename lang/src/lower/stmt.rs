@@ -3,6 +3,7 @@
 //! the body's contributions to outer variables are summed over the light samples), and
 //! user functions, inlined at each call.
 
+use super::loops::Jumps;
 use super::{Lower, MAX_INLINE_DEPTH, Ty, Val, Var};
 use crate::ast::{self, AssignOp, Expr, ExprKind, Stmt, StmtKind};
 use crate::source::Span;
@@ -11,16 +12,31 @@ use std::cell::RefCell;
 use std::collections::HashMap;
 
 impl<'a> Lower<'a> {
-    /// The statements of a block, in a scope of their own.
+    /// The statements of a block, in a scope of their own. Inside a loop, the statements
+    /// after one that may `break` or `continue` run under an `if` that it did not.
     pub(crate) fn block(&mut self, b: &mut Builder, block: &'a ast::Block) {
         self.scopes.push(HashMap::new());
-        for s in &block.stmts {
+        self.stmts(b, &block.stmts.iter().collect::<Vec<_>>());
+        self.scopes.pop();
+    }
+
+    /// Statements in the current scope (see [`Lower::block`]).
+    fn stmts(&mut self, b: &mut Builder, stmts: &[&'a Stmt]) {
+        for (i, s) in stmts.iter().enumerate() {
             if self.stopped() {
                 break;
             }
             self.stmt(b, s);
+            let rest = &stmts[i + 1..];
+            if rest.is_empty() || self.loops.is_empty() || self.jumps(&[s]) == Jumps::default() {
+                continue;
+            }
+            if let Some((go, varying)) = self.still_running(b) {
+                let names = self.assigned_outer(rest);
+                self.guarded(b, go, varying, &names, &mut |me, b| me.stmts(b, rest));
+            }
+            break;
         }
-        self.scopes.pop();
     }
 
     /// One statement.
@@ -37,16 +53,22 @@ impl<'a> Lower<'a> {
                 category,
                 args,
                 body,
-            } => self.illuminance(b, category.as_ref(), args, body, s.span),
-            StmtKind::For { .. }
-            | StmtKind::While { .. }
-            | StmtKind::DoWhile { .. }
-            | StmtKind::Break { .. }
-            | StmtKind::Continue { .. } => self.error(
-                "loops are not compiled yet: they need the IR's loop region (issue 21)",
-                s.span,
-                "not built yet",
-            ),
+            } => {
+                // No jump leaves a light loop's body.
+                let outer = std::mem::take(&mut self.loops);
+                self.illuminance(b, category.as_ref(), args, body, s.span);
+                self.loops = outer;
+            }
+            StmtKind::For {
+                init,
+                cond,
+                step,
+                body,
+            } => self.for_stmt(b, init, cond.as_ref(), step, body),
+            StmtKind::While { cond, body } => self.while_stmt(b, cond, body),
+            StmtKind::DoWhile { body, cond } => self.do_while(b, body, cond),
+            StmtKind::Break { levels } => self.jump(b, true, *levels, s.span),
+            StmtKind::Continue { levels } => self.jump(b, false, *levels, s.span),
             StmtKind::Return(_) => self.error(
                 "`return` is built only as the last statement of a function",
                 s.span,
@@ -60,7 +82,7 @@ impl<'a> Lower<'a> {
         }
     }
 
-    fn decl(&mut self, b: &mut Builder, d: &'a ast::Decl) {
+    pub(crate) fn decl(&mut self, b: &mut Builder, d: &'a ast::Decl) {
         let Some(ty) = self.declared_type(&d.ty) else {
             return;
         };
@@ -89,8 +111,9 @@ impl<'a> Lower<'a> {
     }
 
     /// The outer variables `stmts` assign, in order of first assignment, that are visible
-    /// here (the values an `if` or `illuminance` region must yield).
-    fn assigned_outer(&self, stmts: &[&'a Stmt]) -> Vec<(ast::Ident, Ty)> {
+    /// here (the values an `if`, `illuminance` or loop region must yield); where they hold a
+    /// `break` or `continue`, the enclosing loops' flags too.
+    pub(crate) fn assigned_outer(&self, stmts: &[&'a Stmt]) -> Vec<(ast::Ident, Ty)> {
         let mut names: Vec<ast::Ident> = Vec::new();
         for s in stmts {
             walk_stmt(s, &mut |e| {
@@ -105,6 +128,16 @@ impl<'a> Lower<'a> {
                 }
             });
         }
+        if let Some(first) = stmts.iter().find(|s| has_jump(s)) {
+            for f in &self.loops {
+                for name in [&f.brk, &f.cnt] {
+                    names.push(ast::Ident {
+                        name: name.to_string(),
+                        span: first.span,
+                    });
+                }
+            }
+        }
         names
             .into_iter()
             .filter_map(|n| match self.lookup(&n.name) {
@@ -118,7 +151,7 @@ impl<'a> Lower<'a> {
     }
 
     /// The current values of `names`, for a region's yields.
-    fn current(&self, b: &mut Builder, names: &[(ast::Ident, Ty)]) -> Vec<Value> {
+    pub(crate) fn current(&self, b: &mut Builder, names: &[(ast::Ident, Ty)]) -> Vec<Value> {
         names
             .iter()
             .map(|(n, ty)| match self.lookup(&n.name).map(|v| &v.val) {
@@ -128,14 +161,14 @@ impl<'a> Lower<'a> {
             .collect()
     }
 
-    fn snapshot(&self, names: &[(ast::Ident, Ty)]) -> Vec<Option<Var>> {
+    pub(crate) fn snapshot(&self, names: &[(ast::Ident, Ty)]) -> Vec<Option<Var>> {
         names
             .iter()
             .map(|(n, _)| self.lookup(&n.name).cloned())
             .collect()
     }
 
-    fn restore(&mut self, names: &[(ast::Ident, Ty)], saved: Vec<Option<Var>>) {
+    pub(crate) fn restore(&mut self, names: &[(ast::Ident, Ty)], saved: Vec<Option<Var>>) {
         for ((n, _), var) in names.iter().zip(saved) {
             if let Some(var) = var {
                 for scope in self.scopes.iter_mut().rev() {
@@ -153,14 +186,12 @@ impl<'a> Lower<'a> {
     fn arm(
         &mut self,
         b: &mut Builder,
-        s: Option<&'a Stmt>,
+        run: &mut dyn FnMut(&mut Self, &mut Builder),
         names: &[(ast::Ident, Ty)],
     ) -> (Vec<Value>, bool) {
         let saved = self.snapshot(names);
         self.scopes.push(HashMap::new());
-        if let Some(s) = s {
-            self.stmt(b, s);
-        }
+        run(self, b);
         self.scopes.pop();
         let out = self.current(b, names);
         let varying = names.iter().any(|(n, _)| {
@@ -171,6 +202,90 @@ impl<'a> Lower<'a> {
         });
         self.restore(names, saved);
         (out, varying)
+    }
+
+    /// An `if` region on `c` (`vc`: whether it varies) whose then arm is `run` and whose
+    /// else arm does nothing; `names` are the variables it may assign, rebound after it.
+    pub(crate) fn guarded(
+        &mut self,
+        b: &mut Builder,
+        c: Value,
+        vc: bool,
+        names: &[(ast::Ident, Ty)],
+        run: &mut dyn FnMut(&mut Self, &mut Builder),
+    ) {
+        self.if_region(b, c, vc, names, run, &mut |_, _| {});
+    }
+
+    /// The outer variables expressions (a loop's step) assign, as [`Lower::assigned_outer`].
+    pub(crate) fn assigned_in_exprs(&self, exprs: &[Expr]) -> Vec<(ast::Ident, Ty)> {
+        let mut names: Vec<(ast::Ident, Ty)> = Vec::new();
+        for e in exprs {
+            let wrapped = Stmt {
+                kind: StmtKind::Expr(e.clone()),
+                span: e.span,
+            };
+            for n in self.assigned_outer(&[&wrapped]) {
+                if !names.iter().any(|(m, _)| m.name == n.0.name) {
+                    names.push(n);
+                }
+            }
+        }
+        names
+    }
+
+    /// Expressions (a loop's step) run only where `c` holds.
+    pub(crate) fn guarded_exprs(&mut self, b: &mut Builder, c: Value, vc: bool, exprs: &'a [Expr]) {
+        let names = self.assigned_in_exprs(exprs);
+        self.guarded(b, c, vc, &names, &mut |me, b| {
+            for e in exprs {
+                me.expr(b, e);
+            }
+        });
+    }
+
+    /// An `if` region with arms `then` and `els` over the variables `names`.
+    fn if_region(
+        &mut self,
+        b: &mut Builder,
+        c: Value,
+        vc: bool,
+        names: &[(ast::Ident, Ty)],
+        then: &mut dyn FnMut(&mut Self, &mut Builder),
+        els: &mut dyn FnMut(&mut Self, &mut Builder),
+    ) {
+        let uniform: Vec<bool> = names
+            .iter()
+            .map(|(n, _)| self.lookup(&n.name).is_some_and(|v| v.uniform))
+            .collect();
+        let varying = RefCell::new(vc);
+        let me = RefCell::new(&mut *self);
+        let values = b.if_(
+            c,
+            |b| {
+                let (v, vy) = me.borrow_mut().arm(b, then, names);
+                *varying.borrow_mut() |= vy;
+                v
+            },
+            |b| {
+                let (v, vy) = me.borrow_mut().arm(b, els, names);
+                *varying.borrow_mut() |= vy;
+                v
+            },
+        );
+        let varying = varying.into_inner();
+        for (((n, ty), v), uniform) in names.iter().zip(values).zip(uniform) {
+            let val = Val::V {
+                v,
+                ty: *ty,
+                varying,
+            };
+            if n.name.starts_with('$') {
+                self.set_flag(&n.name, val);
+            } else {
+                self.rebind(n, val, uniform, n.span);
+            }
+        }
     }
 
     fn if_stmt(&mut self, b: &mut Builder, cond: &'a Expr, then: &'a Stmt, els: Option<&'a Stmt>) {
@@ -188,34 +303,18 @@ impl<'a> Lower<'a> {
         }
         let arms: Vec<&Stmt> = [Some(then), els].into_iter().flatten().collect();
         let names = self.assigned_outer(&arms);
-        let uniform: Vec<bool> = names
-            .iter()
-            .map(|(n, _)| self.lookup(&n.name).is_some_and(|v| v.uniform))
-            .collect();
-        let varying = RefCell::new(vc);
-        let me = RefCell::new(&mut *self);
-        let values = b.if_(
+        self.if_region(
+            b,
             c,
-            |b| {
-                let (v, vy) = me.borrow_mut().arm(b, Some(then), &names);
-                *varying.borrow_mut() |= vy;
-                v
-            },
-            |b| {
-                let (v, vy) = me.borrow_mut().arm(b, els, &names);
-                *varying.borrow_mut() |= vy;
-                v
+            vc,
+            &names,
+            &mut |me, b| me.stmt(b, then),
+            &mut |me, b| {
+                if let Some(e) = els {
+                    me.stmt(b, e)
+                }
             },
         );
-        let varying = varying.into_inner();
-        for (((n, ty), v), uniform) in names.iter().zip(values).zip(uniform) {
-            let val = Val::V {
-                v,
-                ty: *ty,
-                varying,
-            };
-            self.rebind(n, val, uniform, n.span);
-        }
     }
 
     /// `illuminance(P [, N, angle]) body`: the IR's light loop over the light samples seen
@@ -378,6 +477,20 @@ impl<'a> Lower<'a> {
         args: Vec<Val>,
         span: Span,
     ) -> Val {
+        // No jump leaves a function.
+        let outer = std::mem::take(&mut self.loops);
+        let v = self.inline_body(b, f, args, span);
+        self.loops = outer;
+        v
+    }
+
+    fn inline_body(
+        &mut self,
+        b: &mut Builder,
+        f: &'a ast::FunctionDef,
+        args: Vec<Val>,
+        span: Span,
+    ) -> Val {
         if let Some((_, at)) = self.inlining.iter().find(|(n, _)| *n == f.name.name) {
             let chain: Vec<&str> = self
                 .inlining
@@ -470,14 +583,48 @@ fn walk_stmt<'s>(s: &'s Stmt, f: &mut dyn FnMut(&'s Expr)) {
             args.iter().for_each(|e| walk_expr(e, f));
             walk_stmt(body, f);
         }
-        StmtKind::For { .. } | StmtKind::While { .. } | StmtKind::DoWhile { .. } => {}
+        StmtKind::For {
+            init,
+            cond,
+            step,
+            body,
+        } => {
+            match init {
+                ast::ForInit::None => {}
+                ast::ForInit::Decl(d) => d
+                    .vars
+                    .iter()
+                    .filter_map(|v| v.init.as_ref())
+                    .for_each(|e| walk_expr(e, f)),
+                ast::ForInit::Exprs(es) => es.iter().for_each(|e| walk_expr(e, f)),
+            }
+            cond.iter().chain(step).for_each(|e| walk_expr(e, f));
+            walk_stmt(body, f);
+        }
+        StmtKind::While { cond, body } | StmtKind::DoWhile { body, cond } => {
+            walk_expr(cond, f);
+            walk_stmt(body, f);
+        }
         StmtKind::Return(Some(e)) => walk_expr(e, f),
         _ => {}
     }
 }
 
+/// Whether `s` holds a `break` or `continue` (at any depth).
+fn has_jump(s: &Stmt) -> bool {
+    match &s.kind {
+        StmtKind::Break { .. } | StmtKind::Continue { .. } => true,
+        StmtKind::Block(b) => b.stmts.iter().any(has_jump),
+        StmtKind::If { then, els, .. } => has_jump(then) || els.as_deref().is_some_and(has_jump),
+        StmtKind::For { body, .. }
+        | StmtKind::While { body, .. }
+        | StmtKind::DoWhile { body, .. } => has_jump(body),
+        _ => false,
+    }
+}
+
 /// Calls `f` on `e` and every expression inside it.
-fn walk_expr<'s>(e: &'s Expr, f: &mut dyn FnMut(&'s Expr)) {
+pub(crate) fn walk_expr<'s>(e: &'s Expr, f: &mut dyn FnMut(&'s Expr)) {
     f(e);
     match &e.kind {
         ExprKind::Call { args, .. } | ExprKind::Tuple(args) | ExprKind::InitList(args) => {

@@ -97,6 +97,13 @@ impl Renderer {
         self.render_window(Window::full(w, h), progress)
     }
 
+    /// Loop executions the iteration limit stopped, over the renderer's shaders so far.
+    fn loop_limits(&self) -> u64 {
+        let shaders = self.shaders.iter().flatten();
+        let all = shaders.chain(self.overrides.iter().map(|(_, s)| s));
+        all.map(|s| s.shader.loop_limits()).sum()
+    }
+
     /// Renders only the pixels of `window` (which [`Window::new`] has checked against the
     /// frame; a window reaching outside it is clipped), in tiles of the scene's tile size
     /// from the window's corner: each pixel gets exactly the bits it has in a full render
@@ -108,6 +115,7 @@ impl Renderer {
         progress: &(dyn Fn(u64, u64) + Sync),
     ) -> (Film, RenderStats) {
         let start = Instant::now();
+        let loops_before = self.loop_limits();
         let (fw, fh) = (self.scene.camera.width, self.scene.camera.height);
         let window = Window {
             x0: window.x0.min(fw),
@@ -176,6 +184,7 @@ impl Renderer {
         for ts in tile_stats {
             ts.add_to(&mut stats);
         }
+        stats.loop_limits = self.loop_limits() - loops_before;
         let film = self.compose(&acc, &layout, window);
         stats.stages.film += t_film.elapsed();
         stats.render_time = start.elapsed();

@@ -34,6 +34,9 @@ pub struct RenderStats {
     pub shading_calls: u64,
     /// Non-finite values the output guard replaced with 0.
     pub nonfinite: u64,
+    /// Loop executions the iteration limit stopped (a shader loop that would not end;
+    /// `shadenet_graph::ir::LOOP_ITERATION_LIMIT`).
+    pub loop_limits: u64,
     /// Deferred mode: [`crate::shader::Shader::shade_many`] calls made (0 in the immediate mode).
     pub batches: u64,
     /// Deferred mode: fragments shaded through those calls (camera hits; every shading call

@@ -1,0 +1,173 @@
+//! Loops in shading-language sources (issue 21): `for` and `while` with `break` and
+//! `continue` (RSL's `break N` / `continue N` too) lowered onto the IR's loop region, the
+//! rates of what they carry, the iteration limit, and errors that name the place.
+
+mod common;
+use common::*;
+use shadenet::graph::ir::{LOOP_ITERATION_LIMIT, Op, Program};
+use shadenet::lang::{Dialect, Options, SourceMap, lower, parse_str};
+
+/// Compiles RSL `src`'s first shader; `Err` is the rendered diagnostics.
+fn compile(src: &str) -> Result<Program, String> {
+    let mut sources = SourceMap::new();
+    let parsed = parse_str(&mut sources, "t.sl", src, &Options::new(Dialect::Rsl))
+        .map_err(|d| d.render(&sources))?;
+    lower::compile(&parsed, None).map_err(|d| d.render(&sources))
+}
+
+/// `Ci` of `src` at texture coordinate `s` (= u), in f64 and f32 (both checked).
+fn ci_at(p: &Program, s: f64) -> Vec<f64> {
+    let mut f = plane_fragment();
+    f.uv = [s as f32, 0.5];
+    let o = run_program(p, &f, &[], u32::MAX);
+    assert_eq!(o.get("Ci"), o.get32("Ci"), "f32 = f64 for small integers");
+    assert_eq!(o.loop_limits, [0, 0]);
+    o.get("Ci")
+}
+
+fn loops(p: &Program) -> usize {
+    let mut n = 0;
+    p.walk(&p.body, &mut |v| {
+        n += matches!(p.op(v), Op::Loop { .. }) as usize
+    });
+    n
+}
+
+#[test]
+fn for_while_break_and_continue() {
+    let src = r#"
+        surface s(float n = 10) {
+            float i, sum = 0;
+            for (i = 0; i < n; i += 1) {
+                if (i == 3) continue;
+                if (i > 7) break;
+                sum += i;
+            }
+            float j = 0, k = 0;
+            while (j < s * 10) { j += 1; k += j; }
+            Ci = color(sum, i, j * 1000 + k);
+        }"#;
+    let p = compile(src).unwrap();
+    assert_eq!(loops(&p), 2);
+    // sum = 0+1+2+4+5+6+7 (3 skipped, 8 breaks before adding, and before the step: i = 8).
+    for (s, j) in [
+        (0.0, 0.0),
+        (0.05, 1.0),
+        (0.25, 3.0),
+        (0.5, 5.0),
+        (0.99, 10.0),
+    ] {
+        let k = j * (j + 1.0) / 2.0;
+        assert_eq!(ci_at(&p, s), [25.0, 8.0, j * 1000.0 + k], "s = {s}");
+    }
+}
+
+#[test]
+fn nested_loops_and_multi_level_jumps() {
+    // RSL's `break 2` leaves both loops; `continue 2` goes on with the outer one.
+    let src = r#"
+        surface s() {
+            float i, j, a = 0, b = 0, c = 0;
+            for (i = 0; i < 4; i += 1) {
+                for (j = 0; j < 4; j += 1) {
+                    if (j > i) continue 2;
+                    a += 1;
+                }
+                b += 1;
+            }
+            for (i = 0; i < 4; i += 1) {
+                for (j = 0; j < 4; j += 1) {
+                    if (i * 4 + j == 6) break 2;
+                    c += 1;
+                }
+            }
+            float n = 0;
+            for (i = 0; i < s * 8; i += 1)
+                for (j = 0; j <= i; j += 1)
+                    n += 1;
+            Ci = color(a * 100 + b, c * 100 + i, n);
+        }"#;
+    let p = compile(src).unwrap();
+    assert_eq!(loops(&p), 6);
+    // a: inner runs j = 0..=i before continuing the outer loop: 1+2+3+4 = 10; `b += 1`
+    // runs only when the inner loop ends by its condition: i = 3 (j reaches 4): b = 1.
+    // c: 6 increments before i·4+j = 6 (i = 1, j = 2); the last triangle loop leaves
+    // i = ceil(s·8) and counts 1+2+…+i.
+    for (s, i) in [(0.0, 0.0), (0.3, 3.0), (0.5, 4.0)] {
+        let n = i * (i + 1.0) / 2.0;
+        assert_eq!(ci_at(&p, s), [10.0 * 100.0 + 1.0, 600.0 + i, n], "s = {s}");
+    }
+}
+
+#[test]
+fn the_iteration_limit_stops_a_loop_that_never_ends() {
+    let src = r#"
+        surface s() {
+            float x = 0, y = 0;
+            while (1 == 1) { x += 1; }
+            while (y < 3) { y += 1; }
+            Ci = color(x, y, 0);
+        }"#;
+    let p = compile(src).unwrap();
+    let o = run_program(&p, &plane_fragment(), &[], u32::MAX);
+    let limit = LOOP_ITERATION_LIMIT as f64;
+    assert_eq!(o.get("Ci"), [limit, 3.0, 0.0]);
+    assert_eq!(o.get32("Ci"), [limit, 3.0, 0.0]);
+    // One stop per run (f32 and f64): the second loop ends by its condition.
+    assert_eq!(o.loop_limits, [1, 1]);
+}
+
+#[test]
+fn uniform_counters_stay_uniform_and_varying_trip_counts_do_not() {
+    let ok = r#"
+        surface s(float octaves = 4) {
+            uniform float i;
+            float sum = 0;
+            for (i = 0; i < octaves; i += 1) sum += pow(2, -i) * s;
+            Ci = sum;
+        }"#;
+    let p = compile(ok).unwrap();
+    assert_eq!(ci_at(&p, 0.5), [0.9375; 3]);
+    let bad = r#"
+        surface s() {
+            uniform float i = 0;
+            while (i < s) i += 1;
+            Ci = i;
+        }"#;
+    let e = compile(bad).unwrap_err();
+    assert!(
+        e.contains("uniform variable `i` is assigned a varying value"),
+        "{e}"
+    );
+}
+
+#[test]
+fn jumps_and_loops_refuse_what_they_cannot_do() {
+    for (src, want) in [
+        ("surface s() { break; }", "`break` outside a loop"),
+        (
+            "surface s() { float i; for (i = 0; i < 2; i += 1) break 2; }",
+            "`break 2` leaves 2 loops, but only 1 enclose it",
+        ),
+        (
+            "surface s() { float i; for (i = 0; i < 2; i += 1) { illuminance(P) { break; } } }",
+            "`break` inside an `illuminance` body",
+        ),
+        (
+            "float f() { break; return 1; } surface s() { float i; for (i = 0; i < 2; i += 1) Ci = f(); }",
+            "`break` outside a loop",
+        ),
+        (
+            "surface s() { float i = 0; while ((i += 1) < 3) { } }",
+            "assignments in a loop's condition are not built",
+        ),
+        (
+            "surface s() { float i = 0; while (i) { } }",
+            "a loop condition must be a comparison, not a float",
+        ),
+    ] {
+        let e = compile(src).unwrap_err();
+        assert!(e.contains(want), "{src}:\n{e}");
+        assert!(e.contains("t.sl:1:"), "the place: {e}");
+    }
+}
