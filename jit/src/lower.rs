@@ -29,6 +29,8 @@
 //! noise, colour conversions, textures and light samples call the Rust functions the
 //! interpreter calls ([`crate::abi`]).
 
+mod loops;
+
 use crate::abi::{self, ctx_offset};
 use cranelift_codegen::ir::condcodes::{FloatCC, IntCC};
 use cranelift_codegen::ir::immediates::Ieee32;
@@ -239,6 +241,12 @@ pub struct Lowerer<'a, 'b> {
     lights: Vec<(Vec<V>, Vec<V>, V, V)>,
     /// Batch: lanes active in the current arm (`None`: all).
     active: Option<V>,
+    /// The carried values of the loops being lowered (innermost last): what `loop.var`
+    /// reads, per carried value its components.
+    loops: Vec<Vec<Vec<V>>>,
+    /// Batch: how many fragments are left from this packet on (its lanes below it hold
+    /// fragments; the others are padding, which counts nothing).
+    left: Option<V>,
     /// Loads of immutable memory (fragment, uniforms, environment) already emitted, per
     /// block scope (innermost last): each is loaded once per scope.
     loads: Vec<HashMap<LoadKey, V>>,
@@ -306,6 +314,8 @@ impl<'a, 'b> Lowerer<'a, 'b> {
             ambient: None,
             lights: Vec::new(),
             active: None,
+            loops: Vec::new(),
+            left: None,
             loads: vec![HashMap::new()],
         }
     }
@@ -367,6 +377,7 @@ impl<'a, 'b> Lowerer<'a, 'b> {
         self.frag = self.b.use_var(vf);
         self.out = self.b.use_var(vo);
         let left = self.b.use_var(vn);
+        self.left = Some(left);
         // The scene helpers' view of this packet, where the program asks the scene: its
         // first fragment's index in the batch and how many of its lanes hold fragments.
         let first = self.b.use_var(vfirst);
@@ -418,15 +429,21 @@ impl<'a, 'b> Lowerer<'a, 'b> {
         asks
     }
 
-    /// The guard's per-lane counts (`bad`, i32x4) summed over the lanes below `left`.
-    fn count_active(&mut self, bad: V, left: V) -> V {
+    /// The lanes below `left` (the fragments left from this packet on), as an i32x4 mask:
+    /// those that hold fragments, not padding.
+    fn real_lanes(&mut self, left: V) -> V {
         let lanes = {
             let bytes: Vec<u8> = (0u32..4).flat_map(|i| i.to_le_bytes()).collect();
             let c = self.b.func.dfg.constants.insert(ConstantData::from(bytes));
             self.b.ins().vconst(I32X4, c)
         };
         let nv = self.b.ins().splat(I32X4, left);
-        let act = self.b.ins().icmp(IntCC::SignedLessThan, lanes, nv);
+        self.b.ins().icmp(IntCC::SignedLessThan, lanes, nv)
+    }
+
+    /// The guard's per-lane counts (`bad`, i32x4) summed over the lanes below `left`.
+    fn count_active(&mut self, bad: V, left: V) -> V {
+        let act = self.real_lanes(left);
         let counted = self.b.ins().band(bad, act);
         let mut t = self.b.ins().extractlane(counted, 0);
         for lane in 1..4u8 {
@@ -885,8 +902,14 @@ impl<'a, 'b> Lowerer<'a, 'b> {
                 self.regions.insert(v.index(), res);
                 Ok(Vec::new())
             }
-            Op::Loop { .. } | Op::LoopVar(_) => {
-                Err(self.unsupported(v, "the JIT does not compile loops yet"))
+            Op::Loop { init, cond, body } => {
+                let res = self.loop_(v, init, cond, body)?;
+                self.regions.insert(v.index(), res);
+                Ok(Vec::new())
+            }
+            Op::LoopVar(k) => {
+                let cur = self.loops.last().and_then(|c| c.get(*k as usize)).cloned();
+                cur.ok_or_else(|| self.unsupported(v, "loop.var outside a loop (invalid program)"))
             }
             Op::Illuminance { p: point, body } => {
                 let pt = self.get(*point)?;
