@@ -2045,3 +2045,37 @@ fn loops_stop_at_the_iteration_limit_and_are_counted() {
     }
     assert_eq!(limit, 4096.0);
 }
+
+/// A loop compiles to one CLIF loop whatever its trip count: the same instructions and code
+/// bytes for 10 and 4000 iterations, in both entries (the JIT never unrolls; the optimizer
+/// may, but `compile_program` compiles the program as it is).
+#[test]
+fn loops_compile_once_whatever_the_trip_count() {
+    let body = |trips: i32| {
+        format!(
+            "  %i0 = const 0 : int\n  %l = loop %i0, %p while {{\n    %ci = loop.var 0 : int\n    %nt = const {trips} : int\n    %cc = lt %ci, %nt : bool\n    yield %cc\n  }} do {{\n    %bi = loop.var 0 : int\n    %bv = loop.var 1 : vec3\n    %one = const 1 : int\n    %bi1 = add %bi, %one : int\n    %w = cross %bv, %n : vec3\n    %w2 = normalize %w : vec3\n    %bv1 = add %bv, %w2 : vec3\n    yield %bi1, %bv1\n  }}\n  %x = proj %l, 1 : vec3"
+        )
+    };
+    for (scalar, batch) in [(true, false), (false, true)] {
+        let jit = JitBackend::with_options(JitOptions {
+            scalar,
+            batch,
+            fallback: false,
+            ..JitOptions::default()
+        });
+        let stats = |trips| {
+            let m = jit
+                .compile_program(&program(&body(trips)), Duration::ZERO)
+                .unwrap();
+            let s = m.info().stats;
+            eprintln!(
+                "scalar {scalar} batch {batch}, {trips} trips: {} CLIF instructions, {} code bytes, lower {:?}, codegen {:?}",
+                s.ir_insts, s.code_bytes, s.lower, s.codegen
+            );
+            (s.ir_insts, s.code_bytes)
+        };
+        let (short, long) = (stats(10), stats(4000));
+        assert_eq!(short, long, "scalar {scalar} batch {batch}");
+        assert!(short.0 < 400, "{short:?}: the body appears more than once?");
+    }
+}

@@ -22,6 +22,15 @@
 //! condition mask (`bitselect`). When all lanes agree, one arm is skipped; when they diverge
 //! both run, each with its own active mask for nested conditionals.
 //!
+//! Loops (`Loop`, `lower/loops.rs`): one CLIF loop per IR loop, never unrolled: the carried
+//! values are `Variable`s read at the header (what `loop.var` reads) and redefined at the
+//! end of the body, with an i32 count of the body's runs checked against the iteration
+//! limit where the condition holds (a stop there is added to `CallCtx::loop_limits`). The
+//! batch mode runs the lanes in lockstep under a running mask (the active mask, narrowed by
+//! the condition at every header): it leaves when no lane runs, the body runs with the
+//! running mask as its active mask, and its yields replace the carried values only in the
+//! running lanes (`bitselect`), so a lane that has left keeps its values.
+//!
 //! Numerics follow `shadenet_graph::ops` exactly: `+ - * /`, `sqrt`, comparisons, selects,
 //! `min`/`max` (as `a < b ? a : b`), `floor`/`ceil`/`fract`, `abs`, `neg`, dot products
 //! summed left to right from `0.0`, the total division and square root — each one IEEE
