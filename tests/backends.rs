@@ -8,7 +8,9 @@
 //! programs ([`random_programs`]; the property generator of the other branch plugs into
 //! [`check_program`]). A new back end joins the whole suite with one line in [`backends`].
 //!
-//! Parity is checked on the output floats and on the non-finite counts. Every row has a
+//! Parity is checked on the output floats, on the non-finite counts and on the loops stopped
+//! at the iteration limit (`Material::loop_limits`; the loop rows run on the CPU back ends
+//! only: the GPU does not compile loops yet). Every row has a
 //! [`Class`]: exact arithmetic (`+ - * /`, sqrt, comparisons, selects, min/max,
 //! floor/fract, …), intrinsics (noise, colour conversions, textures, light samples), one
 //! transcendental op, or transcendentals mixed with other ops; a back end states its
@@ -1468,6 +1470,18 @@ fn check_scene(
     frags: &[Fragment],
     class: &Class,
 ) -> bool {
+    check_scene_on(what, program, env, frags, class, &|_| true)
+}
+
+/// [`check_scene`] on the back ends `include` accepts.
+fn check_scene_on(
+    what: &str,
+    program: &Program,
+    env: &ShadeEnv,
+    frags: &[Fragment],
+    class: &Class,
+    include: &dyn Fn(&UnderTest) -> bool,
+) -> bool {
     shadenet_graph::ir::validate(program).unwrap_or_else(|e| panic!("{what}: {e}\n{program}"));
     let scene = HashScene::default();
     let reference = InterpBackend
@@ -1476,7 +1490,7 @@ fn check_scene(
     let with = shade_with_scene(&*reference, env, frags, Some(&scene));
     let without = shade_with_scene(&*reference, env, frags, None);
     assert!(scene.calls() > 0, "{what}: the scene was never asked");
-    for ut in backends() {
+    for ut in backends().into_iter().filter(|ut| include(ut)) {
         let m = ut
             .backend
             .compile_program(program, Duration::ZERO)
@@ -1949,6 +1963,10 @@ fn loops() {
     for (name, body, class) in rows {
         let p = program(body);
         check_program_on(name, &p, &env, u32::MAX, &frags, class.clone(), &cpu_only);
+        // Optimized too: loop-invariant values hoisted out, CSE and dead code inside.
+        let (o, _) = opt::run(&p, &Specialization::default());
+        let what = format!("{name} (optimized)");
+        check_program_on(&what, &o, &env, u32::MAX, &frags, class.clone(), &cpu_only);
     }
     // Every carried type at once; the bool flips each turn, the int wraps.
     let body = "  %i0 = const 0 : int\n  %l = loop %i0, %p, %pc, %k, %q, %uv, %p4, %pc4 while {\n    %ci = loop.var 0 : int\n    %cb = loop.var 4 : bool\n    %three = const 3 : int\n    %lt3 = lt %ci, %three : bool\n    %six = const 6 : int\n    %lt6 = lt %ci, %six : bool\n    %more = and %lt6, %cb : bool\n    %cc = or %lt3, %more : bool\n    yield %cc\n  } do {\n    %bi = loop.var 0 : int\n    %bv = loop.var 1 : vec3\n    %bc = loop.var 2 : color\n    %bk = loop.var 3 : int\n    %bq = loop.var 4 : bool\n    %bu = loop.var 5 : vec2\n    %b4 = loop.var 6 : vec4\n    %bc4 = loop.var 7 : color4\n    %one = const 1 : int\n    %bi1 = add %bi, %one : int\n    %bv1 = mul %bv, %n : vec3\n    %bc1 = sub %bc, %nc : color\n    %kk = const 3 : int\n    %bk0 = mul %bk, %kk : int\n    %bk1 = add %bk0, %one : int\n    %bq1 = not %bq : bool\n    %bu1 = add %bu, %ba : vec2\n    %b41 = mul %b4, %n4 : vec4\n    %bc41 = add %bc4, %nc4 : color4\n    yield %bi1, %bv1, %bc1, %bk1, %bq1, %bu1, %b41, %bc41\n  }\n  %r0 = proj %l, 0 : int\n  %r1 = proj %l, 1 : vec3\n  %r2 = proj %l, 2 : color\n  %r3 = proj %l, 3 : int\n  %r4 = proj %l, 4 : bool\n  %r5 = proj %l, 5 : vec2\n  %r6 = proj %l, 6 : vec4\n  %r7 = proj %l, 7 : color4";
@@ -2078,4 +2096,60 @@ fn loops_compile_once_whatever_the_trip_count() {
         assert_eq!(short, long, "scalar {scalar} batch {batch}");
         assert!(short.0 < 400, "{short:?}: the body appears more than once?");
     }
+}
+
+/// Loops that ask the scene (a traced ray and a light loop reading `light.visible` in the
+/// body, the direction carried from turn to turn, a trip count varying per lane): every CPU
+/// back end and entry as the interpreter, with the scene where the entry has it.
+#[test]
+fn loops_ask_the_scene_as_the_interpreter() {
+    let text = r#"program "loop scene" {
+  %p = stream P : vec3
+  %n = stream N : vec3
+  %i = stream I : vec3
+  %x = extract %p, 0 : float
+  %zero = const 0.0 : float
+  %pos = gt %x, %zero : bool
+  %three = const 3 : int
+  %one = const 1 : int
+  %lim = select %pos, %three, %one : int
+  %z = const (0.0, 0.0, 0.0) : color
+  %i0 = const 0 : int
+  %l = loop %i0, %z, %i while {
+    %ci = loop.var 0 : int
+    %cc = lt %ci, %lim : bool
+    yield %cc
+  } do {
+    %bi = loop.var 0 : int
+    %acc = loop.var 1 : color
+    %d = loop.var 2 : vec3
+    %t = trace reflection %d : color
+    %lt = illuminance %p {
+      %v = light.visible : float
+      %c = light.Cl : color
+      %vs = splat %v : color
+      %s = mul %c, %vs : color
+      yield %s
+    }
+    %lc = proj %lt, 0 : color
+    %a1 = add %acc, %t : color
+    %a2 = add %a1, %lc : color
+    %d2 = add %d, %n : vec3
+    %d3 = normalize %d2 : vec3
+    %bi1 = add %bi, %one : int
+    yield %bi1, %a2, %d3
+  }
+  %r = proj %l, 1 : color
+  %cnt = proj %l, 0 : int
+  output r %r
+  output c %cnt
+}
+"#;
+    let p = parse(text).unwrap();
+    let frags = scene_fragments();
+    let env = scene_env();
+    assert!(
+        check_scene_on("loop scene", &p, &env, &frags, &Class::Intrinsic, &cpu_only),
+        "the scene changes nothing"
+    );
 }
