@@ -2,7 +2,8 @@
 //! the helper functions compiled code calls.
 //!
 //! Every entry point takes a [`CallCtx`] (the environment, the material's textures and
-//! uniform block, the component mask and the light count). Helpers are `extern "C"` Rust
+//! uniform block, the component mask and the light count; the shading entries also add
+//! the loops they stopped at the iteration limit to it). Helpers are `extern "C"` Rust
 //! functions registered as symbols of the JIT module; each calls the very function the
 //! interpreter calls (`shadenet_graph::ops`, `ops::noise`, `runtime::lights::sample`,
 //! `TextureSet` sampling, `runtime::interp::transform`'s matrices), so compiled code and
@@ -35,7 +36,8 @@ use shadenet_runtime::{FragmentX4, LANES, fragment_services};
 use std::cell::Cell;
 
 /// What every compiled entry point reads besides the fragment: `#[repr(C)]`, built by the
-/// material for each call (a few stores).
+/// material for each call (a few stores). Compiled code writes only `first`, `lanes`
+/// (batch entry) and `loop_limits`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct CallCtx {
