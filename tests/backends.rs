@@ -8,7 +8,9 @@
 //! programs ([`random_programs`]; the property generator of the other branch plugs into
 //! [`check_program`]). A new back end joins the whole suite with one line in [`backends`].
 //!
-//! Parity is checked on the output floats and on the non-finite counts. Every row has a
+//! Parity is checked on the output floats, on the non-finite counts and on the loops stopped
+//! at the iteration limit (`Material::loop_limits`; the loop rows run on the CPU back ends
+//! only: the GPU does not compile loops yet). Every row has a
 //! [`Class`]: exact arithmetic (`+ - * /`, sqrt, comparisons, selects, min/max,
 //! floor/fract, …), intrinsics (noise, colour conversions, textures, light samples), one
 //! transcendental op, or transcendentals mixed with other ops; a back end states its
@@ -284,6 +286,14 @@ fn check_program_on(
             ut.name
         );
         let (got, got_bad) = shade_all(&*m, ut.drive, env, mask, frags);
+        // Loops stopped at the iteration limit: counted alike (a fresh material per back
+        // end, so its total is this call's).
+        assert_eq!(
+            m.loop_limits(),
+            reference.loop_limits(),
+            "{what}: {}: loops stopped at the iteration limit\n{program}",
+            ut.name
+        );
         let seen = Seen {
             what,
             program,
@@ -1460,6 +1470,18 @@ fn check_scene(
     frags: &[Fragment],
     class: &Class,
 ) -> bool {
+    check_scene_on(what, program, env, frags, class, &|_| true)
+}
+
+/// [`check_scene`] on the back ends `include` accepts.
+fn check_scene_on(
+    what: &str,
+    program: &Program,
+    env: &ShadeEnv,
+    frags: &[Fragment],
+    class: &Class,
+    include: &dyn Fn(&UnderTest) -> bool,
+) -> bool {
     shadenet_graph::ir::validate(program).unwrap_or_else(|e| panic!("{what}: {e}\n{program}"));
     let scene = HashScene::default();
     let reference = InterpBackend
@@ -1468,7 +1490,7 @@ fn check_scene(
     let with = shade_with_scene(&*reference, env, frags, Some(&scene));
     let without = shade_with_scene(&*reference, env, frags, None);
     assert!(scene.calls() > 0, "{what}: the scene was never asked");
-    for ut in backends() {
+    for ut in backends().into_iter().filter(|ut| include(ut)) {
         let m = ut
             .backend
             .compile_program(program, Duration::ZERO)
@@ -1858,4 +1880,276 @@ fn specular_lobes_on_every_backend() {
         let prog = b.finish().expect("lobe program");
         check_program(name, &prog, &env, u32::MAX, &frags, Class::Mixed);
     }
+}
+
+// ---- loops ----
+
+/// The CPU back ends: the GPU does not compile loops yet (it refuses them, and the suite runs
+/// it without fallback).
+fn cpu_only(ut: &UnderTest) -> bool {
+    ut.name != "gpu"
+}
+
+/// A program over [`INPUTS`] with `body` and one output per label.
+fn program_with_outputs(body: &str, outs: &[&str]) -> Program {
+    let outputs: Vec<String> = outs
+        .iter()
+        .enumerate()
+        .map(|(k, l)| format!("  output o{k} {l}\n"))
+        .collect();
+    let text = format!(
+        "program \"row\" {{\n{INPUTS}\n{body}\n{}}}\n",
+        outputs.concat()
+    );
+    parse(&text).unwrap_or_else(|e| panic!("{e}\n{text}"))
+}
+
+/// Loops (`Op::Loop`) against the interpreter, on every CPU back end and drive, outputs,
+/// non-finite counts and loops stopped at the iteration limit alike: constant and varying
+/// trip counts (lanes of a packet leaving at different iterations, some at the limit),
+/// nested loops, conditionals inside a loop and loops inside a conditional and a light
+/// loop, loops that never iterate, every carried type, and loops that never end.
+#[test]
+fn loops() {
+    let frags = hard_fragments();
+    let env = env();
+    let rows: &[(&str, &str, Class)] = &[
+        (
+            "loop, counted",
+            "  %i0 = const 0 : int\n  %s0 = const 0.0 : float\n  %l = loop %i0, %s0 while {\n    %ci = loop.var 0 : int\n    %ten = const 10 : int\n    %cc = lt %ci, %ten : bool\n    yield %cc\n  } do {\n    %bi = loop.var 0 : int\n    %bs = loop.var 1 : float\n    %one = const 1 : int\n    %bi1 = add %bi, %one : int\n    %fi = convert %bi : float\n    %t = mul %fi, %a : float\n    %t2 = add %t, %b : float\n    %bs1 = add %bs, %t2 : float\n    yield %bi1, %bs1\n  }\n  %x = proj %l, 1 : float",
+            Class::Exact,
+        ),
+        (
+            "loop, varying trip count",
+            "  %x0 = const 0.0 : float\n  %n0 = const 0 : int\n  %l = loop %x0, %n0 while {\n    %cx = loop.var 0 : float\n    %twenty = const 20.0 : float\n    %lim = mul %b, %twenty : float\n    %cc = lt %cx, %lim : bool\n    yield %cc\n  } do {\n    %bx = loop.var 0 : float\n    %bn = loop.var 1 : int\n    %one = const 1.0 : float\n    %ab = abs %a : float\n    %st = add %one, %ab : float\n    %bx1 = add %bx, %st : float\n    %ione = const 1 : int\n    %bn1 = add %bn, %ione : int\n    yield %bx1, %bn1\n  }\n  %lx = proj %l, 0 : float\n  %ln = proj %l, 1 : int\n  %lnf = convert %ln : float\n  %x = construct %lx, %lnf : vec2",
+            Class::Exact,
+        ),
+        (
+            "loop, nested (the inner trip count depends on the outer carried value)",
+            "  %o0 = const 0 : int\n  %c0 = const (0.0, 0.0, 0.0) : color\n  %lo = loop %o0, %c0 while {\n    %oi = loop.var 0 : int\n    %four = const 4 : int\n    %oc = lt %oi, %four : bool\n    yield %oc\n  } do {\n    %oi2 = loop.var 0 : int\n    %oacc = loop.var 1 : color\n    %j0 = const 0 : int\n    %li = loop %j0, %oacc while {\n      %ij = loop.var 0 : int\n      %qi = convert %q : int\n      %lim2 = add %oi2, %qi : int\n      %ic = lt %ij, %lim2 : bool\n      yield %ic\n    } do {\n      %ij2 = loop.var 0 : int\n      %iacc = loop.var 1 : color\n      %half = const 0.5 : float\n      %hs = splat %half : color\n      %sc = mul %iacc, %hs : color\n      %jf = convert %ij2 : float\n      %js = splat %jf : color\n      %pj = mul %pc, %js : color\n      %na = add %sc, %pj : color\n      %ione = const 1 : int\n      %ij3 = add %ij2, %ione : int\n      yield %ij3, %na\n    }\n    %inner = proj %li, 1 : color\n    %oone = const 1 : int\n    %oi3 = add %oi2, %oone : int\n    yield %oi3, %inner\n  }\n  %x = proj %lo, 1 : color",
+            Class::Exact,
+        ),
+        (
+            "loop, if inside the body",
+            "  %i0 = const 0 : int\n  %v0 = const (0.0, 0.0, 0.0) : vec3\n  %l = loop %i0, %v0 while {\n    %ci = loop.var 0 : int\n    %sev = const 7 : int\n    %lim = mod %m, %sev : int\n    %cc = lt %ci, %lim : bool\n    yield %cc\n  } do {\n    %bi = loop.var 0 : int\n    %bv = loop.var 1 : vec3\n    %two = const 2 : int\n    %par = mod %bi, %two : int\n    %zero = const 0 : int\n    %even = eq %par, %zero : bool\n    %e = and %even, %q : bool\n    %r0 = if %e {\n      %t = add %bv, %p : vec3\n      yield %t\n    } else {\n      %u = cross %bv, %n : vec3\n      %u2 = sub %u, %n : vec3\n      yield %u2\n    }\n    %nv = proj %r0, 0 : vec3\n    %one = const 1 : int\n    %bi1 = add %bi, %one : int\n    yield %bi1, %nv\n  }\n  %x = proj %l, 1 : vec3",
+            Class::Exact,
+        ),
+        (
+            "loop inside an if arm",
+            "  %x0 = if %q {\n    %i0 = const 0 : int\n    %l = loop %i0, %a while {\n      %ci = loop.var 0 : int\n      %five = const 5 : int\n      %lim = mod %m, %five : int\n      %cc = lt %ci, %lim : bool\n      yield %cc\n    } do {\n      %bi = loop.var 0 : int\n      %bs = loop.var 1 : float\n      %one = const 1 : int\n      %bi1 = add %bi, %one : int\n      %t = mul %bs, %a : float\n      %t2 = add %t, %b : float\n      yield %bi1, %t2\n    }\n    %y = proj %l, 1 : float\n    yield %y\n  } else {\n    yield %b\n  }\n  %x = proj %x0, 0 : float",
+            Class::Exact,
+        ),
+        (
+            "loop inside a light loop",
+            "  %l0 = illuminance %p {\n    %L = light.L : vec3\n    %C = light.Cl : color\n    %d = dot %n, %L : float\n    %s0 = const 0.0 : float\n    %w0 = abs %d : float\n    %lp = loop %s0, %w0 while {\n      %lw = loop.var 1 : float\n      %eps = const 0.01 : float\n      %gc = gt %lw, %eps : bool\n      yield %gc\n    } do {\n      %ls = loop.var 0 : float\n      %lw2 = loop.var 1 : float\n      %lsn = add %ls, %lw2 : float\n      %hf = const 0.5 : float\n      %lwn = mul %lw2, %hf : float\n      yield %lsn, %lwn\n    }\n    %ss = proj %lp, 0 : float\n    %sc = splat %ss : color\n    %y = mul %C, %sc : color\n    yield %y\n  }\n  %x = proj %l0, 0 : color",
+            Class::Intrinsic,
+        ),
+        (
+            "loop, no iteration",
+            "  %l = loop %a, %p while {\n    %za = loop.var 0 : float\n    %zc = lt %za, %za : bool\n    yield %zc\n  } do {\n    %zb = loop.var 0 : float\n    %zp = loop.var 1 : vec3\n    %z2 = add %zb, %zb : float\n    %zq = add %zp, %n : vec3\n    yield %z2, %zq\n  }\n  %l2 = loop while {\n    %f = const false : bool\n    yield %f\n  } do {\n    yield\n  }\n  %x1 = proj %l, 0 : float\n  %xv = proj %l, 1 : vec3\n  %x2 = extract %xv, 1 : float\n  %x = add %x1, %x2 : float",
+            Class::Exact,
+        ),
+        (
+            "loop that never ends, inside a loop of varying trip count (lanes that left the outer loop are not counted)",
+            "  %i0 = const 0 : int\n  %z = const 0.0 : float\n  %l = loop %i0, %z while {\n    %ci = loop.var 0 : int\n    %four = const 4 : int\n    %lim = mod %m, %four : int\n    %cc = lt %ci, %lim : bool\n    yield %cc\n  } do {\n    %bi = loop.var 0 : int\n    %bs = loop.var 1 : float\n    %li = loop %bs while {\n      %t = const true : bool\n      yield %t\n    } do {\n      %v = loop.var 0 : float\n      %v1 = add %v, %a : float\n      yield %v1\n    }\n    %iv = proj %li, 0 : float\n    %one = const 1 : int\n    %bi1 = add %bi, %one : int\n    yield %bi1, %iv\n  }\n  %x = proj %l, 1 : float",
+            Class::Exact,
+        ),
+        (
+            "loop that never ends, inside an if arm (lanes of the other arm are not counted)",
+            "  %x0 = if %q {\n    %l = loop %a while {\n      %t = const true : bool\n      yield %t\n    } do {\n      %bs = loop.var 0 : float\n      %bs1 = add %bs, %b : float\n      yield %bs1\n    }\n    %y = proj %l, 0 : float\n    yield %y\n  } else {\n    yield %b\n  }\n  %x = proj %x0, 0 : float",
+            Class::Exact,
+        ),
+    ];
+    for (name, body, class) in rows {
+        let p = program(body);
+        check_program_on(name, &p, &env, u32::MAX, &frags, class.clone(), &cpu_only);
+        // Optimized too: loop-invariant values hoisted out, CSE and dead code inside.
+        let (o, _) = opt::run(&p, &Specialization::default());
+        let what = format!("{name} (optimized)");
+        check_program_on(&what, &o, &env, u32::MAX, &frags, class.clone(), &cpu_only);
+    }
+    // Every carried type at once; the bool flips each turn, the int wraps.
+    let body = "  %i0 = const 0 : int\n  %l = loop %i0, %p, %pc, %k, %q, %uv, %p4, %pc4 while {\n    %ci = loop.var 0 : int\n    %cb = loop.var 4 : bool\n    %three = const 3 : int\n    %lt3 = lt %ci, %three : bool\n    %six = const 6 : int\n    %lt6 = lt %ci, %six : bool\n    %more = and %lt6, %cb : bool\n    %cc = or %lt3, %more : bool\n    yield %cc\n  } do {\n    %bi = loop.var 0 : int\n    %bv = loop.var 1 : vec3\n    %bc = loop.var 2 : color\n    %bk = loop.var 3 : int\n    %bq = loop.var 4 : bool\n    %bu = loop.var 5 : vec2\n    %b4 = loop.var 6 : vec4\n    %bc4 = loop.var 7 : color4\n    %one = const 1 : int\n    %bi1 = add %bi, %one : int\n    %bv1 = mul %bv, %n : vec3\n    %bc1 = sub %bc, %nc : color\n    %kk = const 3 : int\n    %bk0 = mul %bk, %kk : int\n    %bk1 = add %bk0, %one : int\n    %bq1 = not %bq : bool\n    %bu1 = add %bu, %ba : vec2\n    %b41 = mul %b4, %n4 : vec4\n    %bc41 = add %bc4, %nc4 : color4\n    yield %bi1, %bv1, %bc1, %bk1, %bq1, %bu1, %b41, %bc41\n  }\n  %r0 = proj %l, 0 : int\n  %r1 = proj %l, 1 : vec3\n  %r2 = proj %l, 2 : color\n  %r3 = proj %l, 3 : int\n  %r4 = proj %l, 4 : bool\n  %r5 = proj %l, 5 : vec2\n  %r6 = proj %l, 6 : vec4\n  %r7 = proj %l, 7 : color4";
+    let outs = ["%r0", "%r1", "%r2", "%r3", "%r4", "%r5", "%r6", "%r7"];
+    let p = program_with_outputs(body, &outs);
+    check_program_on(
+        "loop, every carried type",
+        &p,
+        &env,
+        u32::MAX,
+        &frags,
+        Class::Exact,
+        &cpu_only,
+    );
+}
+
+/// Loops that never end stop after `LOOP_ITERATION_LIMIT` body runs with the values they
+/// have, and every back end and entry counts one stop per loop execution and fragment
+/// (`Material::loop_limits`), padding lanes of a short packet not counted.
+#[test]
+fn loops_stop_at_the_iteration_limit_and_are_counted() {
+    use shadenet_graph::ir::LOOP_ITERATION_LIMIT;
+    // Seven fragments (a full packet and a short one), one of them with P.x NaN.
+    let mut frags: Vec<Fragment> = hard_fragments().into_iter().take(7).collect();
+    frags[5].p[0] = f32::NAN;
+    let env = env();
+    let limit = LOOP_ITERATION_LIMIT as f32;
+    // (name, body, the output float per fragment, stops per fragment).
+    type Expect = fn(&Fragment) -> (f32, u64);
+    let rows: &[(&str, &str, Expect)] = &[
+        (
+            "always true",
+            "  %z = const 0.0 : float\n  %l = loop %z while {\n    %t = const true : bool\n    yield %t\n  } do {\n    %v = loop.var 0 : float\n    %one = const 1.0 : float\n    %v1 = add %v, %one : float\n    yield %v1\n  }\n  %x = proj %l, 0 : float",
+            |_| (LOOP_ITERATION_LIMIT as f32, 1),
+        ),
+        (
+            "true where P.x is a number",
+            "  %z = const 0.0 : float\n  %l = loop %z while {\n    %t = eq %a, %a : bool\n    yield %t\n  } do {\n    %v = loop.var 0 : float\n    %one = const 1.0 : float\n    %v1 = add %v, %one : float\n    yield %v1\n  }\n  %x = proj %l, 0 : float",
+            |f| match f.p[0].is_nan() {
+                true => (0.0, 0),
+                false => (LOOP_ITERATION_LIMIT as f32, 1),
+            },
+        ),
+        (
+            "an endless loop three times, inside a loop",
+            "  %z = const 0.0 : float\n  %o = const 0 : int\n  %l = loop %o, %z while {\n    %oi = loop.var 0 : int\n    %three = const 3 : int\n    %oc = lt %oi, %three : bool\n    yield %oc\n  } do {\n    %oi2 = loop.var 0 : int\n    %ov = loop.var 1 : float\n    %li = loop %ov while {\n      %t = const true : bool\n      yield %t\n    } do {\n      %v = loop.var 0 : float\n      %one = const 1.0 : float\n      %v1 = add %v, %one : float\n      yield %v1\n    }\n    %iv = proj %li, 0 : float\n    %ione = const 1 : int\n    %oi3 = add %oi2, %ione : int\n    yield %oi3, %iv\n  }\n  %x = proj %l, 1 : float",
+            |_| (3.0 * LOOP_ITERATION_LIMIT as f32, 3),
+        ),
+    ];
+    let entries = |scalar, batch| {
+        JitBackend::with_options(JitOptions {
+            scalar,
+            batch,
+            fallback: false,
+            ..JitOptions::default()
+        })
+    };
+    let cases: Vec<(&str, Box<dyn Backend>, Drive)> = vec![
+        ("interp", Box::new(InterpBackend), Drive::Scalar),
+        ("interp-batch", Box::new(InterpBackend), Drive::Batch),
+        ("jit-scalar", Box::new(entries(true, true)), Drive::Scalar),
+        ("jit-batch", Box::new(entries(true, true)), Drive::Batch),
+        ("jit-many", Box::new(entries(true, true)), Drive::Many),
+        // `shade` through the batch entry, `shade_x4` through the scalar one.
+        (
+            "jit-batch-only",
+            Box::new(entries(false, true)),
+            Drive::Scalar,
+        ),
+        (
+            "jit-scalar-only",
+            Box::new(entries(true, false)),
+            Drive::Batch,
+        ),
+    ];
+    for (name, body, expect) in rows {
+        let p = program(body);
+        let want: Vec<(f32, u64)> = frags.iter().map(expect).collect();
+        let stops: u64 = want.iter().map(|w| w.1).sum();
+        for (label, backend, drive) in &cases {
+            let m = backend.compile_program(&p, Duration::ZERO).unwrap();
+            assert!(m.info().fallback.is_none(), "{label}: fell back");
+            assert_eq!(m.loop_limits(), 0, "{name}: {label}: before shading");
+            let (got, bad) = shade_all(&*m, *drive, &env, u32::MAX, &frags);
+            let got_bits: Vec<u32> = got.iter().map(|x| x.to_bits()).collect();
+            let want_bits: Vec<u32> = want.iter().map(|w| w.0.to_bits()).collect();
+            assert_eq!(got_bits, want_bits, "{name}: {label}: values");
+            assert_eq!(bad, 0, "{name}: {label}: non-finite");
+            assert_eq!(m.loop_limits(), stops, "{name}: {label}: stops");
+            // The count is a running total: a second pass doubles it.
+            shade_all(&*m, *drive, &env, u32::MAX, &frags);
+            assert_eq!(m.loop_limits(), 2 * stops, "{name}: {label}: second pass");
+        }
+    }
+    assert_eq!(limit, 4096.0);
+}
+
+/// A loop compiles to one CLIF loop whatever its trip count: the same instructions and code
+/// bytes for 10 and 4000 iterations, in both entries (the JIT never unrolls; the optimizer
+/// may, but `compile_program` compiles the program as it is).
+#[test]
+fn loops_compile_once_whatever_the_trip_count() {
+    let body = |trips: i32| {
+        format!(
+            "  %i0 = const 0 : int\n  %l = loop %i0, %p while {{\n    %ci = loop.var 0 : int\n    %nt = const {trips} : int\n    %cc = lt %ci, %nt : bool\n    yield %cc\n  }} do {{\n    %bi = loop.var 0 : int\n    %bv = loop.var 1 : vec3\n    %one = const 1 : int\n    %bi1 = add %bi, %one : int\n    %w = cross %bv, %n : vec3\n    %w2 = normalize %w : vec3\n    %bv1 = add %bv, %w2 : vec3\n    yield %bi1, %bv1\n  }}\n  %x = proj %l, 1 : vec3"
+        )
+    };
+    for (scalar, batch) in [(true, false), (false, true)] {
+        let jit = JitBackend::with_options(JitOptions {
+            scalar,
+            batch,
+            fallback: false,
+            ..JitOptions::default()
+        });
+        let stats = |trips| {
+            let m = jit
+                .compile_program(&program(&body(trips)), Duration::ZERO)
+                .unwrap();
+            let s = m.info().stats;
+            eprintln!(
+                "scalar {scalar} batch {batch}, {trips} trips: {} CLIF instructions, {} code bytes, lower {:?}, codegen {:?}",
+                s.ir_insts, s.code_bytes, s.lower, s.codegen
+            );
+            (s.ir_insts, s.code_bytes)
+        };
+        let (short, long) = (stats(10), stats(4000));
+        assert_eq!(short, long, "scalar {scalar} batch {batch}");
+        assert!(short.0 < 400, "{short:?}: the body appears more than once?");
+    }
+}
+
+/// Loops that ask the scene (a traced ray and a light loop reading `light.visible` in the
+/// body, the direction carried from turn to turn, a trip count varying per lane): every CPU
+/// back end and entry as the interpreter, with the scene where the entry has it.
+#[test]
+fn loops_ask_the_scene_as_the_interpreter() {
+    let text = r#"program "loop scene" {
+  %p = stream P : vec3
+  %n = stream N : vec3
+  %i = stream I : vec3
+  %x = extract %p, 0 : float
+  %zero = const 0.0 : float
+  %pos = gt %x, %zero : bool
+  %three = const 3 : int
+  %one = const 1 : int
+  %lim = select %pos, %three, %one : int
+  %z = const (0.0, 0.0, 0.0) : color
+  %i0 = const 0 : int
+  %l = loop %i0, %z, %i while {
+    %ci = loop.var 0 : int
+    %cc = lt %ci, %lim : bool
+    yield %cc
+  } do {
+    %bi = loop.var 0 : int
+    %acc = loop.var 1 : color
+    %d = loop.var 2 : vec3
+    %t = trace reflection %d : color
+    %lt = illuminance %p {
+      %v = light.visible : float
+      %c = light.Cl : color
+      %vs = splat %v : color
+      %s = mul %c, %vs : color
+      yield %s
+    }
+    %lc = proj %lt, 0 : color
+    %a1 = add %acc, %t : color
+    %a2 = add %a1, %lc : color
+    %d2 = add %d, %n : vec3
+    %d3 = normalize %d2 : vec3
+    %bi1 = add %bi, %one : int
+    yield %bi1, %a2, %d3
+  }
+  %r = proj %l, 1 : color
+  %cnt = proj %l, 0 : int
+  output r %r
+  output c %cnt
+}
+"#;
+    let p = parse(text).unwrap();
+    let frags = scene_fragments();
+    let env = scene_env();
+    assert!(
+        check_scene_on("loop scene", &p, &env, &frags, &Class::Intrinsic, &cpu_only),
+        "the scene changes nothing"
+    );
 }

@@ -2,7 +2,8 @@
 //! the helper functions compiled code calls.
 //!
 //! Every entry point takes a [`CallCtx`] (the environment, the material's textures and
-//! uniform block, the component mask and the light count). Helpers are `extern "C"` Rust
+//! uniform block, the component mask and the light count; the shading entries also add
+//! the loops they stopped at the iteration limit to it). Helpers are `extern "C"` Rust
 //! functions registered as symbols of the JIT module; each calls the very function the
 //! interpreter calls (`shadenet_graph::ops`, `ops::noise`, `runtime::lights::sample`,
 //! `TextureSet` sampling, `runtime::interp::transform`'s matrices), so compiled code and
@@ -35,7 +36,8 @@ use shadenet_runtime::{FragmentX4, LANES, fragment_services};
 use std::cell::Cell;
 
 /// What every compiled entry point reads besides the fragment: `#[repr(C)]`, built by the
-/// material for each call (a few stores).
+/// material for each call (a few stores). Compiled code writes only `first`, `lanes`
+/// (batch entry) and `loop_limits`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct CallCtx {
@@ -72,6 +74,11 @@ pub struct CallCtx {
     /// 1 when `scene` is a whole batch's services (lane `l` asks
     /// `fragment_services(scene, first + l)`), 0 when it is one fragment's own.
     pub batch_scene: u32,
+    /// Loop executions that stopped at
+    /// [`LOOP_ITERATION_LIMIT`](shadenet_graph::ir::LOOP_ITERATION_LIMIT) with their
+    /// condition still true: the caller zeroes it, the compiled code adds to it (the batch
+    /// entry: one per stopped lane below its `n`), the caller reads it after the call.
+    pub loop_limits: u32,
 }
 
 /// Light samples per call whose visibility [`VisibilityMemo`] remembers; later sample slots
@@ -176,18 +183,22 @@ pub mod ctx_offset {
     pub const FIRST: i32 = offset_of!(CallCtx, first) as i32;
     /// `lanes`.
     pub const LANES: i32 = offset_of!(CallCtx, lanes) as i32;
+    /// `loop_limits`.
+    pub const LOOP_LIMITS: i32 = offset_of!(CallCtx, loop_limits) as i32;
 }
 
 /// The scalar entry: shades one fragment into `out` (the interpreter's output layout) and
-/// returns the non-finite floats the guard replaced.
-pub type ScalarFn = unsafe extern "C" fn(*const CallCtx, *const Fragment, *mut f32) -> u32;
+/// returns the non-finite floats the guard replaced. It adds the loops it stopped at the
+/// iteration limit to the context's `loop_limits` (hence `*mut`).
+pub type ScalarFn = unsafe extern "C" fn(*mut CallCtx, *const Fragment, *mut f32) -> u32;
 
 /// The batch entry: shades `n` fragments (the last argument) in consecutive four-lane
 /// packets into `out` in the packets' layout (`shadenet_runtime::packets`: per packet,
 /// float `k` of lane `l` at `k * 4 + l`), walking the packets in one call; only the first
 /// `n` lanes' non-finite floats are counted. At least one packet is shaded (`n = 0` shades
 /// the first packet and counts nothing). The entry writes the context's `first` and
-/// `lanes` before each packet (hence `*mut`).
+/// `lanes` before each packet and adds the first `n` lanes' loops stopped at the iteration
+/// limit to `loop_limits` (hence `*mut`).
 pub type BatchFn = unsafe extern "C" fn(*mut CallCtx, *const FragmentX4, *mut f32, u32) -> u32;
 
 /// The prelude entry: evaluates the prelude once and writes its values into the uniform

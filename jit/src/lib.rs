@@ -55,6 +55,7 @@ use shadenet_runtime::{
     ShadeEnv, packed_len,
 };
 use std::fmt::Write as _;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
@@ -296,6 +297,8 @@ pub struct JitMaterial {
     layout: Vec<OutputSlot>,
     width: usize,
     info: MaterialInfo,
+    /// Loop executions stopped at the iteration limit, all calls and threads.
+    loop_limits: AtomicU64,
     // Last: dropped after everything that points into it.
     _code: Code,
 }
@@ -304,6 +307,14 @@ impl JitMaterial {
     /// The batch entry: compiled with the material, or on first use.
     fn batch(&self) -> Option<BatchFn> {
         self.batch.or_else(|| self.lazy_batch.as_ref()?.get())
+    }
+
+    /// Adds one call's loop stops (`CallCtx::loop_limits`) to the material's total.
+    fn count(&self, loop_limits: u32) {
+        if loop_limits > 0 {
+            let n = u64::from(loop_limits);
+            self.loop_limits.fetch_add(n, Ordering::Relaxed);
+        }
     }
 
     /// The call context; `scene` is the shading context's `scene` field (scalar calls), a
@@ -322,6 +333,7 @@ impl JitMaterial {
             first: 0,
             lanes: LANES as u32,
             batch_scene: 0,
+            loop_limits: 0,
             env,
             textures: &*self.textures,
             uniforms: self.uniforms.as_ptr(),
@@ -349,10 +361,10 @@ impl Material for JitMaterial {
         let memos: [abi::VisibilityMemo; LANES] = Default::default();
         let mut cc = self.call_ctx(ctx.env, ctx.mask, Some(&ctx.scene), Some(&memo));
         cc.visibility_x4 = &memos;
-        match (self.scalar, self.batch()) {
+        let bad = match (self.scalar, self.batch()) {
             // SAFETY: the function was compiled for this material's layout; `out` holds
             // `width` floats; the context's pointers live for the call.
-            (Some(f), _) => unsafe { f(&cc, &ctx.frag, out.as_mut_ptr()) },
+            (Some(f), _) => unsafe { f(&mut cc, &ctx.frag, out.as_mut_ptr()) },
             (None, Some(f)) => {
                 let packet = FragmentX4::gather(std::slice::from_ref(&ctx.frag));
                 let mut soa = vec![0.0f32; self.width * LANES];
@@ -364,7 +376,9 @@ impl Material for JitMaterial {
                 bad
             }
             (None, None) => 0,
-        }
+        };
+        self.count(cc.loop_limits);
+        bad
     }
 
     fn shade_x4(
@@ -378,20 +392,25 @@ impl Material for JitMaterial {
         assert!(out.len() >= self.width * LANES, "output buffer too small");
         let mut cc = self.call_ctx(env, mask, None, None);
         match (self.batch(), self.scalar) {
-            // SAFETY: the function was compiled for this material's layout; `out` holds
-            // `width * 4` floats; the context's pointers live for the call.
-            (Some(f), _) => unsafe {
-                f(&mut cc, frags, out.as_mut_ptr(), active.min(LANES) as u32)
-            },
+            (Some(f), _) => {
+                // SAFETY: the function was compiled for this material's layout; `out` holds
+                // `width * 4` floats; the context's pointers live for the call.
+                let bad = unsafe { f(&mut cc, frags, out.as_mut_ptr(), active.min(LANES) as u32) };
+                self.count(cc.loop_limits);
+                bad
+            }
             (None, Some(f)) => {
                 let mut one = vec![0.0f32; self.width];
                 let mut bad = 0;
                 for lane in 0..LANES {
                     let frag = frags.lane(lane);
+                    cc.loop_limits = 0;
                     // SAFETY: as above, with `width` floats.
-                    let b = unsafe { f(&cc, &frag, one.as_mut_ptr()) };
+                    let b = unsafe { f(&mut cc, &frag, one.as_mut_ptr()) };
+                    // Padding lanes count nothing, as for the guard.
                     if lane < active {
                         bad += b;
+                        self.count(cc.loop_limits);
                     }
                     for (k, x) in one.iter().enumerate() {
                         out[k * LANES + lane] = *x;
@@ -405,6 +424,10 @@ impl Material for JitMaterial {
 
     fn info(&self) -> &MaterialInfo {
         &self.info
+    }
+
+    fn loop_limits(&self) -> u64 {
+        self.loop_limits.load(Ordering::Relaxed)
     }
 
     fn shade_many(
@@ -443,6 +466,8 @@ impl Material for JitMaterial {
                     // points to live for the call.
                     bad +=
                         unsafe { f(&mut cc, packets.as_ptr(), dst.as_mut_ptr(), n as u32) } as u64;
+                    self.count(cc.loop_limits);
+                    cc.loop_limits = 0;
                 }
                 bad
             }
@@ -554,6 +579,7 @@ fn compile(
             first: 0,
             lanes: LANES as u32,
             batch_scene: 0,
+            loop_limits: 0,
         };
         // SAFETY: the prelude reads parameters and writes prelude slots of this block, both
         // inside it (the layout sized it); it reads neither fragment nor environment.
@@ -578,6 +604,7 @@ fn compile(
                 fallback: None,
                 stats,
             },
+            loop_limits: AtomicU64::new(0),
             _code: Code(Some(module)),
         },
         text,

@@ -22,12 +22,23 @@
 //! condition mask (`bitselect`). When all lanes agree, one arm is skipped; when they diverge
 //! both run, each with its own active mask for nested conditionals.
 //!
+//! Loops (`Loop`, `lower/loops.rs`): one CLIF loop per IR loop, never unrolled: the carried
+//! values are `Variable`s read at the header (what `loop.var` reads) and redefined at the
+//! end of the body, with an i32 count of the body's runs checked against the iteration
+//! limit where the condition holds (a stop there is added to `CallCtx::loop_limits`). The
+//! batch mode runs the lanes in lockstep under a running mask (the active mask, narrowed by
+//! the condition at every header): it leaves when no lane runs, the body runs with the
+//! running mask as its active mask, and its yields replace the carried values only in the
+//! running lanes (`bitselect`), so a lane that has left keeps its values.
+//!
 //! Numerics follow `shadenet_graph::ops` exactly: `+ - * /`, `sqrt`, comparisons, selects,
 //! `min`/`max` (as `a < b ? a : b`), `floor`/`ceil`/`fract`, `abs`, `neg`, dot products
 //! summed left to right from `0.0`, the total division and square root — each one IEEE
 //! instruction in the same order as the Rust code, no fused multiply-add. Transcendentals,
 //! noise, colour conversions, textures and light samples call the Rust functions the
 //! interpreter calls ([`crate::abi`]).
+
+mod loops;
 
 use crate::abi::{self, ctx_offset};
 use cranelift_codegen::ir::condcodes::{FloatCC, IntCC};
@@ -239,6 +250,12 @@ pub struct Lowerer<'a, 'b> {
     lights: Vec<(Vec<V>, Vec<V>, V, V)>,
     /// Batch: lanes active in the current arm (`None`: all).
     active: Option<V>,
+    /// The carried values of the loops being lowered (innermost last): what `loop.var`
+    /// reads, per carried value its components.
+    loops: Vec<Vec<Vec<V>>>,
+    /// Batch: how many fragments are left from this packet on (its lanes below it hold
+    /// fragments; the others are padding, which counts nothing).
+    left: Option<V>,
     /// Loads of immutable memory (fragment, uniforms, environment) already emitted, per
     /// block scope (innermost last): each is loaded once per scope.
     loads: Vec<HashMap<LoadKey, V>>,
@@ -306,6 +323,8 @@ impl<'a, 'b> Lowerer<'a, 'b> {
             ambient: None,
             lights: Vec::new(),
             active: None,
+            loops: Vec::new(),
+            left: None,
             loads: vec![HashMap::new()],
         }
     }
@@ -367,6 +386,7 @@ impl<'a, 'b> Lowerer<'a, 'b> {
         self.frag = self.b.use_var(vf);
         self.out = self.b.use_var(vo);
         let left = self.b.use_var(vn);
+        self.left = Some(left);
         // The scene helpers' view of this packet, where the program asks the scene: its
         // first fragment's index in the batch and how many of its lanes hold fragments.
         let first = self.b.use_var(vfirst);
@@ -418,15 +438,21 @@ impl<'a, 'b> Lowerer<'a, 'b> {
         asks
     }
 
-    /// The guard's per-lane counts (`bad`, i32x4) summed over the lanes below `left`.
-    fn count_active(&mut self, bad: V, left: V) -> V {
+    /// The lanes below `left` (the fragments left from this packet on), as an i32x4 mask:
+    /// those that hold fragments, not padding.
+    fn real_lanes(&mut self, left: V) -> V {
         let lanes = {
             let bytes: Vec<u8> = (0u32..4).flat_map(|i| i.to_le_bytes()).collect();
             let c = self.b.func.dfg.constants.insert(ConstantData::from(bytes));
             self.b.ins().vconst(I32X4, c)
         };
         let nv = self.b.ins().splat(I32X4, left);
-        let act = self.b.ins().icmp(IntCC::SignedLessThan, lanes, nv);
+        self.b.ins().icmp(IntCC::SignedLessThan, lanes, nv)
+    }
+
+    /// The guard's per-lane counts (`bad`, i32x4) summed over the lanes below `left`.
+    fn count_active(&mut self, bad: V, left: V) -> V {
+        let act = self.real_lanes(left);
         let counted = self.b.ins().band(bad, act);
         let mut t = self.b.ins().extractlane(counted, 0);
         for lane in 1..4u8 {
@@ -885,8 +911,14 @@ impl<'a, 'b> Lowerer<'a, 'b> {
                 self.regions.insert(v.index(), res);
                 Ok(Vec::new())
             }
-            Op::Loop { .. } | Op::LoopVar(_) => {
-                Err(self.unsupported(v, "the JIT does not compile loops yet"))
+            Op::Loop { init, cond, body } => {
+                let res = self.loop_(v, init, cond, body)?;
+                self.regions.insert(v.index(), res);
+                Ok(Vec::new())
+            }
+            Op::LoopVar(k) => {
+                let cur = self.loops.last().and_then(|c| c.get(*k as usize)).cloned();
+                cur.ok_or_else(|| self.unsupported(v, "loop.var outside a loop (invalid program)"))
             }
             Op::Illuminance { p: point, body } => {
                 let pt = self.get(*point)?;
