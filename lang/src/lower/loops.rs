@@ -151,6 +151,11 @@ impl<'a> Lower<'a> {
         }
     }
 
+    /// Whether `s` may leave or continue the innermost enclosing loop.
+    pub(crate) fn may_jump(&self, s: &'a Stmt) -> bool {
+        self.jumps(&[s]) != Jumps::default()
+    }
+
     /// The flags of the innermost loop a statement list may set (see [`jumps_in`]).
     pub(crate) fn jumps(&self, stmts: &[&'a Stmt]) -> Jumps {
         let mut j = Jumps::default();
@@ -207,13 +212,6 @@ impl<'a> Lower<'a> {
             self.declare_hidden(&first, t);
         }
         // What the loop carries: outer variables assigned anywhere in it, and its flags.
-        if let Some(at) = parts.cond.and_then(assignment_in) {
-            self.error(
-                "assignments in a loop's condition are not built; assign in its body",
-                at,
-                "assignment",
-            );
-        }
         self.loops.push(flags.clone());
         let mut names = self.assigned_outer(&[parts.body]);
         for n in self.assigned_in_exprs(parts.step) {
@@ -433,18 +431,4 @@ fn jumps_in(s: &Stmt, inner: u32, j: &mut Jumps) {
         // A light loop's body cannot jump out of it (refused where the jump is lowered).
         _ => {}
     }
-}
-
-/// The span of an assignment (or `++`/`--`) inside `e`, if any.
-fn assignment_in(e: &Expr) -> Option<Span> {
-    let mut at = None;
-    super::stmt::walk_expr(e, &mut |x| {
-        if matches!(
-            x.kind,
-            ast::ExprKind::Assign { .. } | ast::ExprKind::IncDec { .. }
-        ) {
-            at.get_or_insert(x.span);
-        }
-    });
-    at
 }

@@ -3,7 +3,6 @@
 //! the body's contributions to outer variables are summed over the light samples), and
 //! user functions, inlined at each call.
 
-use super::loops::Jumps;
 use super::{Lower, MAX_INLINE_DEPTH, Ty, Val, Var};
 use crate::ast::{self, AssignOp, Expr, ExprKind, Stmt, StmtKind};
 use crate::source::Span;
@@ -28,7 +27,7 @@ impl<'a> Lower<'a> {
             }
             self.stmt(b, s);
             let rest = &stmts[i + 1..];
-            if rest.is_empty() || self.loops.is_empty() || self.jumps(&[s]) == Jumps::default() {
+            if rest.is_empty() || self.loops.is_empty() || !self.may_jump(s) {
                 continue;
             }
             if let Some((go, varying)) = self.still_running(b) {
@@ -64,9 +63,18 @@ impl<'a> Lower<'a> {
                 cond,
                 step,
                 body,
-            } => self.for_stmt(b, init, cond.as_ref(), step, body),
-            StmtKind::While { cond, body } => self.while_stmt(b, cond, body),
-            StmtKind::DoWhile { body, cond } => self.do_while(b, body, cond),
+            } => {
+                cond.iter().for_each(|c| self.loop_cond_pure(c));
+                self.for_stmt(b, init, cond.as_ref(), step, body)
+            }
+            StmtKind::While { cond, body } => {
+                self.loop_cond_pure(cond);
+                self.while_stmt(b, cond, body)
+            }
+            StmtKind::DoWhile { body, cond } => {
+                self.loop_cond_pure(cond);
+                self.do_while(b, body, cond)
+            }
             StmtKind::Break { levels } => self.jump(b, true, *levels, s.span),
             StmtKind::Continue { levels } => self.jump(b, false, *levels, s.span),
             StmtKind::Return(_) => self.error(
@@ -79,6 +87,18 @@ impl<'a> Lower<'a> {
                 s.span,
                 "not built yet",
             ),
+        }
+    }
+
+    /// A loop's condition runs in the loop's condition block, which yields only the test:
+    /// an assignment there is refused.
+    fn loop_cond_pure(&mut self, cond: &Expr) {
+        if let Some(at) = assignment_in(cond) {
+            self.error(
+                "assignments in a loop's condition are not built; assign in its body",
+                at,
+                "assignment",
+            );
         }
     }
 
@@ -610,6 +630,17 @@ fn walk_stmt<'s>(s: &'s Stmt, f: &mut dyn FnMut(&'s Expr)) {
     }
 }
 
+/// The span of an assignment (or `++`/`--`) inside `e`, if any.
+fn assignment_in(e: &Expr) -> Option<Span> {
+    let mut at = None;
+    walk_expr(e, &mut |x| {
+        if matches!(x.kind, ExprKind::Assign { .. } | ExprKind::IncDec { .. }) {
+            at.get_or_insert(x.span);
+        }
+    });
+    at
+}
+
 /// Whether `s` holds a `break` or `continue` (at any depth).
 fn has_jump(s: &Stmt) -> bool {
     match &s.kind {
@@ -624,7 +655,7 @@ fn has_jump(s: &Stmt) -> bool {
 }
 
 /// Calls `f` on `e` and every expression inside it.
-pub(crate) fn walk_expr<'s>(e: &'s Expr, f: &mut dyn FnMut(&'s Expr)) {
+fn walk_expr<'s>(e: &'s Expr, f: &mut dyn FnMut(&'s Expr)) {
     f(e);
     match &e.kind {
         ExprKind::Call { args, .. } | ExprKind::Tuple(args) | ExprKind::InitList(args) => {
