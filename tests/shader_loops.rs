@@ -171,3 +171,85 @@ fn jumps_and_loops_refuse_what_they_cannot_do() {
         assert!(e.contains("t.sl:1:"), "the place: {e}");
     }
 }
+
+/// A `for` loop with a constant trip count (parameters baked) unrolls into straight-line
+/// code: no loop left, the same bits as the loop in f32; a varying trip count stays a loop;
+/// the JIT (scalar and batch entries) gives the interpreter's bits either way.
+#[test]
+fn constant_loops_unroll_and_every_cpu_entry_agrees() {
+    use shadenet::graph::opt::{self, Specialization};
+    use shadenet::runtime::Backend;
+    let src = r#"
+        surface s(float octaves = 4) {
+            uniform float i;
+            float sum = 0, amp = 1;
+            point PP = P * 3;
+            for (i = 0; i < octaves; i += 1) {
+                sum += amp * noise(PP);
+                amp *= 0.5;
+                PP *= 2.1;
+            }
+            float n = 0, j = 0;
+            while (j < s * 12) { j += 1; if (j == 5) continue; n += noise(P * j); }
+            Ci = color(sum, n, j);
+        }"#;
+    let p = compile(src).unwrap();
+    assert_eq!(loops(&p), 2);
+    let spec = Specialization::default();
+    let (o, report) = opt::run(&p, &spec);
+    assert_eq!(
+        loops(&o),
+        1,
+        "the octave loop unrolls, the varying one stays:\n{o}"
+    );
+    let unroll = report.passes.iter().find(|s| s.pass == "unroll").unwrap();
+    assert_eq!(unroll.changes, 1);
+    let mut keep = spec.clone();
+    keep.passes.unroll = false;
+    let (kept, _) = opt::run(&p, &keep);
+    assert_eq!(loops(&kept), 2);
+    let env = shadenet::shade::grid_env(&[]);
+    let grid = |prog: &Program| {
+        let g = shadenet::shade::shade_grid::<f32>(prog, &env, 17, 9, u32::MAX).unwrap();
+        g.pixel_values()
+            .iter()
+            .map(|x| (*x as f32).to_bits())
+            .collect::<Vec<_>>()
+    };
+    let want = grid(&p);
+    assert!(want.iter().any(|b| *b != 0));
+    assert_eq!(grid(&o), want, "unrolled = loop, bit for bit");
+    assert_eq!(grid(&kept), want);
+    let m = shadenet_jit::JitBackend::new().compile(&p, &spec).unwrap();
+    assert_eq!(m.info().fallback, None, "the JIT compiles loops");
+    for batch in [false, true] {
+        let g = shadenet::shade::shade_grid_with(&*m, &env, 17, 9, u32::MAX, batch);
+        let bits: Vec<u32> = g
+            .pixel_values()
+            .iter()
+            .map(|x| (*x as f32).to_bits())
+            .collect();
+        assert_eq!(bits, want, "jit batch {batch}");
+    }
+}
+
+/// Unrolling has a budget: a constant loop longer than `MAX_TRIPS` stays a loop, and one
+/// that never ends is never unrolled (the iteration limit stops it at run time).
+#[test]
+fn unrolling_stays_within_its_budget() {
+    use shadenet::graph::opt::{self, Specialization, unroll};
+    let long = format!(
+        "surface s() {{ float i, x = 0; for (i = 0; i < {}; i += 1) x += s; Ci = x; }}",
+        unroll::MAX_TRIPS + 1
+    );
+    let short = format!(
+        "surface s() {{ float i, x = 0; for (i = 0; i < {}; i += 1) x += s; Ci = x; }}",
+        unroll::MAX_TRIPS
+    );
+    let endless = "surface s() { float x = 0; while (1 == 1) x += s; Ci = x; }";
+    let spec = Specialization::default();
+    for (src, left) in [(long.as_str(), 1), (short.as_str(), 0), (endless, 1)] {
+        let (o, _) = opt::run(&compile(src).unwrap(), &spec);
+        assert_eq!(loops(&o), left, "{src}");
+    }
+}

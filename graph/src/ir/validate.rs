@@ -1646,4 +1646,76 @@ mod tests {
         };
         assert_eq!(err(&b.p), want);
     }
+
+    const LOOP: &str = "program \"l\" {
+  %0 = const 0 : int
+  %1 = const 0.5 : float
+  %2 = loop %0, %1 while {
+    %3 = loop.var 0 : int
+    %4 = const 3 : int
+    %5 = lt %3, %4 : bool
+    yield %5
+  } do {
+    %6 = loop.var 0 : int
+    %7 = loop.var 1 : float
+    %8 = const 1 : int
+    %9 = add %6, %8 : int
+    %10 = mul %7, %7 : float
+    yield %9, %10
+  }
+  %11 = proj %2, 1 : float
+  output x %11
+}
+";
+
+    /// A loop prints and parses back, and each of its rules is checked: the condition
+    /// yields one bool, the body the carried types, `loop.var` only inside a loop and within
+    /// its carried values, no loop in the prelude.
+    #[test]
+    fn loops_round_trip_and_check_their_blocks() {
+        let p = crate::ir::parse(LOOP).unwrap();
+        assert_eq!(validate(&p), Ok(()));
+        assert_eq!(p.to_string(), LOOP);
+        let bad = |from: &str, to: &str| {
+            let text = LOOP.replacen(from, to, 1);
+            assert_ne!(text, LOOP, "{from}");
+            validate(&crate::ir::parse(&text).unwrap()).unwrap_err()
+        };
+        let e = bad("    yield %5\n", "    yield %3\n");
+        assert!(matches!(e, ValidationError::LoopYields { .. }), "{e}");
+        assert!(e.to_string().contains("yields (int), not one bool"), "{e}");
+        let e = bad("yield %9, %10", "yield %10, %10");
+        assert!(
+            e.to_string()
+                .contains("yields (float, float) but the loop carries (int, float)"),
+            "{e}"
+        );
+        let e = bad("%7 = loop.var 1 : float", "%7 = loop.var 2 : float");
+        assert!(
+            matches!(e, ValidationError::LoopVar { index: 2, .. }),
+            "{e}"
+        );
+        let e = bad(
+            "  %11 = proj %2, 1 : float\n",
+            "  %11 = loop.var 1 : float\n",
+        );
+        assert!(e.to_string().contains("it is not inside a loop"), "{e}");
+        let e = bad("%7 = loop.var 1 : float", "%7 = loop.var 1 : int");
+        assert!(matches!(e, ValidationError::WrongType { .. }), "{e}");
+        // The carried rates reach their fixed point: the loop is varying only through a
+        // varying initial value.
+        let rates = crate::ir::rates(&p);
+        assert_eq!(rates[2], crate::ir::Rate::Const);
+        let varying = LOOP.replacen("%1 = const 0.5 : float", "%1 = stream time : float", 1);
+        let p = crate::ir::parse(&varying).unwrap();
+        let rates = crate::ir::rates(&p);
+        let names: Vec<_> = (0..p.exprs.len()).map(|i| rates[i]).collect();
+        assert_eq!(names[2], crate::ir::Rate::Varying);
+        assert_eq!(
+            names[6],
+            crate::ir::Rate::Const,
+            "the counter stays constant"
+        );
+        assert_eq!(names[7], crate::ir::Rate::Varying);
+    }
 }
