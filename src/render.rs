@@ -310,15 +310,11 @@ fn shader_material(m: &MaterialRef, path: &Path, files: Files) -> Result<Compile
                 program.name, program.name
             ));
         }
-        let names: Vec<String> = program.params.iter().map(|p| p.name.clone()).collect();
-        let Some(param) = program.params.iter_mut().find(|p| &p.name == input) else {
-            return Err(format!(
-                "set \"{node}.{input}\": the shader has no parameter `{input}` (its parameters: {})",
-                names.join(", ")
-            ));
-        };
-        param.default = param_value(&param.default, value)
-            .ok_or_else(|| format!("set \"{node}.{input}\": {value} is not a {}", param.ty))?;
+        let values = json_numbers(value).ok_or_else(|| {
+            format!("set \"{node}.{input}\": {value} is not a number or a list of numbers")
+        })?;
+        crate::shader::set_param(&mut program, input, &values)
+            .map_err(|e| format!("set \"{node}.{input}\": {e}"))?;
     }
     shadenet_graph::ir::validate(&program)
         .map_err(|e| format!("internal error: invalid IR: {e}"))?;
@@ -329,29 +325,11 @@ fn shader_material(m: &MaterialRef, path: &Path, files: Files) -> Result<Compile
     })
 }
 
-/// `value` (a number, or three for a color or point) as a parameter value of `like`'s type.
-fn param_value(
-    like: &shadenet_graph::ConstValue,
-    value: &serde_json::Value,
-) -> Option<shadenet_graph::ConstValue> {
-    use shadenet_graph::ConstValue as C;
-    let num = |v: &serde_json::Value| {
-        v.as_f64()
-            .filter(|x| x.is_finite() && x.abs() <= f32::MAX as f64)
-    };
-    let three = || -> Option<[f64; 3]> {
-        match value {
-            serde_json::Value::Array(a) if a.len() == 3 => {
-                Some([num(&a[0])?, num(&a[1])?, num(&a[2])?])
-            }
-            v => num(v).map(|x| [x; 3]),
-        }
-    };
-    match like {
-        C::Float(_) => num(value).map(C::Float),
-        C::Color(_) => three().map(C::Color),
-        C::Vec3(_) => three().map(C::Vec3),
-        _ => None,
+/// A JSON number or array of numbers as floats.
+fn json_numbers(value: &serde_json::Value) -> Option<Vec<f64>> {
+    match value {
+        serde_json::Value::Array(a) => a.iter().map(|v| v.as_f64()).collect(),
+        v => v.as_f64().map(|x| vec![x]),
     }
 }
 

@@ -44,3 +44,54 @@ pub fn load(path: &Path, include: &[PathBuf], defines: &[String]) -> Result<Comp
         lights: Vec::new(),
     })
 }
+
+/// Sets parameter `name` of `program` to `values` (one number for a float or int, one or
+/// three for a color or vec3: one is repeated), as `set` overrides in scenes and `--param`
+/// on the command line do. The error names the parameter and, for an unknown one, lists
+/// the program's parameters.
+pub fn set_param(
+    program: &mut shadenet_graph::ir::Program,
+    name: &str,
+    values: &[f64],
+) -> Result<(), String> {
+    use shadenet_graph::ConstValue as C;
+    let names: Vec<String> = program.params.iter().map(|p| p.name.clone()).collect();
+    let Some(param) = program.params.iter_mut().find(|p| p.name == name) else {
+        let list = if names.is_empty() {
+            "it has none".to_string()
+        } else {
+            format!("its parameters: {}", names.join(", "))
+        };
+        return Err(format!(
+            "`{}` has no parameter `{name}` ({list})",
+            program.name
+        ));
+    };
+    let ok = values
+        .iter()
+        .all(|x| x.is_finite() && x.abs() <= f32::MAX as f64);
+    let three = match values {
+        [x] => Some([*x; 3]),
+        [a, b, c] => Some([*a, *b, *c]),
+        _ => None,
+    };
+    let v = match (&param.default, values) {
+        _ if !ok => None,
+        (C::Float(_), [x]) => Some(C::Float(*x)),
+        (C::Int(_), [x]) if x.fract() == 0.0 && x.abs() <= i32::MAX as f64 => {
+            Some(C::Int(*x as i32))
+        }
+        (C::Color(_), _) => three.map(C::Color),
+        (C::Vec3(_), _) => three.map(C::Vec3),
+        _ => None,
+    };
+    let shown: Vec<String> = values.iter().map(|x| x.to_string()).collect();
+    param.default = v.ok_or_else(|| {
+        format!(
+            "parameter `{name}` is a {}: ({}) is not one",
+            param.ty,
+            shown.join(", ")
+        )
+    })?;
+    Ok(())
+}

@@ -253,3 +253,45 @@ fn unrolling_stays_within_its_budget() {
         assert_eq!(loops(&o), left, "{src}");
     }
 }
+
+/// `--param NAME=VALUE` sets a parameter before compiling: a baked octave count changes the
+/// unrolled program; unknown names and bad values are errors that name them.
+#[test]
+fn the_cli_sets_parameters_before_compiling() {
+    let dir = tmp("shader_loops", "param");
+    std::fs::create_dir_all(&dir).unwrap();
+    let sl = dir.join("oct.sl");
+    std::fs::write(
+        &sl,
+        "surface oct(float octaves = 4) { uniform float i; float x = 0;\n\
+         for (i = 0; i < octaves; i += 1) x += noise(P * pow(2, i)); Ci = x; }\n",
+    )
+    .unwrap();
+    let sl = sl.to_str().unwrap();
+    let calls = |args: &[&str]| {
+        let (code, out, err) = shadenet(args);
+        assert_eq!(code, 0, "{args:?}: {err}");
+        out.matches("call osl_perlin3").count()
+    };
+    assert_eq!(calls(&["compile", sl]), 4);
+    assert_eq!(calls(&["compile", sl, "--param", "octaves=2"]), 2);
+    for (p, want) in [
+        (
+            "octave=2",
+            "`oct` has no parameter `octave` (its parameters: octaves)",
+        ),
+        (
+            "octaves=two",
+            "`two` is not a number or comma-separated numbers",
+        ),
+        (
+            "octaves=1,2,3",
+            "parameter `octaves` is a float: (1, 2, 3) is not one",
+        ),
+        ("octaves", "expected NAME=VALUE"),
+    ] {
+        let (code, _, err) = shadenet(&["compile", sl, "--param", p]);
+        assert_eq!(code, 1, "{p}");
+        assert!(err.contains(&format!("--param {p}: {want}")), "{p}: {err}");
+    }
+}

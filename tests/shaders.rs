@@ -1,7 +1,8 @@
 //! RenderMan Shading Language surface shaders compiled by `shadenet-lang` into the IR:
 //! values against the RenderMan Interface's formulas and our built-in `lambert`, the
 //! optimizer seeing through the language, every back end agreeing, and errors that name
-//! the place. (Loops, arrays, light and volume shaders: issue 21, not built yet.)
+//! the place. (Loops: `tests/shader_loops.rs`; arrays, light and volume shaders: issue
+//! 21, not built yet.)
 
 mod common;
 use common::*;
@@ -270,7 +271,7 @@ fn errors_name_the_place_and_the_problem() {
             "surface s() { uniform float k = 1; k = v; }",
             "uniform variable `k` is assigned a varying value",
         ),
-        ("surface s() { for (;;) {} }", "loops are not compiled yet"),
+        ("surface s() { float a[3]; }", "arrays are not built yet"),
         (
             "surface s() { color c = 0; illuminance(P) { c = Cl; } Ci = c; }",
             "may only be accumulated with += or -=",
@@ -411,10 +412,17 @@ fn the_rsl_scene_renders_and_overrides_set_parameters() {
     for (set, want) in [
         (
             "\"plastic.Kx\" = 1",
-            "the shader has no parameter `Kx` (its parameters: Ks, Kd, Ka, roughness, specularcolor, tint)",
+            "`plastic` has no parameter `Kx` (its parameters: Ks, Kd, Ka, roughness, specularcolor, tint)",
         ),
         ("\"matte.Kd\" = 1", "the shader is `plastic`"),
-        ("\"plastic.tint\" = \"red\"", "is not a color"),
+        (
+            "\"plastic.tint\" = \"red\"",
+            "\"red\" is not a number or a list of numbers",
+        ),
+        (
+            "\"plastic.tint\" = [1, 2]",
+            "parameter `tint` is a color: (1, 2) is not one",
+        ),
     ] {
         let scene = format!(
             "[camera]\nposition = [0, 0, 3]\nlook_at = [0, 0, 0]\nresolution = [8, 8]\n\

@@ -241,6 +241,11 @@ pub(crate) struct SourceArgs {
     /// A preprocessor macro for shader sources: NAME or NAME=VALUE; repeatable.
     #[arg(short = 'D', value_name = "NAME[=VALUE]")]
     pub(crate) define: Vec<String>,
+    /// Sets a material parameter's value before compiling: NAME=X for a float or int,
+    /// NAME=R,G,B (or one number) for a color or vector; a shader's parameters are named as
+    /// in its source, a network's `node.input`; repeatable.
+    #[arg(long = "param", value_name = "NAME=VALUE")]
+    pub(crate) param: Vec<String>,
     /// The MaterialX `libraries` folder (default: SHADENET_MTLX_LIBRARIES, then each
     /// MATERIALX_SEARCH_PATH entry's `libraries/`).
     #[arg(long, value_name = "DIR")]
@@ -266,6 +271,22 @@ impl SourceArgs {
     }
 }
 
+/// Applies `--param NAME=VALUE` options to a program's parameters.
+fn set_params(program: &mut shadenet::graph::ir::Program, params: &[String]) -> Result<()> {
+    for p in params {
+        let Some((name, value)) = p.split_once('=') else {
+            bail!("--param {p}: expected NAME=VALUE");
+        };
+        let values: Option<Vec<f64>> = value.split(',').map(|x| x.trim().parse().ok()).collect();
+        let Some(values) = values else {
+            bail!("--param {p}: `{value}` is not a number or comma-separated numbers");
+        };
+        shadenet::shader::set_param(program, name.trim(), &values)
+            .map_err(|e| anyhow::anyhow!("--param {p}: {e}"))?;
+    }
+    Ok(())
+}
+
 /// Reads, links and lowers a network file (`.json`, or `.mtlx` with `mtlx`'s options) and
 /// validates its IR.
 pub(crate) fn load(path: &Path, mtlx: &SourceArgs) -> Result<shadenet::Compiled> {
@@ -276,7 +297,8 @@ pub(crate) fn load(path: &Path, mtlx: &SourceArgs) -> Result<shadenet::Compiled>
         bail!("-I and -D apply to shader sources (.sl, .osl) only");
     }
     if is_shader {
-        let compiled = shadenet::shader::load(path, &mtlx.include, &mtlx.define)?;
+        let mut compiled = shadenet::shader::load(path, &mtlx.include, &mtlx.define)?;
+        set_params(&mut compiled.program, &mtlx.param)?;
         shadenet::graph::ir::validate(&compiled.program)
             .with_context(|| format!("{}: internal error: invalid IR", path.display()))?;
         return Ok(compiled);
@@ -284,11 +306,12 @@ pub(crate) fn load(path: &Path, mtlx: &SourceArgs) -> Result<shadenet::Compiled>
     if !is_mtlx && (mtlx.material.is_some() || mtlx.mtlx_output.is_some()) {
         bail!("--material and --mtlx-output apply to .mtlx documents only");
     }
-    let compiled = if is_mtlx {
+    let mut compiled = if is_mtlx {
         shadenet::compile_mtlx(path, &mtlx.options())?
     } else {
         shadenet::load_network(path)?
     };
+    set_params(&mut compiled.program, &mtlx.param)?;
     shadenet::graph::ir::validate(&compiled.program)
         .with_context(|| format!("{}: internal error: invalid IR", path.display()))?;
     Ok(compiled)

@@ -405,11 +405,7 @@ impl<'a> Lower<'a> {
 /// Adds to `j` what `s` may do to the loop around it, from inside `inner` loops of its own.
 fn jumps_in(s: &Stmt, inner: u32, j: &mut Jumps) {
     match &s.kind {
-        StmtKind::Break { levels } => {
-            if levels.max(&1) > &inner {
-                j.brk = true;
-            }
-        }
+        StmtKind::Break { levels } if *levels.max(&1) > inner => j.brk = true,
         StmtKind::Continue { levels } => {
             let n = *levels.max(&1);
             if n == inner + 1 {
