@@ -99,6 +99,8 @@ fn nested_loops_and_multi_level_jumps() {
     }
 }
 
+/// A loop that never ends stops at the iteration limit, counted; nested ones share the
+/// limit, so a nest of endless loops costs no more than one.
 #[test]
 fn the_iteration_limit_stops_a_loop_that_never_ends() {
     let src = r#"
@@ -115,6 +117,17 @@ fn the_iteration_limit_stops_a_loop_that_never_ends() {
     assert_eq!(o.get32("Ci"), [limit, 3.0, 0.0]);
     // One stop per run (f32 and f64): the second loop ends by its condition.
     assert_eq!(o.loop_limits, [1, 1]);
+    // Nested endless loops share their nest's budget instead of multiplying it: the outer
+    // bodies' runs take one each, the innermost loop the rest; every loop of the nest stops.
+    let src = r#"
+        surface s() {
+            float x = 0;
+            while (1 == 1) while (2 == 2) while (3 == 3) x += 1;
+            Ci = color(x, 0, 0);
+        }"#;
+    let o = run_program(&compile(src).unwrap(), &plane_fragment(), &[], u32::MAX);
+    assert_eq!(o.get("Ci"), [limit - 2.0, 0.0, 0.0]);
+    assert_eq!(o.loop_limits, [3, 3]);
 }
 
 #[test]

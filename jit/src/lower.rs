@@ -253,6 +253,9 @@ pub struct Lowerer<'a, 'b> {
     /// The carried values of the loops being lowered (innermost last): what `loop.var`
     /// reads, per carried value its components.
     loops: Vec<Vec<Vec<V>>>,
+    /// The iterations left to the loop nest being lowered (one per lane in the batch mode),
+    /// set at each outermost loop's entry.
+    budget: Option<Variable>,
     /// Batch: how many fragments are left from this packet on (its lanes below it hold
     /// fragments; the others are padding, which counts nothing).
     left: Option<V>,
@@ -324,6 +327,7 @@ impl<'a, 'b> Lowerer<'a, 'b> {
             lights: Vec::new(),
             active: None,
             loops: Vec::new(),
+            budget: None,
             left: None,
             loads: vec![HashMap::new()],
         }

@@ -139,6 +139,8 @@ pub struct Scratch<F> {
     loops: Vec<Vec<Val<F>>>,
     /// Loop executions stopped at the iteration limit in this shading call.
     loop_limits: u32,
+    /// Body runs left to the loop nest running now.
+    budget: u32,
 }
 
 impl<F> Default for Scratch<F> {
@@ -152,6 +154,7 @@ impl<F> Default for Scratch<F> {
             mats: Vec::new(),
             loops: Vec::new(),
             loop_limits: 0,
+            budget: 0,
         }
     }
 }
@@ -493,9 +496,13 @@ impl<F: Real> Interpreter<F> {
     }
 
     /// Runs a loop whose carried values are `s.loops`' last entry: the condition, then the
-    /// body while it holds, at most [`LOOP_ITERATION_LIMIT`] times.
+    /// body while it holds and the loop nest has iterations left (an outermost loop starts
+    /// the nest's budget of [`LOOP_ITERATION_LIMIT`] body runs; the loops nested in it share
+    /// it).
     fn run_loop(&self, cond: &Block, body: &Block, ctx: &ShadeCtx, s: &mut Scratch<F>) {
-        let mut n = 0;
+        if s.loops.len() == 1 {
+            s.budget = LOOP_ITERATION_LIMIT;
+        }
         loop {
             self.block(cond, ctx, s);
             if !cond
@@ -505,10 +512,11 @@ impl<F: Real> Interpreter<F> {
             {
                 return;
             }
-            if n == LOOP_ITERATION_LIMIT {
+            if s.budget == 0 {
                 s.loop_limits += 1;
                 return;
             }
+            s.budget -= 1;
             self.block(body, ctx, s);
             let regs = &s.regs;
             if let Some(cur) = s.loops.last_mut() {
@@ -516,7 +524,6 @@ impl<F: Real> Interpreter<F> {
                     *c = regs[y.index()];
                 }
             }
-            n += 1;
         }
     }
 

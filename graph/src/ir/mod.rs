@@ -17,8 +17,8 @@
 //! - [`Op::Loop`] carries values through iterations: with the carried values' current
 //!   values readable as [`Op::LoopVar`], its `cond` block decides whether its `body` block
 //!   runs again, and the body yields the next values; its results are the carried values
-//!   when the condition fails, or after [`LOOP_ITERATION_LIMIT`] iterations (the loop then
-//!   stops, keeps the values it has, and the back end counts it).
+//!   when the condition fails, or when its loop nest has run [`LOOP_ITERATION_LIMIT`]
+//!   bodies (the loop then stops, keeps the values it has, and the back end counts it).
 //!
 //! Two ops ask the renderer's scene for secondary rays: [`Op::Trace`] (radiance along a
 //! direction) and [`Op::Occlusion`] (ambient occlusion). Like the light ops they read the
@@ -601,8 +601,8 @@ pub enum Op {
     /// it is true `body` runs and yields the next carried values (as many, of the same types
     /// as `init`). Inside both blocks, [`Op::LoopVar`] reads a carried value's current
     /// value. The results (read with [`Op::Proj`]) are the carried values once `cond` yields
-    /// false, or after the body has run [`LOOP_ITERATION_LIMIT`] times in one execution of
-    /// the loop: then it stops with the values it has and the back end counts the stop
+    /// false, or once the loop nest has run out of iterations ([`LOOP_ITERATION_LIMIT`]):
+    /// then it stops with the values it has and the back end counts the stop
     /// (`ShadeOut::loop_limits`), the same on every back end.
     Loop {
         /// The carried values' initial values.
@@ -766,11 +766,14 @@ impl Op {
     }
 }
 
-/// How many times the body of one [`Op::Loop`] runs at most, per execution of the loop and
-/// per fragment, on every back end: a shader whose loop never ends stops there with the
-/// values it has (and the stop is counted) instead of hanging a render. Nested loops
-/// multiply: an inner loop is a new execution in every iteration of the outer one.
-pub const LOOP_ITERATION_LIMIT: u32 = 4096;
+/// How many loop bodies one loop *nest* runs at most per fragment, on every back end: each
+/// execution of an outermost [`Op::Loop`] starts a budget of this many body runs, and every
+/// body run of it or of a loop nested in it (at any depth, through `if` arms and light
+/// loops) takes one. Where a loop's condition holds but the budget is spent, the loop stops
+/// with the values it has and the stop is counted (then the enclosing loops stop at their
+/// next test too). A shader whose loops never end costs at most this many iterations per
+/// loop nest, whatever their nesting, instead of hanging a render.
+pub const LOOP_ITERATION_LIMIT: u32 = 65536;
 
 /// A declared uniform parameter of a program (class compilation).
 #[derive(Clone, Debug, PartialEq)]
