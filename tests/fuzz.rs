@@ -191,9 +191,30 @@ fn exec_shader_source(bytes: &[u8]) {
     for dialect in [shadenet_lang::Dialect::Rsl, shadenet_lang::Dialect::Osl] {
         let mut sources = shadenet_lang::SourceMap::new();
         let options = shadenet_lang::Options::new(dialect);
-        if let Err(d) = shadenet_lang::parse_str(&mut sources, "fuzz", text, &options) {
-            let _ = d.render(&sources);
+        let parsed = match shadenet_lang::parse_str(&mut sources, "fuzz", text, &options) {
+            Ok(p) => p,
+            Err(d) => {
+                let _ = d.render(&sources);
+                continue;
+            }
+        };
+        // What parses is checked and lowered; what lowers is a valid program that the
+        // optimizer keeps valid and the interpreter shades (loops end at their limit).
+        let program = match shadenet_lang::lower::compile(&parsed, None) {
+            Ok(p) => p,
+            Err(d) => {
+                let _ = d.render(&sources);
+                continue;
+            }
+        };
+        if let Err(e) = shadenet::graph::ir::validate(&program) {
+            panic!("the front end lowered an invalid program: {e}\n{program}");
         }
+        let (o, _) = opt::run(&program, &Specialization::default());
+        if let Err(e) = shadenet::graph::ir::validate(&o) {
+            panic!("the optimizer left an invalid program: {e}\n{o}");
+        }
+        let _ = shade_grid::<f32>(&o, &grid_env(&[]), 2, 2, u32::MAX);
     }
 }
 
