@@ -17,11 +17,18 @@
 //! statistics and the time split. Without a device (naga only): every example network's
 //! kernels under every plan, the plan's listing, and the limits.
 //!
+//! On a hardware GPU (or under `SHADENET_GPU_ACCURACY=hardware`) the comparisons are the
+//! hardware contract instead (`shadenet_gpu::testing::hardware::check_outputs`: fragments
+//! with subnormal, non-finite or huge inputs left out, every output within 64 ulps or 1e-5
+//! relative, at most 1% of the fragments beyond), against the interpreter and the fused plan.
+//!
 //! Device tests skip (printing why) without an adapter, unless `SHADENET_REQUIRE_GPU=1`.
 
 use shadenet_gpu::plan::{HostKind, ItemKind, Step};
-use shadenet_gpu::testing::device_or_skip;
-use shadenet_gpu::{GpuBackend, GpuMaterial, GpuOptions, PassMode, Plan, plan};
+use shadenet_gpu::testing::{accuracy, device_or_skip, hardware};
+use shadenet_gpu::{
+    Accuracy, GpuBackend, GpuContext, GpuMaterial, GpuOptions, PassMode, Plan, plan,
+};
 use shadenet_graph::ir::{Program, parse};
 use shadenet_graph::nodes::NodeLibrary;
 use shadenet_graph::opt::{self, Passes, Specialization};
@@ -208,6 +215,7 @@ fn check_modes(
         .compile_program(program, Duration::ZERO)
         .unwrap_or_else(|e| panic!("{what}: interp: {e}"));
     let (want, want_bad, _) = shade(&*reference, env, mask, scene, frags);
+    let hw = hardware_contract();
     let mut fused: Option<(Vec<f32>, Plan)> = None;
     for (label, options) in modes {
         let label = *label;
@@ -227,6 +235,24 @@ fn check_modes(
             times.passes,
             m.plan().passes()
         );
+        if hw {
+            // The hardware contract (`shadenet_gpu::testing::hardware`), against the
+            // interpreter and against the fused plan (the driver contracts each plan's
+            // kernels its own way).
+            let compared = |f: usize| hardware::fragment_in_domain(&frags[f]);
+            let r = hardware::check_outputs(&got, &want, w, &compared)
+                .unwrap_or_else(|e| panic!("{what} ({label}): hardware contract: {e}"));
+            eprintln!("{what} ({label}): hardware contract: {r}");
+            if let Some((f, _)) = &fused {
+                let r = hardware::check_outputs(&got, f, w, &compared).unwrap_or_else(|e| {
+                    panic!("{what} ({label}): against the fused plan: hardware contract: {e}")
+                });
+                eprintln!("{what} ({label}): against the fused plan: {r}");
+            } else {
+                fused = Some((got, m.plan().clone()));
+            }
+            continue;
+        }
         for (k, (g, x)) in got.iter().zip(&want).enumerate() {
             let ok = match tol {
                 Tol::Exact => same(*g, *x),
@@ -264,6 +290,12 @@ fn check_modes(
         }
     }
     fused.expect("at least one mode").1
+}
+
+/// Whether the shared device is held to the hardware contract
+/// ([`shadenet_gpu::Accuracy::Hardware`]) instead of the bit-exact one.
+fn hardware_contract() -> bool {
+    GpuContext::shared().is_ok_and(|c| accuracy(&c) == Accuracy::Hardware)
 }
 
 /// Bit for bit, except that zeros of either sign are equal: the emitter's `sqrt` gives +0
