@@ -18,10 +18,11 @@
 //! Whole programs ([`check_outputs`]) go through many ops and through branches, floors and
 //! noise lattices, where a 1-ulp difference moves a result by a whole step: every output
 //! within [`PROGRAM_ULPS`] ulps or [`PROGRAM_ABS`] (relative to max(1, |CPU's|)), except at
-//! most [`PROGRAM_OUTLIERS`] of the fragments compared; fragments with an input outside
-//! the domain ([`fragment_in_domain`]) are not compared.
+//! most [`PROGRAM_OUTLIERS`] of the outputs compared; fragments with an input outside the
+//! domain ([`fragment_in_domain`]) are not compared.
 
 use super::{Bound, Transcendental, same, ulps};
+use shadenet_graph::ir::{Op, Program, Stream};
 use shadenet_runtime::Fragment;
 
 /// 2¹²⁶: operands at or above it leave a result free (WGSL's division bound stops there,
@@ -36,9 +37,11 @@ pub const FRAGMENT_MAX: f32 = 16384.0;
 pub const PROGRAM_ULPS: u64 = 64;
 /// ... or the difference relative to max(1, |CPU's output|) ...
 pub const PROGRAM_ABS: f32 = 1e-5;
-/// ... and the share of compared fragments allowed beyond both (a few ulps moved across a
-/// comparison, `floor`, a noise lattice or a branch).
-pub const PROGRAM_OUTLIERS: f64 = 0.01;
+/// ... and the share of the compared outputs allowed beyond both (a few ulps moved across a
+/// comparison, `floor`, a noise lattice, a branch or a lobe choice; an H100 showed up to
+/// 2.9 % of all outputs of a random program and 2.3 % of a mirror's sampled lobes,
+/// counted over every fragment before the domain was left out).
+pub const PROGRAM_OUTLIERS: f64 = 0.05;
 
 /// `x` with a subnormal flushed to the zero of its sign.
 pub fn flush(x: f32) -> f32 {
@@ -50,17 +53,21 @@ pub fn flush(x: f32) -> f32 {
 }
 
 /// The operand vectors whose CPU results a flushing device may give: the operands as
-/// they are, with every subnormal flushed to the zero of its sign, and flushed to +0 (a
-/// device may drop the sign). One vector when no operand is subnormal.
+/// they are, with every subnormal flushed to the zero of its sign, to +0 and to -0 (WGSL
+/// does not say which zero; an H100 gives π for the atan2 of 0 and 1e-45, the CPU's for 0
+/// and -0).
+/// One vector when no operand is subnormal.
 pub fn ftz_variants(args: &[f32]) -> Vec<Vec<f32>> {
     let mut v = vec![args.to_vec()];
     if args.iter().any(|x| x.is_subnormal()) {
         v.push(args.iter().map(|x| flush(*x)).collect());
-        v.push(
-            args.iter()
-                .map(|x| if x.is_subnormal() { 0.0 } else { *x })
-                .collect(),
-        );
+        for zero in [0.0f32, -0.0] {
+            v.push(
+                args.iter()
+                    .map(|x| if x.is_subnormal() { zero } else { *x })
+                    .collect(),
+            );
+        }
     }
     v
 }
@@ -180,24 +187,54 @@ pub fn within(bound: Bound, x: f32, got: f32, want: f32) -> bool {
     ftz_equal(got, want) || super::within(bound, x, flush(got), flush(want))
 }
 
-/// Whether every float input of a fragment is in the domain [`check_outputs`] compares:
-/// finite, zero or normal, and of magnitude at most [`FRAGMENT_MAX`].
-pub fn fragment_in_domain(f: &Fragment) -> bool {
-    let floats =
-        f.p.iter()
-            .chain(&f.n)
-            .chain(&f.ng)
-            .chain(&f.i)
-            .chain(&f.uv)
-            .chain(&f.dpdu)
-            .chain(&f.dpdv)
-            .chain(&f.dpdx)
-            .chain(&f.dpdy)
-            .chain(&f.rand)
-            .chain(std::iter::once(&f.time));
-    floats
-        .into_iter()
-        .all(|x| x.is_finite() && !x.is_subnormal() && x.abs() <= FRAGMENT_MAX)
+/// The streams a program reads (its fragment inputs).
+pub fn streams_read(program: &Program) -> Vec<Stream> {
+    let mut v: Vec<Stream> = Vec::new();
+    for e in &program.exprs {
+        if let Op::Stream(s) = e.op
+            && !v.contains(&s)
+        {
+            v.push(s);
+        }
+    }
+    v
+}
+
+/// The floats of stream `s` of a fragment (none for the int streams).
+fn stream_floats(f: &Fragment, s: Stream) -> &[f32] {
+    match s {
+        Stream::P => &f.p,
+        Stream::N => &f.n,
+        Stream::Ng => &f.ng,
+        Stream::I => &f.i,
+        Stream::Uv => &f.uv,
+        Stream::DPdu => &f.dpdu,
+        Stream::DPdv => &f.dpdv,
+        Stream::DPdx => &f.dpdx,
+        Stream::DPdy => &f.dpdy,
+        Stream::Time => std::slice::from_ref(&f.time),
+        Stream::Rand => &f.rand,
+        Stream::RayType | Stream::RayDepth => &[],
+    }
+}
+
+/// Whether every float a fragment gives the `streams` ([`streams_read`]) is in the domain
+/// [`check_outputs`] compares: finite, zero or normal, and of magnitude at most
+/// [`FRAGMENT_MAX`].
+pub fn fragment_in_domain(f: &Fragment, streams: &[Stream]) -> bool {
+    streams.iter().all(|s| {
+        stream_floats(f, *s)
+            .iter()
+            .all(|x| x.is_finite() && !x.is_subnormal() && x.abs() <= FRAGMENT_MAX)
+    })
+}
+
+/// Whether a float a fragment gives the `streams` leaves results free
+/// ([`free_operand`]: infinite, NaN or of magnitude ≥ 2¹²⁶).
+pub fn fragment_free(f: &Fragment, streams: &[Stream]) -> bool {
+    streams
+        .iter()
+        .any(|s| stream_floats(f, *s).iter().any(|x| free_operand(*x)))
 }
 
 /// Whether one program output is close: [`ftz_equal`], within [`PROGRAM_ULPS`] ulps, or
@@ -213,9 +250,9 @@ pub fn output_close(got: f32, want: f32) -> bool {
 }
 
 /// The hardware contract of a whole program's outputs (`width` floats per fragment,
-/// fragment after fragment): fragments `compared` accepts are compared; at most
-/// [`PROGRAM_OUTLIERS`] of them (rounded down) may have an output not [`output_close`].
-/// `Ok` with a one-line summary, or `Err` naming the first outlier and the counts.
+/// fragment after fragment): the outputs of the fragments `compared` accepts are compared;
+/// at most [`PROGRAM_OUTLIERS`] of them (rounded down) may be not [`output_close`]. `Ok`
+/// with a one-line summary, or `Err` naming the first outlier and the counts.
 pub fn check_outputs(
     got: &[f32],
     want: &[f32],
@@ -227,22 +264,22 @@ pub fn check_outputs(
     let frags = got.len() / w;
     let (mut n, mut outliers, mut first) = (0usize, 0usize, None);
     let mut differ = 0usize;
-    for f in 0..frags {
-        if !compared(f) {
-            continue;
-        }
-        n += 1;
-        let (g, x) = (&got[f * w..(f + 1) * w], &want[f * w..(f + 1) * w]);
-        differ += g.iter().zip(x).filter(|(a, b)| !same(**a, **b)).count();
-        if let Some(c) = (0..w).find(|&c| !output_close(g[c], x[c])) {
-            outliers += 1;
-            first.get_or_insert((f, c, g[c], x[c]));
+    for f in (0..frags).filter(|f| compared(*f)) {
+        for c in 0..w {
+            let (g, x) = (got[f * w + c], want[f * w + c]);
+            n += 1;
+            differ += usize::from(!same(g, x));
+            if !output_close(g, x) {
+                outliers += 1;
+                first.get_or_insert((f, c, g, x));
+            }
         }
     }
     let allowed = (PROGRAM_OUTLIERS * n as f64).floor() as usize;
     let summary = format!(
-        "{n} of {frags} fragments compared, {differ} outputs not bit-identical, {outliers} \
-         fragments beyond {PROGRAM_ULPS} ulps and {PROGRAM_ABS} (at most {allowed} may be)"
+        "{n} outputs of {} compared, {differ} not bit-identical, {outliers} beyond \
+         {PROGRAM_ULPS} ulps and {PROGRAM_ABS} (at most {allowed} may be)",
+        got.len()
     );
     match first {
         Some((f, c, g, x)) if outliers > allowed => Err(format!(
