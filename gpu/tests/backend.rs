@@ -1075,3 +1075,52 @@ fn limits_shape_batches_and_reject_what_does_not_fit() {
     };
     assert!(plan(&p, &bad, &wgpu::Limits::default()).is_err());
 }
+
+/// The material keeps its device buffers, read-back buffer and host vectors between batches
+/// and calls: calls of growing, shrinking and odd sizes on one material (a light loop, a
+/// guarded branch and the light samples' host vectors), each against the interpreter —
+/// stale values of a larger earlier batch must not leak into a smaller one.
+#[test]
+fn kept_buffers_serve_calls_of_any_size() {
+    if device_or_skip("kept_buffers_serve_calls_of_any_size").is_none() {
+        return;
+    }
+    let p = program(
+        "kept buffers",
+        "  %z = const 0.0 : float\n  %pos = gt %a, %z : bool\n  %kk = if %pos {\n    %s = sqrt %a : float\n    yield %s\n  } else {\n    %mm = mul %b, %c : float\n    yield %mm\n  }\n  %v = proj %kk, 0 : float\n  %l = illuminance %p {\n    %L = light.L : vec3\n    %d = dot %n, %L : float\n    yield %d\n  }\n  %w = proj %l, 0 : float",
+        "  output r %v\n  output q %w",
+    );
+    let reference = InterpBackend.compile_program(&p, Duration::ZERO).unwrap();
+    let m = compile(
+        &backend(GpuOptions {
+            batch: 1000,
+            ..GpuOptions::default()
+        }),
+        "kept buffers",
+        &p,
+    );
+    let env = env();
+    let all = fragments(3100);
+    let hw = hardware_contract();
+    let streams = hardware::streams_read(&p);
+    for (k, n) in [2500usize, 7, 3100, 1, 999, 1001].into_iter().enumerate() {
+        // A different slice each call: a stale value would show.
+        let frags: Vec<Fragment> = all.iter().cycle().skip(k * 131).take(n).copied().collect();
+        let (want, want_bad, _) = shade(&*reference, &env, u32::MAX, None, &frags);
+        let (got, bad, _) = shade(&m, &env, u32::MAX, None, &frags);
+        assert!(!m.device_failed(), "call {k} ({n} fragments) failed");
+        if hw {
+            let compared = |f: usize| hardware::fragment_in_domain(&frags[f], &streams);
+            hardware::check_outputs(&got, &want, m.width(), &compared)
+                .unwrap_or_else(|e| panic!("call {k} ({n} fragments): {e}"));
+            continue;
+        }
+        for (i, (g, x)) in got.iter().zip(&want).enumerate() {
+            assert!(
+                same(*g, *x),
+                "call {k} ({n} fragments): float {i}: got {g:?}, want {x:?}"
+            );
+        }
+        assert_eq!(bad, want_bad, "call {k}: non-finite count");
+    }
+}

@@ -184,6 +184,10 @@ pub(super) struct Buffers {
     pub light_scratch: Mutex<(Vec<f32>, Vec<f32>)>,
 }
 
+/// The most device memory a material keeps between batches (one set of [`Buffers`]; a
+/// larger set is made for its batch and dropped after it).
+const KEEP_BYTES: u64 = 256 << 20;
+
 /// The byte sizes one batch of `n` fragments needs, in [`Buffers`]' field order (uni,
 /// frag, out, tmp, light); at least 4 each (wgpu refuses empty bindings).
 fn sizes(m: &GpuMaterial, n: usize, samples: usize) -> [u64; 5] {
@@ -281,9 +285,17 @@ impl GpuMaterial {
         bufs
     }
 
-    /// Keeps `bufs` for the next batch.
+    /// Keeps `bufs` for the next batch, unless its device buffers hold more than
+    /// [`KEEP_BYTES`] (a material keeps what its batches need, not a scene's worth of
+    /// memory per material).
     pub(super) fn keep_buffers(&self, bufs: Buffers) {
-        if let Ok(mut p) = self.pool.lock() {
+        let bytes: u64 = [&bufs.uni, &bufs.frag, &bufs.out, &bufs.tmp, &bufs.light]
+            .iter()
+            .map(|b| b.size())
+            .sum();
+        if bytes <= KEEP_BYTES
+            && let Ok(mut p) = self.pool.lock()
+        {
             p.push(bufs);
         }
     }
