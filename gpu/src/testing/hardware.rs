@@ -345,3 +345,70 @@ pub fn check_image(got: &[f32], want: &[f32]) -> Result<String, String> {
         Ok(line)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ulps_flushing_and_closeness() {
+        assert_eq!(ulp_at(1.0), f32::EPSILON);
+        assert_eq!(ulp_at(-2.0), 2.0 * f32::EPSILON);
+        assert_eq!(ulp_at(0.0), f32::from_bits(1));
+        assert_eq!(ulp_at(f32::MIN_POSITIVE), f32::from_bits(1));
+        assert_eq!(ulp_at(f32::INFINITY), f32::INFINITY);
+        assert!(ftz_equal(1e-45, 0.0) && ftz_equal(-3e-41, 0.0) && ftz_equal(-0.0, 0.0));
+        assert!(ftz_equal(f32::NAN, f32::NAN) && !ftz_equal(1e-30, 0.0));
+        assert_eq!(ftz_variants(&[1.0, 2.0]).len(), 1);
+        let v = ftz_variants(&[1e-45, 2.0]);
+        assert_eq!(v.len(), 4);
+        assert!(v[1][0] == 0.0 && v[2][0].is_sign_positive() && v[3][0].is_sign_negative());
+        let up = |x: f32, k: u32| f32::from_bits(x.to_bits() + k);
+        assert!(close(OpClass::Sqrt, up(1.5, 1), 1.5, 0.0));
+        assert!(!close(OpClass::Sqrt, up(1.5, 2), 1.5, 0.0));
+        assert!(!close(OpClass::Exact, up(1.5, 1), 1.5, 0.0));
+        // A cancellation after a fused multiply-add: an ulp of the product, not of the result.
+        assert!(close(OpClass::Contracted, -1.49e-8, 0.0, 1.0));
+        assert!(!close(OpClass::Contracted, 1e-6, 0.0, 1.0));
+        assert!(free_operand(HUGE) && free_operand(f32::NAN) && !free_operand(1e37));
+    }
+
+    #[test]
+    fn program_outliers_are_counted_against_the_share() {
+        let want: Vec<f32> = (0..1000).map(|i| i as f32 * 0.01).collect();
+        let moved = |k: usize| {
+            let mut g = want.clone();
+            for x in g.iter_mut().step_by(1000 / k) {
+                *x += 1.0;
+            }
+            g
+        };
+        let all = |_: usize| true;
+        assert!(check_outputs(&moved(40), &want, 2, &all).is_ok());
+        assert!(check_outputs(&moved(60), &want, 2, &all).is_err());
+        // Fragments left out are not counted.
+        let none = |_: usize| false;
+        assert!(check_outputs(&moved(500), &want, 2, &none).is_ok());
+    }
+
+    #[test]
+    fn images_allow_diverged_paths_but_not_a_bias() {
+        let want: Vec<f32> = (0..10_000).map(|i| 0.25 + (i % 7) as f32 * 0.1).collect();
+        // 2 % of the samples took another path: ±0.5, averaging to zero.
+        let mut noisy = want.clone();
+        for (k, x) in noisy.iter_mut().step_by(50).enumerate() {
+            *x += if k % 2 == 0 { 0.5 } else { -0.5 };
+        }
+        assert!(check_image(&noisy, &want).is_ok());
+        // 5 % of the samples brighter (a wrong lobe): few enough, but a bias.
+        let mut biased = want.clone();
+        for x in biased.iter_mut().step_by(20) {
+            *x += 0.5;
+        }
+        assert!(check_image(&biased, &want).is_err());
+        // Everything 1 % brighter: every sample beyond.
+        let scaled: Vec<f32> = want.iter().map(|x| x * 1.01).collect();
+        assert!(check_image(&scaled, &want).is_err());
+        assert!(check_image(&want, &want).is_ok());
+    }
+}
