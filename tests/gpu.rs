@@ -3,6 +3,10 @@
 //! tolerance), `shade --backend gpu`, `gpu-info`, `compile --emit wgsl --stats` (no device
 //! needed), and clear errors for a bad `--gpu-passes` and a missing adapter.
 //!
+//! On a hardware GPU (or under `SHADENET_GPU_ACCURACY=hardware`) the Cornell render is held
+//! to the hardware contract (`shadenet_gpu::testing::hardware::check_image`: noise-level
+//! differences that average out, per layer) instead of the max abs and RMSE bounds.
+//!
 //! Tests that need a device skip with `SKIPPED: <test>: <why>` where no adapter exists, and
 //! fail instead under `SHADENET_REQUIRE_GPU=1` (see `common::gpu_or_skip`).
 
@@ -11,6 +15,8 @@ use common::{gpu_or_skip, shadenet, shadenet_env};
 
 use shadenet::render::{BackendKind, RenderOptions, backend, setup_with};
 use shadenet::tracer::{Film, RenderStats, ShadingMode};
+use shadenet_gpu::Accuracy;
+use shadenet_gpu::testing::hardware;
 use std::path::{Path, PathBuf};
 
 fn example(name: &str) -> PathBuf {
@@ -40,6 +46,12 @@ const NO_ADAPTER: (&str, &str) = ("SHADENET_GPU_ADAPTER", "no-such-adapter-7f3a"
 const CORNELL_MAX_ABS: f64 = 1e-4;
 /// See [`CORNELL_MAX_ABS`].
 const CORNELL_RMSE: f64 = 1e-6;
+
+/// `cli_cornell_gpu_render_diffs_within_the_bounds` on a hardware GPU: the light's face
+/// (25), beyond which no difference can come from a diverged path ...
+const HARDWARE_MAX_ABS: f64 = 25.0;
+/// ... and an RMSE about 2× the one an H100 measured at 64×64 (0.237).
+const HARDWARE_RMSE: f64 = 0.5;
 
 fn render(
     path: &Path,
@@ -103,6 +115,7 @@ fn gpu_render_of_the_cornell_box_matches_the_jit() {
         stats.batch_times.passes
     );
     assert_eq!(jit.layers.len(), gpu.layers.len());
+    let hw = common::gpu_accuracy() == Some(Accuracy::Hardware);
     for (lj, lg) in jit.layers.iter().zip(&gpu.layers) {
         assert_eq!(lj.name, lg.name);
         let (max, rmse) = error(&lj.data, &lg.data);
@@ -110,6 +123,15 @@ fn gpu_render_of_the_cornell_box_matches_the_jit() {
             "GPU vs JIT, Cornell box, layer {:<10}: max abs {max:.3e}, RMSE {rmse:.3e}",
             lj.name
         );
+        if hw {
+            // The hardware contract: a few ulps flip a lobe choice, a Russian roulette or a
+            // grazing hit, and that path goes on as another sample of the same pixel.
+            match hardware::check_image(&lg.data, &lj.data) {
+                Ok(r) => eprintln!("  hardware contract: {r}"),
+                Err(e) => panic!("layer {}: hardware contract: {e}", lj.name),
+            }
+            continue;
+        }
         assert!(
             max <= CORNELL_MAX_ABS && rmse <= CORNELL_RMSE,
             "layer {}: max abs {max:e} (bound {CORNELL_MAX_ABS:e}), RMSE {rmse:e} (bound {CORNELL_RMSE:e})",
@@ -145,7 +167,17 @@ fn cli_cornell_gpu_render_diffs_within_the_bounds() {
         assert_eq!(code, 0, "{backend}\n{out}\n{err}");
         files.push(exr);
     }
-    let (max_abs, rmse) = (format!("{CORNELL_MAX_ABS:e}"), format!("{CORNELL_RMSE:e}"));
+    // A hardware GPU: `diff`'s max abs and RMSE cannot express the hardware contract (which
+    // `gpu_render_of_the_cornell_box_matches_the_jit` checks); the light's radiance (25)
+    // and a noise-level RMSE bound what a hardware render may show.
+    let (max_abs, rmse) = if common::gpu_accuracy() == Some(Accuracy::Hardware) {
+        (
+            format!("{HARDWARE_MAX_ABS:e}"),
+            format!("{HARDWARE_RMSE:e}"),
+        )
+    } else {
+        (format!("{CORNELL_MAX_ABS:e}"), format!("{CORNELL_RMSE:e}"))
+    };
     let (code, out, err) = shadenet(&[
         "diff",
         files[0].to_str().unwrap(),

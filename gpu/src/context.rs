@@ -10,6 +10,48 @@
 
 use std::sync::{Arc, OnceLock};
 
+/// The environment variable that chooses the accuracy class instead of the adapter:
+/// `hardware` applies the hardware contract on any adapter (so that CI exercises it on
+/// lavapipe), `exact` the bit-exact one (an experiment on a hardware GPU, which is expected
+/// to fail it).
+pub const ACCURACY_VAR: &str = "SHADENET_GPU_ACCURACY";
+
+/// What the GPU back end promises against the CPU back ends on an adapter (see
+/// `docs/gpu.md`, "Accuracy").
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Accuracy {
+    /// Bit for bit with the interpreter and the JIT, except the documented transcendental
+    /// bounds: software rasterizers (Mesa's lavapipe and llvmpipe), which keep subnormals,
+    /// round `sqrt` correctly and do not contract `a * b + c` across the value barrier.
+    BitExact,
+    /// The bounded contract of a hardware GPU, where WGSL lets the driver flush subnormals
+    /// to zero, round `sqrt` and division within a few ulps and contract `a * b + c` into
+    /// fused multiply-adds: the bounds of `shadenet_gpu::testing::hardware`.
+    Hardware,
+}
+
+impl Accuracy {
+    /// The class of an adapter: [`Accuracy::BitExact`] for a software rasterizer,
+    /// [`Accuracy::Hardware`] otherwise; `SHADENET_GPU_ACCURACY` (`hardware` or `exact`)
+    /// overrides it.
+    pub fn of(info: &AdapterSummary) -> Accuracy {
+        match std::env::var(ACCURACY_VAR).as_deref() {
+            Ok("hardware") => Accuracy::Hardware,
+            Ok("exact") => Accuracy::BitExact,
+            _ if info.is_software() => Accuracy::BitExact,
+            _ => Accuracy::Hardware,
+        }
+    }
+
+    /// The words `gpu-info` and the tests print.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Accuracy::BitExact => "bit-exact (software rasterizer)",
+            Accuracy::Hardware => "hardware (bounded: subnormals flushed, fused multiply-adds)",
+        }
+    }
+}
+
 /// Why the GPU back end cannot run.
 #[derive(Debug, Clone, thiserror::Error)]
 pub enum GpuError {
@@ -43,6 +85,24 @@ pub struct AdapterSummary {
     pub driver: String,
 }
 
+impl AdapterSummary {
+    /// Whether the adapter is a software rasterizer: wgpu's `DeviceType::Cpu`, or a name
+    /// of one (Mesa's lavapipe and llvmpipe, SwiftShader, WARP) where the driver reports
+    /// another type.
+    pub fn is_software(&self) -> bool {
+        let name = self.name.to_lowercase();
+        self.device_type == "Cpu"
+            || [
+                "llvmpipe",
+                "lavapipe",
+                "swiftshader",
+                "microsoft basic render",
+            ]
+            .iter()
+            .any(|s| name.contains(s))
+    }
+}
+
 /// The opened device and what it allows.
 pub struct GpuContext {
     /// The adapter the device was opened on.
@@ -56,6 +116,9 @@ pub struct GpuContext {
     /// The limits the device was opened with: the adapter's own (all of them, not the
     /// WebGPU defaults), which the pass partitioner plans under.
     pub limits: wgpu::Limits,
+    /// The accuracy class of the adapter ([`Accuracy::of`]), chosen once when the device
+    /// opens.
+    pub accuracy: Accuracy,
 }
 
 impl std::fmt::Debug for GpuContext {
@@ -161,6 +224,7 @@ impl GpuContext {
             None => list[0].clone(),
         };
         let info = summary(&adapter.get_info());
+        let accuracy = Accuracy::of(&info);
         let limits = adapter.limits();
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("shadenet"),
@@ -178,6 +242,7 @@ impl GpuContext {
             queue,
             info,
             limits,
+            accuracy,
         })
     }
 
@@ -195,7 +260,7 @@ impl GpuContext {
     pub fn describe(&self) -> String {
         let l = &self.limits;
         format!(
-            "adapter: {}\nbackend: {}\ntype: {}\ndriver: {}\n\
+            "adapter: {}\nbackend: {}\ntype: {}\ndriver: {}\naccuracy: {}\n\
              max_storage_buffers_per_shader_stage: {}\n\
              max_storage_buffer_binding_size: {}\nmax_buffer_size: {}\n\
              max_compute_workgroup_storage_size: {}\n\
@@ -205,6 +270,7 @@ impl GpuContext {
             self.info.backend,
             self.info.device_type,
             self.info.driver,
+            self.accuracy.describe(),
             l.max_storage_buffers_per_shader_stage,
             l.max_storage_buffer_binding_size,
             l.max_buffer_size,

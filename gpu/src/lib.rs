@@ -24,7 +24,7 @@ pub mod planner;
 pub mod testing;
 pub mod textures;
 
-pub use context::{GpuContext, GpuError};
+pub use context::{Accuracy, GpuContext, GpuError};
 pub use material::{GpuBackend, GpuMaterial};
 pub use options::{GpuOptions, PassMode};
 pub use plan::Plan;

@@ -17,11 +17,18 @@
 //! statistics and the time split. Without a device (naga only): every example network's
 //! kernels under every plan, the plan's listing, and the limits.
 //!
+//! On a hardware GPU (or under `SHADENET_GPU_ACCURACY=hardware`) the comparisons are the
+//! hardware contract instead (`shadenet_gpu::testing::hardware::check_outputs`: fragments
+//! with subnormal, non-finite or huge inputs left out, every output within 64 ulps or 1e-5
+//! relative, at most 5% of the outputs beyond), against the interpreter and the fused plan.
+//!
 //! Device tests skip (printing why) without an adapter, unless `SHADENET_REQUIRE_GPU=1`.
 
 use shadenet_gpu::plan::{HostKind, ItemKind, Step};
-use shadenet_gpu::testing::device_or_skip;
-use shadenet_gpu::{GpuBackend, GpuMaterial, GpuOptions, PassMode, Plan, plan};
+use shadenet_gpu::testing::{accuracy, device_or_skip, hardware};
+use shadenet_gpu::{
+    Accuracy, GpuBackend, GpuContext, GpuMaterial, GpuOptions, PassMode, Plan, plan,
+};
 use shadenet_graph::ir::{Program, parse};
 use shadenet_graph::nodes::NodeLibrary;
 use shadenet_graph::opt::{self, Passes, Specialization};
@@ -208,6 +215,7 @@ fn check_modes(
         .compile_program(program, Duration::ZERO)
         .unwrap_or_else(|e| panic!("{what}: interp: {e}"));
     let (want, want_bad, _) = shade(&*reference, env, mask, scene, frags);
+    let hw = hardware_contract();
     let mut fused: Option<(Vec<f32>, Plan)> = None;
     for (label, options) in modes {
         let label = *label;
@@ -227,6 +235,25 @@ fn check_modes(
             times.passes,
             m.plan().passes()
         );
+        if hw {
+            // The hardware contract (`shadenet_gpu::testing::hardware`), against the
+            // interpreter and against the fused plan (the driver contracts each plan's
+            // kernels its own way).
+            let streams = hardware::streams_read(program);
+            let compared = |f: usize| hardware::fragment_in_domain(&frags[f], &streams);
+            let r = hardware::check_outputs(&got, &want, w, &compared)
+                .unwrap_or_else(|e| panic!("{what} ({label}): hardware contract: {e}"));
+            eprintln!("{what} ({label}): hardware contract: {r}");
+            if let Some((f, _)) = &fused {
+                let r = hardware::check_outputs(&got, f, w, &compared).unwrap_or_else(|e| {
+                    panic!("{what} ({label}): against the fused plan: hardware contract: {e}")
+                });
+                eprintln!("{what} ({label}): against the fused plan: {r}");
+            } else {
+                fused = Some((got, m.plan().clone()));
+            }
+            continue;
+        }
         for (k, (g, x)) in got.iter().zip(&want).enumerate() {
             let ok = match tol {
                 Tol::Exact => same(*g, *x),
@@ -264,6 +291,12 @@ fn check_modes(
         }
     }
     fused.expect("at least one mode").1
+}
+
+/// Whether the shared device is held to the hardware contract
+/// ([`shadenet_gpu::Accuracy::Hardware`]) instead of the bit-exact one.
+fn hardware_contract() -> bool {
+    GpuContext::shared().is_ok_and(|c| accuracy(&c) == Accuracy::Hardware)
 }
 
 /// Bit for bit, except that zeros of either sign are equal: the emitter's `sqrt` gives +0
@@ -1041,4 +1074,53 @@ fn limits_shape_batches_and_reject_what_does_not_fit() {
         ..GpuOptions::default()
     };
     assert!(plan(&p, &bad, &wgpu::Limits::default()).is_err());
+}
+
+/// The material keeps its device buffers, read-back buffer and host vectors between batches
+/// and calls: calls of growing, shrinking and odd sizes on one material (a light loop, a
+/// guarded branch and the light samples' host vectors), each against the interpreter —
+/// stale values of a larger earlier batch must not leak into a smaller one.
+#[test]
+fn kept_buffers_serve_calls_of_any_size() {
+    if device_or_skip("kept_buffers_serve_calls_of_any_size").is_none() {
+        return;
+    }
+    let p = program(
+        "kept buffers",
+        "  %z = const 0.0 : float\n  %pos = gt %a, %z : bool\n  %kk = if %pos {\n    %s = sqrt %a : float\n    yield %s\n  } else {\n    %mm = mul %b, %c : float\n    yield %mm\n  }\n  %v = proj %kk, 0 : float\n  %l = illuminance %p {\n    %L = light.L : vec3\n    %d = dot %n, %L : float\n    yield %d\n  }\n  %w = proj %l, 0 : float",
+        "  output r %v\n  output q %w",
+    );
+    let reference = InterpBackend.compile_program(&p, Duration::ZERO).unwrap();
+    let m = compile(
+        &backend(GpuOptions {
+            batch: 1000,
+            ..GpuOptions::default()
+        }),
+        "kept buffers",
+        &p,
+    );
+    let env = env();
+    let all = fragments(3100);
+    let hw = hardware_contract();
+    let streams = hardware::streams_read(&p);
+    for (k, n) in [2500usize, 7, 3100, 1, 999, 1001].into_iter().enumerate() {
+        // A different slice each call: a stale value would show.
+        let frags: Vec<Fragment> = all.iter().cycle().skip(k * 131).take(n).copied().collect();
+        let (want, want_bad, _) = shade(&*reference, &env, u32::MAX, None, &frags);
+        let (got, bad, _) = shade(&m, &env, u32::MAX, None, &frags);
+        assert!(!m.device_failed(), "call {k} ({n} fragments) failed");
+        if hw {
+            let compared = |f: usize| hardware::fragment_in_domain(&frags[f], &streams);
+            hardware::check_outputs(&got, &want, m.width(), &compared)
+                .unwrap_or_else(|e| panic!("call {k} ({n} fragments): {e}"));
+            continue;
+        }
+        for (i, (g, x)) in got.iter().zip(&want).enumerate() {
+            assert!(
+                same(*g, *x),
+                "call {k} ({n} fragments): float {i}: got {g:?}, want {x:?}"
+            );
+        }
+        assert_eq!(bad, want_bad, "call {k}: non-finite count");
+    }
 }

@@ -9,16 +9,24 @@
 //!   `gpu/src/emit.rs` (the measured worst errors are printed);
 //! - constants, output columns and texture lookups on the device.
 //!
+//! On a hardware GPU (or under `SHADENET_GPU_ACCURACY=hardware`) the device's results are
+//! held to the hardware contract instead (`shadenet_gpu::testing::hardware`): each case
+//! against the CPU's result for its operands as they are or with subnormals flushed, within
+//! the row's `OpClass` bound ([`hw_class`]: exact, sqrt 1 ulp, division 3, contracted sums of
+//! products 4, noise 16) or the hardware bound of its transcendental; bilinear lookups within
+//! 2 ulps of max(1, r); the key test up to flushing.
+//!
 //! Device tests skip (printing why) without an adapter, unless `SHADENET_REQUIRE_GPU=1`.
 
-use shadenet_gpu::GpuContext;
 use shadenet_gpu::emit::{
     self, columns, float_literal, literal, load_columns, op_expr, output_columns, store_columns,
     wgsl_type,
 };
+use shadenet_gpu::testing::hardware::{self, OpClass};
 use shadenet_gpu::testing::{
-    Bound, Transcendental as Trans, device_or_skip, documented_bound, ulps, within,
+    Bound, Transcendental as Trans, accuracy, device_or_skip, documented_bound, ulps, within,
 };
+use shadenet_gpu::{Accuracy, GpuContext};
 use shadenet_graph::ir::{BinOp, Expr, Intrinsic, Op, Program, UnOp, Value};
 use shadenet_graph::ir::{Filter, Sampling, Wrap};
 use shadenet_graph::ops::{self, Val};
@@ -817,7 +825,12 @@ fn op_table_on_the_device() {
         return;
     };
     let flush = flushes_subnormals(&ctx);
-    eprintln!("device: {} (flushes subnormals: {flush})", ctx.info.name);
+    let hw = accuracy(&ctx) == Accuracy::Hardware;
+    eprintln!(
+        "device: {} (flushes subnormals: {flush}; {})",
+        ctx.info.name,
+        ctx.accuracy.describe()
+    );
     let mut failures = Failures::default();
     let mut measured: Vec<(Trans, Stats)> = Vec::new();
     let mut exact_rows = 0;
@@ -836,9 +849,15 @@ fn op_table_on_the_device() {
         let out_w = columns(row.ty);
         let got = run(&ctx, &row_kernel(&row, n), &input, &[], n * out_w, n);
         for (k, case) in cases.iter().enumerate() {
-            let want = eval_cpu(&row, case);
             let got = &got[k * out_w..(k + 1) * out_w];
             compared += out_w;
+            if hw {
+                if let Err(e) = hw_check(&row, case, got, &mut measured) {
+                    failures.add(&row.name, || e);
+                }
+                continue;
+            }
+            let want = eval_cpu(&row, case);
             match row.class {
                 Class::Exact => {
                     for c in 0..out_w {
@@ -877,7 +896,7 @@ fn op_table_on_the_device() {
                             0.0
                         };
                         let g = f32::from_bits(got[c]);
-                        if let Err(why) = stats.record(t, x, y, g, want[c]) {
+                        if let Err(why) = stats.record(t, (x, y), g, want[c], false) {
                             failures.add(&row.name, || {
                                 format!(
                                     "{}: inputs ({x:?}, {y:?}) ({:#010x}, {:#010x}): got {g:?} \
@@ -918,6 +937,135 @@ fn op_table_on_the_device() {
         failures.rows.len(),
         failures.report()
     );
+}
+
+/// Which of a row's operand columns are floats (an int operand's column holds its bits).
+fn float_columns(row: &Row) -> Vec<bool> {
+    row.operands
+        .iter()
+        .flat_map(|t| std::iter::repeat_n(*t != Type::Int, columns(*t)))
+        .collect()
+}
+
+/// What bounds a row's op on hardware (see `shadenet_gpu::testing::hardware`).
+fn hw_class(row: &Row) -> OpClass {
+    use BinOp as B;
+    match &row.op {
+        Op::Unary(UnOp::Sqrt, _) => OpClass::Sqrt,
+        Op::Unary(UnOp::Length | UnOp::Normalize, _) => OpClass::Contracted,
+        Op::Binary(B::Div, ..) => OpClass::Div,
+        Op::Binary(B::Mod | B::Dot | B::Cross | B::Distance | B::MulPoint | B::MulVector, ..) => {
+            OpClass::Contracted
+        }
+        Op::Call(Intrinsic::RgbToHsv | Intrinsic::HsvToRgb, _) => OpClass::Contracted,
+        Op::Call(..) => OpClass::Noise,
+        _ => OpClass::Exact,
+    }
+}
+
+/// The hardware contract on one case of a row: free where a float operand is
+/// ([`hardware::free_operand`]); otherwise the device's result must be within the row's
+/// bound of the CPU's for the operands as they are or flushed ([`hardware::ftz_variants`]),
+/// one variant for the whole case. Transcendental rows also record their worst errors.
+fn hw_check(
+    row: &Row,
+    case: &[f32],
+    got: &[u32],
+    measured: &mut Vec<(Trans, Stats)>,
+) -> Result<(), String> {
+    let is_float = float_columns(row);
+    let floats: Vec<f32> = case
+        .iter()
+        .zip(&is_float)
+        .filter(|(_, f)| **f)
+        .map(|(x, _)| *x)
+        .collect();
+    if floats.iter().any(|x| hardware::free_operand(*x)) {
+        return Ok(());
+    }
+    let variants: Vec<Vec<f32>> = hardware::ftz_variants(&floats)
+        .into_iter()
+        .map(|v| {
+            let mut it = v.into_iter();
+            case.iter()
+                .zip(&is_float)
+                .map(|(x, f)| if *f { it.next().unwrap() } else { *x })
+                .collect()
+        })
+        .collect();
+    let wants: Vec<Vec<f32>> = variants.iter().map(|v| eval_cpu(row, v)).collect();
+    let m = floats.iter().fold(0.0f32, |a, x| a.max(x.abs()));
+    let class = hw_class(row);
+    let col_ok = |c: usize, v: usize| {
+        let (g, want) = (f32::from_bits(got[c]), wants[v][c]);
+        match row.class {
+            _ if row.ty == Type::Int => got[c] == want.to_bits(),
+            // A result the CPU overflows on finite operands is free (WGSL).
+            _ if !want.is_finite() => true,
+            Class::Transcendental(t) => {
+                let (x, y) = hw_args(row, &variants[v], c);
+                let (_, bound) = hardware::transcendental_bound(t, x, y, want);
+                hardware::within(bound, x, g, want)
+            }
+            Class::Exact => {
+                let scale = match class {
+                    OpClass::Noise | OpClass::Texture => want.abs(),
+                    _ => (m * m.max(1.0)).max(want.abs()),
+                };
+                hardware::close(class, g, want, scale)
+            }
+        }
+    };
+    let out_w = got.len();
+    if let Class::Transcendental(t) = row.class {
+        let stats = match measured.iter_mut().position(|(x, _)| *x == t) {
+            Some(i) => &mut measured[i].1,
+            None => {
+                measured.push((t, Stats::default()));
+                &mut measured.last_mut().unwrap().1
+            }
+        };
+        for c in 0..out_w {
+            let v = (0..variants.len()).find(|&v| col_ok(c, v)).unwrap_or(0);
+            let g = f32::from_bits(got[c]);
+            let args = hw_args(row, &variants[v], c);
+            if wants[v][c].is_finite() {
+                stats.record(t, args, g, wants[v][c], true).map_err(|why| {
+                    format!(
+                        "{}: operands {args:?}: got {g:?} ({:#010x}), want {:?}: {why}",
+                        row.name, got[c], wants[v][c]
+                    )
+                })?;
+            }
+        }
+        return Ok(());
+    }
+    if (0..variants.len()).any(|v| (0..out_w).all(|c| col_ok(c, v))) {
+        return Ok(());
+    }
+    let c = (0..out_w).find(|&c| !col_ok(c, 0)).unwrap_or(0);
+    Err(format!(
+        "{}: inputs {:?} ({:08x?}): column {c}: got {:?} ({:#010x}), want {:?} ({:#010x}) \
+         (or the same for the operands flushed), hardware bound {class:?}",
+        row.name,
+        case,
+        case.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+        f32::from_bits(got[c]),
+        got[c],
+        wants[0][c],
+        wants[0][c].to_bits()
+    ))
+}
+
+/// The arguments of component `c` of a component-wise transcendental row.
+fn hw_args(row: &Row, case: &[f32], c: usize) -> (f32, f32) {
+    let w = row.ty.width();
+    let y = if row.operands.len() > 1 {
+        case[w + c]
+    } else {
+        0.0
+    };
+    (case[c], y)
 }
 
 /// Differences found, per row: how many, and the first few in words.
@@ -996,8 +1144,26 @@ impl std::fmt::Display for Stats {
 
 impl Stats {
     /// Records one comparison; `Err` when it breaks the op's documented bound.
-    fn record(&mut self, t: Trans, x: f32, y: f32, got: f32, want: f32) -> Result<(), String> {
-        let (d, bound) = documented_bound(t, x, y, want);
+    /// On hardware (`hw`) the bound is [`hardware::transcendental_bound`], checked on the
+    /// flushed values.
+    fn record(
+        &mut self,
+        t: Trans,
+        (x, y): (f32, f32),
+        got: f32,
+        want: f32,
+        hw: bool,
+    ) -> Result<(), String> {
+        let (d, bound) = if hw {
+            hardware::transcendental_bound(t, x, y, want)
+        } else {
+            documented_bound(t, x, y, want)
+        };
+        let (got, want) = if hw {
+            (hardware::flush(got), hardware::flush(want))
+        } else {
+            (got, want)
+        };
         let w = match self.domains.iter_mut().find(|(n, _)| *n == d) {
             Some((_, w)) => w,
             None => {
@@ -1024,7 +1190,12 @@ impl Stats {
                 (got as f64 - want as f64).abs() / (x.abs() as f64 * (1.0 + (want as f64).powi(2)));
             w.reduced = w.reduced.max(e);
         }
-        if within(bound, x, got, want) {
+        let ok = if hw {
+            hardware::within(bound, x, got, want)
+        } else {
+            within(bound, x, got, want)
+        };
+        if ok {
             Ok(())
         } else {
             Err(format!("outside the bound {bound:?}"))
@@ -1259,6 +1430,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {{
     );
     let input: Vec<f32> = cases.iter().flatten().copied().collect();
     let out_len = n * ns * nt * 4;
+    let hw = accuracy(&ctx) == Accuracy::Hardware;
     let got = run(
         &ctx,
         &src,
@@ -1279,6 +1451,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {{
                 for k in 0..4 {
                     let g = got[((i * ns + s) * nt + t) * 4 + k];
                     let ok = match sampling.filter {
+                        // Hardware: the driver contracts the lerps `t00 + fx * (t10 - t00)`.
+                        Filter::Bilinear if hw => {
+                            hardware::close(OpClass::Texture, f32::from_bits(g), want[k], want[k])
+                        }
                         Filter::Closest | Filter::Bilinear => {
                             exact_eq(Type::Float, g, want[k], false)
                         }
@@ -1355,6 +1531,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {{
     );
     let input: Vec<f32> = xs.iter().copied().chain([0.0]).collect();
     let w = 2 * cases.len();
+    let hw = accuracy(&ctx) == Accuracy::Hardware;
     let got = run(&ctx, &src, &input, &[], xs.len() * w, xs.len());
     for (j, (bare, keyed, f)) in cases.iter().enumerate() {
         let mut folded = Vec::new();
@@ -1362,8 +1539,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {{
             let want = f(*x);
             let b = f32::from_bits(got[i * w + 2 * j]);
             let g = got[i * w + 2 * j + 1];
+            // Hardware: the subnormal operand may be flushed first, the result after.
+            let flushed = hw && hardware::ftz_equal(f32::from_bits(g), f(hardware::flush(*x)));
             assert!(
-                exact_eq(Type::Float, g, want, false),
+                exact_eq(Type::Float, g, want, false) || flushed,
                 "{keyed} at {x:?}: got {:?}, want {want:?}",
                 f32::from_bits(g)
             );

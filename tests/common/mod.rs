@@ -187,6 +187,15 @@ pub fn gpu_or_skip(test: &str) -> bool {
     shadenet_gpu::testing::device_or_skip(test).is_some()
 }
 
+/// The accuracy class the GPU tests check on the shared device (bit-exact on a software
+/// rasterizer, the hardware contract on a hardware GPU or under
+/// `SHADENET_GPU_ACCURACY=hardware`); `None` without a device.
+pub fn gpu_accuracy() -> Option<shadenet_gpu::Accuracy> {
+    shadenet_gpu::GpuContext::shared()
+        .ok()
+        .map(|c| shadenet_gpu::testing::accuracy(&c))
+}
+
 /// The MaterialX libraries of the user's installation; `None` (with a printed reason) when
 /// they are missing, a panic when `CI` is set (`.ci/run` installs them).
 pub fn mtlx_library() -> Option<&'static shadenet::graph::mtlx::Library> {

@@ -11,9 +11,8 @@ use super::{GpuMaterial, sample_total, with_error_scopes};
 use crate::context::GpuError;
 use crate::plan::{HostKind, LIGHT_COLUMNS, Step};
 use shadenet_runtime::backend::BatchTimes;
-use shadenet_runtime::{Fragment, SceneServices, ShadeEnv};
+use shadenet_runtime::{Fragment, Fragments, SceneServices, ShadeEnv};
 use std::time::Instant;
-use wgpu::util::DeviceExt;
 
 impl GpuMaterial {
     /// Encodes and submits the passes `steps`, and waits for them.
@@ -96,18 +95,23 @@ impl GpuMaterial {
         Ok(())
     }
 
-    /// Shades one batch (at most [`Plan::max_batch`] fragments) into `out`.
+    /// Shades one batch (at most [`Plan::max_batch`] fragments): fragments `base .. base +
+    /// n` of `frags` (`aos`: the same fragments unpacked, where the plan has host steps or
+    /// light samples; empty otherwise), written into `out` (the whole call's output, in the
+    /// packets' layout). Returns how many values the output guard zeroed.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn batch(
         &self,
         env: &ShadeEnv,
         mask: u32,
         scene: Option<&dyn SceneServices>,
-        frags: &[Fragment],
+        (frags, base, n): (&Fragments, usize, usize),
+        aos: &[Fragment],
         out: &mut [f32],
         times: &mut BatchTimes,
     ) -> Result<u64, GpuError> {
         let (result, errors) = with_error_scopes(self.device(), || {
-            self.batch_scoped(env, mask, scene, frags, out, times)
+            self.batch_scoped(env, mask, scene, (frags, base, n), aos, out, times)
         });
         if !errors.is_empty() {
             return Err(GpuError::Runtime(errors.join("; ")));
@@ -116,55 +120,49 @@ impl GpuMaterial {
     }
 
     /// [`Self::batch`] inside the device's error scopes.
+    #[allow(clippy::too_many_arguments)]
     fn batch_scoped(
         &self,
         env: &ShadeEnv,
         mask: u32,
         scene: Option<&dyn SceneServices>,
-        frags: &[Fragment],
+        (frags, base, n): (&Fragments, usize, usize),
+        aos: &[Fragment],
         out: &mut [f32],
         times: &mut BatchTimes,
     ) -> Result<u64, GpuError> {
-        let n = frags.len();
+        let samples = sample_total(env);
+        // Upload: the kept buffers (cleared), the uniforms, the fragments' columns.
+        let t = Instant::now();
+        let mut bufs = self.take_buffers(n, samples, &self.uniforms(env, mask, n, samples));
+        let r = self.write_fragment_columns(&mut bufs, frags, base, n);
+        times.upload += t.elapsed();
+        let r = r.and_then(|()| self.run_steps(env, mask, scene, aos, n, &bufs, times));
+        // Readback and the output guard, straight into the packets' layout.
+        let r = r.and_then(|()| {
+            let t = Instant::now();
+            let bad = self.read_outputs(&bufs, n, base, out);
+            times.readback += t.elapsed();
+            bad
+        });
+        self.keep_buffers(bufs);
+        r
+    }
+
+    /// The light samples at `P`, then the passes and host steps in order.
+    #[allow(clippy::too_many_arguments)]
+    fn run_steps(
+        &self,
+        env: &ShadeEnv,
+        mask: u32,
+        scene: Option<&dyn SceneServices>,
+        frags: &[Fragment],
+        n: usize,
+        bufs: &Buffers,
+        times: &mut BatchTimes,
+    ) -> Result<(), GpuError> {
         let l = &self.plan.layout;
         let samples = sample_total(env);
-        let device = self.device();
-        // Upload.
-        let t = Instant::now();
-        let init = |label: &str, data: &[f32], usage: wgpu::BufferUsages| {
-            let data: &[f32] = if data.is_empty() { &[0.0] } else { data };
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents: bytemuck::cast_slice(data),
-                usage,
-            })
-        };
-        let zeroed = |label: &str, floats: usize, usage: wgpu::BufferUsages| {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: (floats.max(1) * 4) as u64,
-                usage,
-                mapped_at_creation: false,
-            })
-        };
-        use wgpu::BufferUsages as U;
-        let bufs = Buffers {
-            uni: init("sn_uni", &self.uniforms(env, mask, n, samples), U::STORAGE),
-            frag: init("sn_frag", &self.fragment_columns(frags), U::STORAGE),
-            out: zeroed("sn_out", l.out_columns * n, U::STORAGE | U::COPY_SRC),
-            tmp: zeroed(
-                "sn_tmp",
-                l.tmp_columns * n,
-                U::STORAGE | U::COPY_SRC | U::COPY_DST,
-            ),
-            light: zeroed(
-                "sn_light",
-                self.plan.light_columns(samples) * n,
-                U::STORAGE | U::COPY_DST,
-            ),
-        };
-        times.upload += t.elapsed();
-
         // Light samples at P, before the first pass.
         if samples > 0
             && let Some(set) = l.light_sets.iter().position(|s| s.point.is_none())
@@ -172,13 +170,14 @@ impl GpuMaterial {
             let t = Instant::now();
             let visible = l.light_sets[set].visible;
             let pt = |i: usize| Some(frags[i].p);
-            let data = light_samples(env, frags, samples, visible, scene, &pt);
+            let mut scratch = bufs.light_scratch.lock().map_err(super::buffers::gpu_err)?;
+            let data = light_samples(env, frags, samples, visible, scene, &pt, &mut scratch);
             times.host += t.elapsed();
             let t = Instant::now();
             let off = LIGHT_COLUMNS * samples * set * n * 4;
             self.ctx
                 .queue
-                .write_buffer(&bufs.light, off as u64, bytemuck::cast_slice(&data));
+                .write_buffer(&bufs.light, off as u64, bytemuck::cast_slice(data));
             times.upload += t.elapsed();
         }
 
@@ -188,40 +187,16 @@ impl GpuMaterial {
             match step {
                 Step::Pass(_) => pending.push(s),
                 Step::Host(h) => {
-                    self.run_passes(&pending, &bufs, n, mask, times)?;
+                    self.run_passes(&pending, bufs, n, mask, times)?;
                     pending.clear();
                     let t = Instant::now();
                     if samples > 0 || !matches!(h.kind, HostKind::LightSamples { .. }) {
-                        self.host_step(h, &bufs, env, mask, scene, frags, samples)?;
+                        self.host_step(h, bufs, env, mask, scene, frags, samples)?;
                     }
                     times.host += t.elapsed();
                 }
             }
         }
-        self.run_passes(&pending, &bufs, n, mask, times)?;
-
-        // Readback and the output guard.
-        let t = Instant::now();
-        let w = l.out_columns;
-        let cols = self
-            .read_columns(&bufs.out, &[(0, w)], n)?
-            .pop()
-            .unwrap_or_default();
-        let mut bad = 0u64;
-        if w > 0 {
-            for (i, dst) in out.chunks_mut(w).take(n).enumerate() {
-                for (c, d) in dst.iter_mut().enumerate() {
-                    let x = cols[c * n + i];
-                    if x.is_finite() {
-                        *d = x;
-                    } else {
-                        *d = 0.0;
-                        bad += 1;
-                    }
-                }
-            }
-        }
-        times.readback += t.elapsed();
-        Ok(bad)
+        self.run_passes(&pending, bufs, n, mask, times)
     }
 }

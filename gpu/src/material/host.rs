@@ -88,18 +88,23 @@ impl HostValues<'_> {
 }
 
 /// Light samples of every fragment as seen from `point(i)` (`None`: no samples, zeros),
-/// structure of arrays: column `7 j + c` of sample `j`.
-pub(super) fn light_samples(
+/// structure of arrays: column `7 j + c` of sample `j`; in `scratch.1` (`scratch.0` holds
+/// them fragment after fragment first; both vectors are kept by the batch's buffers, so
+/// that a batch allocates nothing once they are large enough).
+pub(super) fn light_samples<'s>(
     env: &ShadeEnv,
     frags: &[Fragment],
     samples: usize,
     visible: bool,
     scene: Option<&dyn SceneServices>,
     point: &(dyn Fn(usize) -> Option<[f32; 3]> + Sync),
-) -> Vec<f32> {
+    scratch: &'s mut (Vec<f32>, Vec<f32>),
+) -> &'s [f32] {
     let n = frags.len();
     let w = LIGHT_COLUMNS * samples;
-    let mut aos = vec![0.0f32; w * n];
+    let (aos, soa) = scratch;
+    aos.clear();
+    aos.resize(w * n, 0.0);
     aos.par_chunks_mut(w.max(1))
         .enumerate()
         .for_each(|(i, dst)| {
@@ -134,13 +139,13 @@ pub(super) fn light_samples(
                 }
             }
         });
-    let mut soa = vec![0.0f32; w * n];
+    soa.resize(w * n, 0.0);
     for i in 0..n {
         for c in 0..w {
             soa[c * n + i] = aos[i * w + c];
         }
     }
-    soa
+    &soa[..w * n]
 }
 
 impl GpuMaterial {
@@ -188,7 +193,7 @@ impl GpuMaterial {
                 (c, crate::emit::columns(p.ty(*v)))
             })
             .collect();
-        let cols = self.read_columns(&bufs.tmp, &ranges, n)?;
+        let cols = self.read_columns(bufs, &bufs.tmp, &ranges, n)?;
         let hv = HostValues {
             m: self,
             env,
@@ -254,13 +259,14 @@ impl GpuMaterial {
                 };
                 let ls = &l.light_sets[*set];
                 let pt = |i: usize| hv.holds(&step.guard, i).then(|| hv.vec3(*point, i));
-                let data = light_samples(env, frags, samples, ls.visible, scene, &pt);
+                let mut scratch = bufs.light_scratch.lock().map_err(super::buffers::gpu_err)?;
+                let data = light_samples(env, frags, samples, ls.visible, scene, &pt, &mut scratch);
                 let off = LIGHT_COLUMNS * samples * set * n * 4;
                 if !data.is_empty() {
                     self.ctx.queue.write_buffer(
                         &bufs.light,
                         off as u64,
-                        bytemuck::cast_slice(&data),
+                        bytemuck::cast_slice(data),
                     );
                 }
             }

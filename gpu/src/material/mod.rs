@@ -144,6 +144,8 @@ pub struct GpuMaterial {
     info: MaterialInfo,
     /// Set once a batch failed on the device (the message is printed once).
     failed: AtomicBool,
+    /// Device buffers kept between batches and calls (one set per batch in flight).
+    pool: std::sync::Mutex<Vec<buffers::Buffers>>,
 }
 
 impl std::fmt::Debug for GpuMaterial {
@@ -247,6 +249,7 @@ impl GpuMaterial {
             width,
             info,
             failed: AtomicBool::new(false),
+            pool: std::sync::Mutex::new(Vec::new()),
         })
     }
 
@@ -513,15 +516,21 @@ impl Material for GpuMaterial {
         if w == 0 {
             return result;
         }
-        // The device reads columns per stream and writes fragment after fragment: the
-        // packets are unpacked here and the outputs packed back (host time, in `upload` and
-        // `readback`).
-        let t = Instant::now();
-        let aos: Vec<Fragment> = frags.iter().collect();
-        let mut flat = vec![0.0f32; w * n];
-        result.times.upload += t.elapsed();
+        // The device reads columns per stream and writes fragment after fragment: each
+        // batch's columns are written straight from the packets and its outputs straight
+        // into the packets' layout. Host steps and light samples read fragments as structs:
+        // only then is a batch unpacked (into one vector reused across batches).
         let cap = self.plan.max_batch(sample_total(env));
-        for (k, (chunk, dst)) in aos.chunks(cap).zip(flat.chunks_mut(cap * w)).enumerate() {
+        let unpack = sample_total(env) > 0 || self.plan.host_steps() > 0;
+        let mut aos: Vec<Fragment> = Vec::new();
+        for (k, base) in (0..n).step_by(cap.max(1)).enumerate() {
+            let len = cap.min(n - base);
+            if unpack {
+                let t = Instant::now();
+                aos.clear();
+                aos.extend((base..base + len).map(|i| frags.get(i)));
+                result.times.upload += t.elapsed();
+            }
             // Fragment `i` of the chunk is fragment `base + i` of the call.
             let offset = scene.map(|inner| ChunkServices {
                 inner,
@@ -534,7 +543,8 @@ impl Material for GpuMaterial {
             let ok = if self.failed.load(Ordering::Relaxed) {
                 None
             } else {
-                match self.batch(env, mask, scene, chunk, dst, &mut result.times) {
+                let input = (frags, base, len);
+                match self.batch(env, mask, scene, input, &aos, out, &mut result.times) {
                     Ok(bad) => Some(bad),
                     Err(e) => {
                         if !self.failed.swap(true, Ordering::Relaxed) {
@@ -551,26 +561,26 @@ impl Material for GpuMaterial {
             match ok {
                 Some(bad) => result.nonfinite += bad,
                 None => {
+                    let chunk: Vec<Fragment> = (base..base + len).map(|i| frags.get(i)).collect();
+                    let mut flat = vec![0.0f32; w * len];
                     let r = shadenet_runtime::shade_many_unpacked(
                         &*self.companion,
                         env,
                         mask,
                         scene,
-                        chunk,
-                        dst,
+                        &chunk,
+                        &mut flat,
                     );
+                    for (i, px) in flat.chunks(w).enumerate() {
+                        for (c, x) in px.iter().enumerate() {
+                            out[packed_index(w, base + i, c)] = *x;
+                        }
+                    }
                     result.nonfinite += r.nonfinite;
                     result.times.add(&r.times);
                 }
             }
         }
-        let t = Instant::now();
-        for (i, px) in flat.chunks(w).enumerate() {
-            for (c, x) in px.iter().enumerate() {
-                out[packed_index(w, i, c)] = *x;
-            }
-        }
-        result.times.readback += t.elapsed();
         result
     }
 }

@@ -8,8 +8,14 @@
 //!
 //! [`documented_bound`] and [`within`] are the bounds `gpu/tests/emit.rs` measures and the
 //! parity suite (`tests/backends.rs`) applies to rows of one transcendental op.
+//!
+//! [`accuracy`] says which contract a test checks: bit-exact on a software rasterizer
+//! (CI's lavapipe), the bounded contract of [`hardware`] on a hardware GPU (or anywhere
+//! under `SHADENET_GPU_ACCURACY=hardware`).
 
-use crate::GpuContext;
+pub mod hardware;
+
+use crate::{Accuracy, GpuContext};
 use shadenet_graph::ir::{BinOp, UnOp};
 use std::sync::Arc;
 
@@ -30,6 +36,20 @@ pub fn device_or_skip(test: &str) -> Option<Arc<GpuContext>> {
             None
         }
     }
+}
+
+/// The accuracy class the tests check on `ctx` ([`GpuContext::accuracy`]), printed once
+/// per test binary to stderr with the adapter's name.
+pub fn accuracy(ctx: &GpuContext) -> Accuracy {
+    static SAID: std::sync::Once = std::sync::Once::new();
+    SAID.call_once(|| {
+        eprintln!(
+            "GPU accuracy on {}: {}",
+            ctx.info.name,
+            ctx.accuracy.describe()
+        )
+    });
+    ctx.accuracy
 }
 
 /// The ops the GPU computes with its own code rather than a port of the CPU's (see the
@@ -103,6 +123,15 @@ pub enum Bound {
     FiniteIffFinite {
         /// Whether the result must lie in [-1, 1].
         unit: bool,
+    },
+    /// A hardware GPU's own `sin`, `cos` and `tan` ([`hardware::transcendental_bound`]): an
+    /// error at most `2^-log2_per_x · max(1, |x|)`, in the angle `atan(result)` (modulo π)
+    /// for tan, whose value is unbounded near its poles.
+    DeviceTrig {
+        /// The absolute bound's exponent.
+        log2_per_x: i32,
+        /// Whether the op is tan (the error is measured in the angle).
+        tan: bool,
     },
 }
 
@@ -192,6 +221,14 @@ pub fn within(bound: Bound, x: f32, got: f32, want: f32) -> bool {
             let err = (got as f64 - want as f64).abs();
             let per_x = 2f64.powi(-log2_per_x) * (x.abs() as f64) * (1.0 + (want as f64).powi(2));
             same(got, want) || ulps(got, want) <= n || err <= per_x
+        }
+        Bound::DeviceTrig { log2_per_x, tan } => {
+            let eps = 2f64.powi(-log2_per_x) * (x.abs() as f64).max(1.0);
+            let (g, w) = (got as f64, want as f64);
+            let angle = (g.atan() - w.atan()).abs();
+            same(got, want)
+                || (!tan && (g - w).abs() <= eps)
+                || (tan && angle.min(std::f64::consts::PI - angle) <= eps)
         }
         Bound::FiniteIffFinite { unit } => {
             got.is_finite() == want.is_finite() && (!unit || got.abs() <= 1.0 || got.is_nan())
