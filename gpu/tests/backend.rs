@@ -640,7 +640,11 @@ fn scene_services_match_the_interpreter() {
     )
     .unwrap();
     let e = env();
-    let scene = HashScene::default();
+    let scene = if hardware_contract() {
+        HashScene::smooth()
+    } else {
+        HashScene::default()
+    };
     let mut frags = fragments(120);
     frags.extend(hard_fragments().into_iter().step_by(5));
     let plan = check(
@@ -792,7 +796,11 @@ fn every_example_network_matches_the_interpreter() {
         return;
     }
     let frags = fragments(23 * 17);
-    let scene = HashScene::default();
+    let scene = if hardware_contract() {
+        HashScene::smooth()
+    } else {
+        HashScene::default()
+    };
     let all = modes();
     let some: Vec<(&str, GpuOptions)> = all
         .into_iter()

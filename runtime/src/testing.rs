@@ -108,13 +108,25 @@ pub const HARD_INTS: &[i32] = &[0, 1, -1, 2, -2, 7, -7, 31, 100, -100, i32::MAX,
 
 /// A scene whose every answer is a hash of all its arguments' bits (so any argument a back
 /// end passes differently shows), with out-of-range and NaN occlusion answers; it counts its
-/// calls.
+/// calls. [`HashScene::smooth`] answers `trace` and `occlusion` with smooth functions of
+/// their arguments instead, for back ends held to a tolerance (a hardware GPU's directions
+/// differ from the CPU's by ulps, which a hash turns into unrelated answers).
 #[derive(Debug, Default)]
 pub struct HashScene {
     calls: AtomicUsize,
+    smooth: bool,
 }
 
 impl HashScene {
+    /// The scene with smooth `trace` and `occlusion` answers (shadow rays still hashed: their
+    /// end points come from the host's light samples, the same bits on every back end).
+    pub fn smooth() -> HashScene {
+        HashScene {
+            calls: AtomicUsize::new(0),
+            smooth: true,
+        }
+    }
+
     fn hash(&self, xs: impl IntoIterator<Item = u32>) -> u64 {
         self.calls.fetch_add(1, Ordering::Relaxed);
         let mut h = 0xcbf2_9ce4_8422_2325u64;
@@ -147,6 +159,13 @@ impl SceneServices for HashScene {
         depth: i32,
         bsdf_pdf: f32,
     ) -> [f32; 3] {
+        if self.smooth {
+            self.calls.fetch_add(1, Ordering::Relaxed);
+            let k =
+                1.0 + 0.01 * ray_type as f32 + 0.1 * depth as f32 + 0.5 / (1.0 + bsdf_pdf.abs());
+            let o = 0.05 * (origin[0] + origin[1] + origin[2]);
+            return std::array::from_fn(|c| k * (1.0 + 0.5 * dir[c] + o));
+        }
         let h = self.hash(bits(origin).into_iter().chain(bits(dir)).chain([
             ray_type as u32,
             depth as u32,
@@ -160,6 +179,11 @@ impl SceneServices for HashScene {
     }
 
     fn occlusion(&self, p: [f32; 3], n: [f32; 3], samples: u32, max: f32, seed: u32) -> f32 {
+        if self.smooth {
+            self.calls.fetch_add(1, Ordering::Relaxed);
+            let x = 0.5 + 0.2 * n[0] + 0.1 * n[2] + 0.05 * p[1] + 0.01 * (samples % 7) as f32;
+            return (x * max.clamp(0.0, 1.0)).clamp(0.0, 1.0);
+        }
         let h = self.hash(
             bits(p)
                 .into_iter()

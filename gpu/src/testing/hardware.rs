@@ -38,10 +38,10 @@ pub const PROGRAM_ULPS: u64 = 64;
 /// ... or the difference relative to max(1, |CPU's output|) ...
 pub const PROGRAM_ABS: f32 = 1e-5;
 /// ... and the share of the compared outputs allowed beyond both (a few ulps moved across a
-/// comparison, `floor`, a noise lattice, a branch or a lobe choice; an H100 showed up to
-/// 2.9 % of all outputs of a random program and 2.3 % of a mirror's sampled lobes,
-/// counted over every fragment before the domain was left out).
-pub const PROGRAM_OUTLIERS: f64 = 0.05;
+/// comparison, `floor`, a noise lattice, a branch or a lobe choice). Measured on an H100
+/// over the compared fragments: a mirror's sampled lobes 5.6 %, a conductor's 5.2 %, a
+/// random program 2.9 %; the mutations the contract must catch put 20–80 % beyond.
+pub const PROGRAM_OUTLIERS: f64 = 0.10;
 
 /// `x` with a subnormal flushed to the zero of its sign.
 pub fn flush(x: f32) -> f32 {
@@ -52,22 +52,28 @@ pub fn flush(x: f32) -> f32 {
     }
 }
 
-/// The operand vectors whose CPU results a flushing device may give: the operands as
-/// they are, with every subnormal flushed to the zero of its sign, to +0 and to -0 (WGSL
-/// does not say which zero; an H100 gives π for the atan2 of 0 and 1e-45, the CPU's for 0
-/// and -0).
-/// One vector when no operand is subnormal.
+/// The operand vectors whose CPU results a flushing device may give: every subnormal
+/// operand kept or flushed to +0 or to -0, each independently (WGSL does not say which
+/// zero; an H100 gives π for the atan2 of 1e-45 and 1e-45, the CPU's for +0 and -0). One
+/// vector when no operand is subnormal.
 pub fn ftz_variants(args: &[f32]) -> Vec<Vec<f32>> {
     let mut v = vec![args.to_vec()];
-    if args.iter().any(|x| x.is_subnormal()) {
-        v.push(args.iter().map(|x| flush(*x)).collect());
-        for zero in [0.0f32, -0.0] {
-            v.push(
-                args.iter()
-                    .map(|x| if x.is_subnormal() { zero } else { *x })
-                    .collect(),
-            );
+    // Each subnormal operand kept, or flushed to +0 or to -0, independently (the H100 flushed
+    // the operands of one atan2 to zeros of different signs): 3^k vectors for k subnormal
+    // operands, k at most a handful.
+    for (i, x) in args.iter().enumerate() {
+        if !x.is_subnormal() {
+            continue;
         }
+        let mut more = Vec::new();
+        for base in &v {
+            for zero in [0.0f32, -0.0] {
+                let mut w: Vec<f32> = base.clone();
+                w[i] = zero;
+                more.push(w);
+            }
+        }
+        v.extend(more);
     }
     v
 }
@@ -168,6 +174,15 @@ pub fn close(class: OpClass, got: f32, want: f32, scale: f32) -> bool {
 pub fn transcendental_bound(t: Transcendental, x: f32, y: f32, cpu: f32) -> (&'static str, Bound) {
     let (domain, bound) = super::documented_bound(t, x, y, cpu);
     match (t, bound) {
+        // Far from the origin the device's reduction may land tan on a pole (an H100 gives
+        // -inf for tan(2^24)): any value passes (the bound is |x| radians of angle).
+        (Transcendental::Tan, Bound::FiniteIffFinite { .. }) => (
+            domain,
+            Bound::DeviceTrig {
+                log2_per_x: 0,
+                tan: true,
+            },
+        ),
         (
             Transcendental::Sin | Transcendental::Cos | Transcendental::Tan,
             Bound::Ulps(_) | Bound::Reduced { .. },
@@ -361,8 +376,15 @@ mod tests {
         assert!(ftz_equal(f32::NAN, f32::NAN) && !ftz_equal(1e-30, 0.0));
         assert_eq!(ftz_variants(&[1.0, 2.0]).len(), 1);
         let v = ftz_variants(&[1e-45, 2.0]);
-        assert_eq!(v.len(), 4);
-        assert!(v[1][0] == 0.0 && v[2][0].is_sign_positive() && v[3][0].is_sign_negative());
+        assert_eq!(v.len(), 3);
+        assert!(v[1][0] == 0.0 && v[1][0].is_sign_positive() && v[2][0].is_sign_negative());
+        // Two subnormal operands flush independently: (+0, -0) is one of the nine.
+        let v = ftz_variants(&[1e-45, 1e-45]);
+        assert_eq!(v.len(), 9);
+        assert!(
+            v.iter()
+                .any(|w| w[0].is_sign_positive() && w[0] == 0.0 && w[1].is_sign_negative())
+        );
         let up = |x: f32, k: u32| f32::from_bits(x.to_bits() + k);
         assert!(close(OpClass::Sqrt, up(1.5, 1), 1.5, 0.0));
         assert!(!close(OpClass::Sqrt, up(1.5, 2), 1.5, 0.0));
@@ -384,8 +406,8 @@ mod tests {
             g
         };
         let all = |_: usize| true;
-        assert!(check_outputs(&moved(40), &want, 2, &all).is_ok());
-        assert!(check_outputs(&moved(60), &want, 2, &all).is_err());
+        assert!(check_outputs(&moved(90), &want, 2, &all).is_ok());
+        assert!(check_outputs(&moved(120), &want, 2, &all).is_err());
         // Fragments left out are not counted.
         let none = |_: usize| false;
         assert!(check_outputs(&moved(500), &want, 2, &none).is_ok());
