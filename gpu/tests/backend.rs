@@ -1365,3 +1365,28 @@ fn a_loop_with_a_trace_falls_back() {
         "{why}"
     );
 }
+
+/// A loop is written once whatever its trip count: the same WGSL for 10 and 4000 iterations
+/// (only the constant differs), one WGSL `loop` per IR loop.
+#[test]
+fn a_loop_kernel_does_not_grow_with_the_trip_count() {
+    let body = |trips: i32| {
+        format!(
+            "  %i0 = const 0 : int\n  %l = loop %i0, %p while {{\n    %ci = loop.var 0 : int\n    %nt = const {trips} : int\n    %cc = lt %ci, %nt : bool\n    yield %cc\n  }} do {{\n    %bi = loop.var 0 : int\n    %bv = loop.var 1 : vec3\n    %one = const 1 : int\n    %bi1 = add %bi, %one : int\n    %w = cross %bv, %n : vec3\n    %w2 = normalize %w : vec3\n    %bv1 = add %bv, %w2 : vec3\n    yield %bi1, %bv1\n  }}\n  %x = proj %l, 1 : vec3"
+        )
+    };
+    let wgsl = |trips| {
+        let p = program("trips", &body(trips), "  output r %x");
+        let pl = plan(&p, &GpuOptions::default(), &wgpu::Limits::default()).unwrap();
+        assert_eq!(pl.passes(), 1, "{pl}");
+        pl.wgsl()
+    };
+    let (short, long) = (wgsl(10), wgsl(4000));
+    eprintln!(
+        "a loop of 10 and of 4000 trips: {} and {} WGSL lines",
+        short.lines().count(),
+        long.lines().count()
+    );
+    assert_eq!(short.replace("10", "4000"), long.replace("10", "4000"));
+    assert_eq!(short.matches("loop {").count(), 1, "{short}");
+}
