@@ -1303,6 +1303,11 @@ fn loops_plan_without_a_device_and_refuse_host_steps_inside() {
                 wgsl.contains(" = 0u;") && wgsl.contains(" == 65536u) { break; }"),
                 "{name}"
             );
+            // One budget per loop nest, taken by every loop of it.
+            if mode == "fused" && name.starts_with("loop, nested") {
+                assert_eq!(wgsl.matches("var sn_budget_").count(), 1, "{wgsl}");
+                assert_eq!(wgsl.matches(" == 65536u) { break; }").count(), 2, "{wgsl}");
+            }
         }
     }
     let refused = [
