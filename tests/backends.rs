@@ -10,7 +10,8 @@
 //!
 //! Parity is checked on the output floats, on the non-finite counts and on the loops stopped
 //! at the iteration limit (`Material::loop_limits`; the loop rows run on the CPU back ends
-//! only: the GPU does not compile loops yet). Every row has a
+//! only: the GPU runs them but does not count stops; its loop rows are in
+//! `gpu/tests/backend.rs`). Every row has a
 //! [`Class`]: exact arithmetic (`+ - * /`, sqrt, comparisons, selects, min/max,
 //! floor/fract, …), intrinsics (noise, colour conversions, textures, light samples), one
 //! transcendental op, or transcendentals mixed with other ops; a back end states its
@@ -1987,8 +1988,9 @@ fn specular_lobes_on_every_backend() {
 
 // ---- loops ----
 
-/// The CPU back ends: the GPU does not compile loops yet (it refuses them, and the suite runs
-/// it without fallback).
+/// The CPU back ends: the GPU runs loops but does not count their stops
+/// (`Material::loop_limits`), and lavapipe caps a shader's loop iterations one short of the
+/// nest's budget (docs/gpu.md, "Loops"); its loop rows are in `gpu/tests/backend.rs`.
 fn cpu_only(ut: &UnderTest) -> bool {
     ut.name != "gpu"
 }

@@ -2,12 +2,12 @@
 //! "Plan").
 //!
 //! Owns: the plan's types, which the planner ([`crate::planner`]) fills in and the kernel
-//! writer ([`crate::kernel`]) and the material ([`crate::material`]) read: the [`Item`]s of
-//! the linearized program (values; an `If` as its arms' items under a [`Guard`] and a merge;
-//! an `Illuminance` as one atomic item), the [`HostStep`]s that cut the sequence, the
-//! [`Pass`]es, the buffer layouts every kernel and the host agree on ([`Layout`], the
-//! uniform slots `U_*`), how values are encoded in buffer columns ([`encode_const`]), and
-//! `Plan: Display` (what `shadenet compile --emit wgsl --stats` prints).
+//! writer ([`crate::kernel`]) and the material ([`crate::material`]) read: the [`Item`]s of the
+//! linearized program (values; an `If` as its arms' items under a [`Guard`] and a merge; an
+//! `Illuminance` or a `Loop` as one atomic item), the [`HostStep`]s that cut the sequence, the
+//! [`Pass`]es, the buffer layouts every kernel and the host agree on ([`Layout`], the uniform
+//! slots `U_*`), how values are encoded in buffer columns ([`encode_const`]), and `Plan:
+//! Display` (what `shadenet compile --emit wgsl --stats` prints).
 //!
 //! Must not touch: how a program is cut into a plan ([`crate::planner`]), the text of the
 //! kernels ([`crate::kernel`]), wgpu devices, buffers and dispatch ([`crate::material`]).
@@ -63,6 +63,14 @@ pub enum ItemKind {
         region: Value,
         /// Index into [`Layout::light_sets`].
         set: usize,
+    },
+    /// A loop (`Op::Loop`), run whole in one kernel: its carried values in `var`s, its
+    /// condition and body as structured WGSL inside a WGSL `loop` that also stops at
+    /// `LOOP_ITERATION_LIMIT` body runs; each `proj` of the region reads its carried value
+    /// once the loop is done.
+    Loop {
+        /// The `Loop` value.
+        region: Value,
     },
 }
 

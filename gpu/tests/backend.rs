@@ -9,13 +9,15 @@
 //! passes through `sn_tmp` unchanged).
 //!
 //! Covered: if/else with varying conditions (diverging and agreeing), nested ifs, light loops
-//! over point, distant, spot, quad and environment lights (several samples each) with
-//! ambient light, a light loop at a point other than `P` (a host step), ifs inside and around
-//! light loops, transforms between every pair of spaces, textures, parameters and the
-//! prelude (class compilation), component masks, the scene services (trace, occlusion and
-//! light visibility through a hashing fake scene), every example network, the fallback, the
-//! statistics and the time split. Without a device (naga only): every example network's
-//! kernels under every plan, the plan's listing, and the limits.
+//! over point, distant, spot, quad and environment lights (several samples each) with ambient
+//! light, a light loop at a point other than `P` (a host step), ifs inside and around light
+//! loops, transforms between every pair of spaces, textures, parameters and the prelude (class
+//! compilation), component masks, the scene services (trace, occlusion and light visibility
+//! through a hashing fake scene), every example network, loops (constant and varying trip
+//! counts, nested, with an `if` inside, inside an `if` arm and a light loop, no iteration,
+//! every carried type, the iteration limit; host steps inside refused), the fallback, the
+//! statistics and the time split. Without a device (naga only): every example network's kernels
+//! under every plan, the plan's listing, and the limits.
 //!
 //! On a hardware GPU (or under `SHADENET_GPU_ACCURACY=hardware`) the comparisons are the
 //! hardware contract instead (`shadenet_gpu::testing::hardware::check_outputs`: fragments
@@ -1131,4 +1133,273 @@ fn kept_buffers_serve_calls_of_any_size() {
         }
         assert_eq!(bad, want_bad, "call {k}: non-finite count");
     }
+}
+
+// ---- loops ----
+
+/// Loop programs (`Op::Loop`, mostly the rows of `tests/backends.rs`' `loops`) as (name,
+/// body, tolerance); each defines `%x`.
+const LOOPS: &[(&str, &str, Tol)] = &[
+    (
+        "loop, constant trip count",
+        "  %i0 = const 0 : int\n  %s0 = const 0.0 : float\n  %l = loop %i0, %s0 while {\n    %ci = loop.var 0 : int\n    %ten = const 10 : int\n    %cc = lt %ci, %ten : bool\n    yield %cc\n  } do {\n    %bi = loop.var 0 : int\n    %bs = loop.var 1 : float\n    %one = const 1 : int\n    %bi1 = add %bi, %one : int\n    %fi = convert %bi : float\n    %t = mul %fi, %a : float\n    %t2 = add %t, %b : float\n    %bs1 = add %bs, %t2 : float\n    yield %bi1, %bs1\n  }\n  %x = proj %l, 1 : float",
+        Tol::Exact,
+    ),
+    (
+        "loop, varying trip count",
+        "  %x0 = const 0.0 : float\n  %n0 = const 0 : int\n  %l = loop %x0, %n0 while {\n    %cx = loop.var 0 : float\n    %twenty = const 20.0 : float\n    %lim = mul %b, %twenty : float\n    %cc = lt %cx, %lim : bool\n    yield %cc\n  } do {\n    %bx = loop.var 0 : float\n    %bn = loop.var 1 : int\n    %one = const 1.0 : float\n    %ab = abs %a : float\n    %st = add %one, %ab : float\n    %bx1 = add %bx, %st : float\n    %ione = const 1 : int\n    %bn1 = add %bn, %ione : int\n    yield %bx1, %bn1\n  }\n  %lx = proj %l, 0 : float\n  %ln = proj %l, 1 : int\n  %lnf = convert %ln : float\n  %x = construct %lx, %lnf : vec2",
+        Tol::Exact,
+    ),
+    (
+        "loop, nested (the inner trip count depends on the outer carried value)",
+        "  %o0 = const 0 : int\n  %c0 = const (0.0, 0.0, 0.0) : color\n  %lo = loop %o0, %c0 while {\n    %oi = loop.var 0 : int\n    %four = const 4 : int\n    %oc = lt %oi, %four : bool\n    yield %oc\n  } do {\n    %oi2 = loop.var 0 : int\n    %oacc = loop.var 1 : color\n    %j0 = const 0 : int\n    %li = loop %j0, %oacc while {\n      %ij = loop.var 0 : int\n      %qi = convert %q : int\n      %lim2 = add %oi2, %qi : int\n      %ic = lt %ij, %lim2 : bool\n      yield %ic\n    } do {\n      %ij2 = loop.var 0 : int\n      %iacc = loop.var 1 : color\n      %half = const 0.5 : float\n      %hs = splat %half : color\n      %sc = mul %iacc, %hs : color\n      %jf = convert %ij2 : float\n      %js = splat %jf : color\n      %pj = mul %pc, %js : color\n      %na = add %sc, %pj : color\n      %ione = const 1 : int\n      %ij3 = add %ij2, %ione : int\n      yield %ij3, %na\n    }\n    %inner = proj %li, 1 : color\n    %oone = const 1 : int\n    %oi3 = add %oi2, %oone : int\n    yield %oi3, %inner\n  }\n  %x = proj %lo, 1 : color",
+        Tol::Exact,
+    ),
+    (
+        "loop, if inside the body",
+        "  %i0 = const 0 : int\n  %v0 = const (0.0, 0.0, 0.0) : vec3\n  %l = loop %i0, %v0 while {\n    %ci = loop.var 0 : int\n    %sev = const 7 : int\n    %lim = mod %m, %sev : int\n    %cc = lt %ci, %lim : bool\n    yield %cc\n  } do {\n    %bi = loop.var 0 : int\n    %bv = loop.var 1 : vec3\n    %two = const 2 : int\n    %par = mod %bi, %two : int\n    %zero = const 0 : int\n    %even = eq %par, %zero : bool\n    %e = and %even, %q : bool\n    %r0 = if %e {\n      %t = add %bv, %p : vec3\n      yield %t\n    } else {\n      %u = cross %bv, %n : vec3\n      %u2 = sub %u, %n : vec3\n      yield %u2\n    }\n    %nv = proj %r0, 0 : vec3\n    %one = const 1 : int\n    %bi1 = add %bi, %one : int\n    yield %bi1, %nv\n  }\n  %x = proj %l, 1 : vec3",
+        Tol::Exact,
+    ),
+    (
+        "loop inside an if arm",
+        "  %x0 = if %q {\n    %i0 = const 0 : int\n    %l = loop %i0, %a while {\n      %ci = loop.var 0 : int\n      %five = const 5 : int\n      %lim = mod %m, %five : int\n      %cc = lt %ci, %lim : bool\n      yield %cc\n    } do {\n      %bi = loop.var 0 : int\n      %bs = loop.var 1 : float\n      %one = const 1 : int\n      %bi1 = add %bi, %one : int\n      %t = mul %bs, %a : float\n      %t2 = add %t, %b : float\n      yield %bi1, %t2\n    }\n    %y = proj %l, 1 : float\n    yield %y\n  } else {\n    yield %b\n  }\n  %x = proj %x0, 0 : float",
+        Tol::Exact,
+    ),
+    (
+        "loop, no iteration",
+        "  %l = loop %a, %p while {\n    %za = loop.var 0 : float\n    %zc = lt %za, %za : bool\n    yield %zc\n  } do {\n    %zb = loop.var 0 : float\n    %zp = loop.var 1 : vec3\n    %z2 = add %zb, %zb : float\n    %zq = add %zp, %n : vec3\n    yield %z2, %zq\n  }\n  %l2 = loop while {\n    %f = const false : bool\n    yield %f\n  } do {\n    yield\n  }\n  %x1 = proj %l, 0 : float\n  %xv = proj %l, 1 : vec3\n  %x2 = extract %xv, 1 : float\n  %x = add %x1, %x2 : float",
+        Tol::Exact,
+    ),
+    (
+        "loop, every carried type (the bool flips each turn, the int wraps)",
+        "  %i0 = const 0 : int\n  %p4 = construct %a, %b, %c, %a : vec4\n  %l = loop %i0, %p, %pc, %k, %q, %uv, %p4 while {\n    %ci = loop.var 0 : int\n    %cb = loop.var 4 : bool\n    %three = const 3 : int\n    %lt3 = lt %ci, %three : bool\n    %six = const 6 : int\n    %lt6 = lt %ci, %six : bool\n    %more = and %lt6, %cb : bool\n    %cc = or %lt3, %more : bool\n    yield %cc\n  } do {\n    %bi = loop.var 0 : int\n    %bv = loop.var 1 : vec3\n    %bc = loop.var 2 : color\n    %bk = loop.var 3 : int\n    %bq = loop.var 4 : bool\n    %bu = loop.var 5 : vec2\n    %b4 = loop.var 6 : vec4\n    %one = const 1 : int\n    %bi1 = add %bi, %one : int\n    %bv1 = mul %bv, %n : vec3\n    %bc1 = sub %bc, %pc : color\n    %kk = const 3 : int\n    %bk0 = mul %bk, %kk : int\n    %bk1 = add %bk0, %one : int\n    %bq1 = not %bq : bool\n    %bu1 = add %bu, %uv : vec2\n    %b41 = mul %b4, %p4 : vec4\n    yield %bi1, %bv1, %bc1, %bk1, %bq1, %bu1, %b41\n  }\n  %r0 = proj %l, 0 : int\n  %r1 = proj %l, 1 : vec3\n  %r2 = proj %l, 2 : color\n  %r3 = proj %l, 3 : int\n  %r4 = proj %l, 4 : bool\n  %r5 = proj %l, 5 : vec2\n  %r6 = proj %l, 6 : vec4\n  %f0 = convert %r0 : float\n  %f3 = convert %r3 : float\n  %f4 = convert %r4 : float\n  %e1 = dot %r1, %r1 : float\n  %e2 = extract %r2, 1 : float\n  %e5 = extract %r5, 0 : float\n  %e6 = extract %r6, 3 : float\n  %s1 = add %f0, %f3 : float\n  %s2 = add %s1, %f4 : float\n  %s3 = add %s2, %e1 : float\n  %s4 = add %s3, %e2 : float\n  %s5 = add %s4, %e5 : float\n  %x = add %s5, %e6 : float",
+        Tol::Exact,
+    ),
+    (
+        "loop that never ends (stops at the iteration limit)",
+        "  %l = loop %a while {\n    %t = const true : bool\n    yield %t\n  } do {\n    %v = loop.var 0 : float\n    %v1 = add %v, %b : float\n    yield %v1\n  }\n  %x = proj %l, 0 : float",
+        Tol::Exact,
+    ),
+    (
+        "loop that never ends, inside a loop of varying trip count",
+        "  %i0 = const 0 : int\n  %z = const 0.0 : float\n  %l = loop %i0, %z while {\n    %ci = loop.var 0 : int\n    %four = const 4 : int\n    %lim = mod %m, %four : int\n    %cc = lt %ci, %lim : bool\n    yield %cc\n  } do {\n    %bi = loop.var 0 : int\n    %bs = loop.var 1 : float\n    %li = loop %bs while {\n      %t = const true : bool\n      yield %t\n    } do {\n      %v = loop.var 0 : float\n      %v1 = add %v, %a : float\n      yield %v1\n    }\n    %iv = proj %li, 0 : float\n    %one = const 1 : int\n    %bi1 = add %bi, %one : int\n    yield %bi1, %iv\n  }\n  %x = proj %l, 1 : float",
+        Tol::Exact,
+    ),
+    (
+        "loop inside a light loop",
+        "  %l0 = illuminance %p {\n    %L = light.L : vec3\n    %C = light.Cl : color\n    %d = dot %n, %L : float\n    %s0 = const 0.0 : float\n    %w0 = abs %d : float\n    %lp = loop %s0, %w0 while {\n      %lw = loop.var 1 : float\n      %eps = const 0.01 : float\n      %gc = gt %lw, %eps : bool\n      yield %gc\n    } do {\n      %ls = loop.var 0 : float\n      %lw2 = loop.var 1 : float\n      %lsn = add %ls, %lw2 : float\n      %hf = const 0.5 : float\n      %lwn = mul %lw2, %hf : float\n      yield %lsn, %lwn\n    }\n    %ss = proj %lp, 0 : float\n    %sc = splat %ss : color\n    %y = mul %C, %sc : color\n    yield %y\n  }\n  %x = proj %l0, 0 : color",
+        Tol::Exact,
+    ),
+];
+
+/// A value computed before a loop and read inside it, a loop result read by later values
+/// (so that plans of several passes cut around the loop item).
+const LOOP_AROUND: &str = "  %o = mul %a, %c : float\n  %l = loop %o, %k while {\n    %cv = loop.var 1 : int\n    %z = const 3 : int\n    %cc = lt %cv, %z : bool\n    yield %cc\n  } do {\n    %bv = loop.var 0 : float\n    %bk = loop.var 1 : int\n    %w = mul %bv, %o : float\n    %w2 = add %w, %b : float\n    %one = const 1 : int\n    %bk1 = add %bk, %one : int\n    yield %w2, %bk1\n  }\n  %l0 = proj %l, 0 : float\n  %l1 = proj %l, 1 : int\n  %lf = convert %l1 : float\n  %y = mul %l0, %lf : float\n  %x = sub %y, %o : float";
+
+/// The fragments on which the interpreter stops a loop nest at its budget
+/// (`LOOP_ITERATION_LIMIT` body runs), by index.
+fn interp_stops(p: &Program, env: &ShadeEnv, frags: &[Fragment]) -> Vec<usize> {
+    let m = InterpBackend.compile_program(p, Duration::ZERO).unwrap();
+    let mut out = vec![0.0; m.width()];
+    let mut stopped = Vec::new();
+    for (k, f) in frags.iter().enumerate() {
+        let before = m.loop_limits();
+        m.shade(&shadenet_runtime::ShadeCtx::new(*f, env), &mut out);
+        if m.loop_limits() > before {
+            stopped.push(k);
+        }
+    }
+    stopped
+}
+
+/// Loops run on the GPU, whole in one kernel item, as the interpreter runs them: bit for
+/// bit under every plan, as written (a loop) and optimized (the `unroll` pass may unroll
+/// constant trip counts), on ordinary and hard fragments.
+///
+/// Fragments whose loop nest runs out of its budget (65 536 body runs) are compared on a
+/// hardware adapter only: llvmpipe (lavapipe) stops every shader after 65 535 loop
+/// iterations of all its loops together (`LP_MAX_TGSI_LOOP_ITERATIONS`, Mesa's
+/// `lp_bld_limits.h`), one short of the budget, so there it gives the values of 65 535 body
+/// runs (measured: 65535.0 for 65536.0); the test prints how many such fragments differ.
+#[test]
+fn loops_match_the_interpreter() {
+    let Some(ctx) = device_or_skip("loops_match_the_interpreter") else {
+        return;
+    };
+    let capped = ctx.info.is_software();
+    let rows = LOOPS
+        .iter()
+        .copied()
+        .chain([("values around a loop", LOOP_AROUND, Tol::Exact)]);
+    for (name, body, tol) in rows {
+        let p = program(name, body, "  output r %x\n  output q %q");
+        let (o, _) = opt::run(&p, &Specialization::default());
+        for (label, all) in [("ordinary", fragments(150)), ("hard", hard_fragments())] {
+            let what = format!("{name}, {label} fragments");
+            let stopped = interp_stops(&p, &env(), &all);
+            if name.contains("never ends") {
+                assert!(
+                    !stopped.is_empty(),
+                    "{what}: no fragment reaches the budget"
+                );
+            }
+            let frags: Vec<Fragment> = (0..all.len())
+                .filter(|k| !stopped.contains(k))
+                .map(|k| all[k])
+                .collect();
+            if !frags.is_empty() {
+                let plan = check(&what, &p, &env(), u32::MAX, None, &frags, tol);
+                let loops = plan
+                    .steps
+                    .iter()
+                    .filter_map(|s| match s {
+                        Step::Pass(ps) => Some(ps),
+                        Step::Host(_) => None,
+                    })
+                    .flat_map(|ps| &ps.items)
+                    .filter(|it| matches!(it.kind, ItemKind::Loop { .. }))
+                    .count();
+                assert!(loops >= 1 || name.contains("light loop"), "{what}\n{plan}");
+                let what = format!("{what} (optimized)");
+                check(&what, &o, &env(), u32::MAX, None, &frags, tol);
+            }
+            if stopped.is_empty() {
+                continue;
+            }
+            let at_budget: Vec<Fragment> = stopped.iter().map(|&k| all[k]).collect();
+            if !capped {
+                let what = format!("{what}, at the budget");
+                check(&what, &p, &env(), u32::MAX, None, &at_budget, tol);
+                continue;
+            }
+            let reference = InterpBackend.compile_program(&p, Duration::ZERO).unwrap();
+            let (want, _, _) = shade(&*reference, &env(), u32::MAX, None, &at_budget);
+            let m = compile(&backend(GpuOptions::default()), &what, &p);
+            let (got, _, _) = shade(&m, &env(), u32::MAX, None, &at_budget);
+            assert!(!m.device_failed(), "{what}");
+            let differ = got
+                .iter()
+                .zip(&want)
+                .filter(|(g, x)| !same(**g, **x))
+                .count();
+            eprintln!(
+                "{what}: {} fragments at the budget, {differ} of {} floats differ on this \
+                 software adapter (its loop cap)",
+                at_budget.len(),
+                got.len()
+            );
+        }
+    }
+}
+
+/// A loop whose body asks the scene or runs a light loop is refused with the reason (the
+/// material falls back); without a device, every loop row plans into kernels naga accepts,
+/// with one `loop` item per top-level loop and the iteration limit in the WGSL.
+#[test]
+fn loops_plan_without_a_device_and_refuse_host_steps_inside() {
+    let limits = wgpu::Limits::default();
+    for (name, body, _) in LOOPS {
+        let p = program(name, body, "  output r %x");
+        for (mode, options) in modes() {
+            let pl = plan(&p, &options, &limits).unwrap_or_else(|e| panic!("{name}: {e}"));
+            for k in pl.kernels() {
+                shadenet_gpu::kernel::validate(k.wgsl)
+                    .unwrap_or_else(|e| panic!("{name} ({mode}): pass {}: {e}", k.pass));
+            }
+            let wgsl = pl.wgsl();
+            assert!(
+                wgsl.contains(" = 0u;") && wgsl.contains(" == 65536u) { break; }"),
+                "{name}"
+            );
+            // One budget per loop nest, taken by every loop of it.
+            if mode == "fused" && name.starts_with("loop, nested") {
+                assert_eq!(wgsl.matches("var sn_budget_").count(), 1, "{wgsl}");
+                assert_eq!(wgsl.matches(" == 65536u) { break; }").count(), 2, "{wgsl}");
+            }
+        }
+    }
+    let refused = [
+        (
+            "trace in a loop",
+            "  %l = loop %pc while {\n    %t = const true : bool\n    yield %t\n  } do {\n    %tr = trace reflection %n : color\n    yield %tr\n  }\n  %x = proj %l, 0 : color",
+            "trace",
+        ),
+        (
+            "occlusion in an if in a loop",
+            "  %l = loop %a while {\n    %t = const true : bool\n    yield %t\n  } do {\n    %v = loop.var 0 : float\n    %w = if %q {\n      %oc = occlusion %n, %k, %v : float\n      yield %oc\n    } else {\n      yield %v\n    }\n    %wv = proj %w, 0 : float\n    yield %wv\n  }\n  %x = proj %l, 0 : float",
+            "occlusion",
+        ),
+        (
+            "light loop in a loop",
+            "  %l = loop %pc while {\n    %t = const true : bool\n    yield %t\n  } do {\n    %il = illuminance %p {\n      %C = light.Cl : color\n      yield %C\n    }\n    %s = proj %il, 0 : color\n    yield %s\n  }\n  %x = proj %l, 0 : color",
+            "illuminance",
+        ),
+    ];
+    for (name, body, op) in refused {
+        let p = program(name, body, "  output r %x");
+        match plan(&p, &GpuOptions::default(), &limits) {
+            Err(BackendError::Unsupported {
+                backend,
+                op: o,
+                reason,
+                ..
+            }) => {
+                assert_eq!(backend, "gpu");
+                assert!(o.contains(op), "{name}: {o}");
+                assert!(
+                    reason.starts_with("inside the loop %")
+                        && reason.contains("runs a loop whole in one kernel"),
+                    "{name}: {reason}"
+                );
+            }
+            Err(e) => panic!("{name}: expected Unsupported, got {e}"),
+            Ok(pl) => panic!("{name}: expected Unsupported, got\n{pl}"),
+        }
+    }
+}
+
+/// A loop the GPU refuses falls back to the companion back end, which runs it.
+#[test]
+fn a_loop_with_a_trace_falls_back() {
+    if device_or_skip("a_loop_with_a_trace_falls_back").is_none() {
+        return;
+    }
+    let p = program(
+        "trace in a loop",
+        "  %i0 = const 0 : int\n  %l = loop %i0, %pc while {\n    %ci = loop.var 0 : int\n    %two = const 2 : int\n    %cc = lt %ci, %two : bool\n    yield %cc\n  } do {\n    %bi = loop.var 0 : int\n    %d = loop.var 1 : color\n    %dv = construct %b, %a, %c : vec3\n    %tr = trace reflection %dv : color\n    %one = const 1 : int\n    %bi1 = add %bi, %one : int\n    yield %bi1, %tr\n  }\n  %x = proj %l, 1 : color",
+        "  output r %x",
+    );
+    let lenient = GpuBackend::new(GpuOptions::default(), Arc::new(InterpBackend)).unwrap();
+    let m = lenient.compile_program(&p, Duration::ZERO).unwrap();
+    assert_eq!(m.info().backend, "interp");
+    let why = m.info().fallback.clone().unwrap_or_default();
+    assert!(
+        why.contains("trace") && why.contains("inside the loop"),
+        "{why}"
+    );
+}
+
+/// A loop is written once whatever its trip count: the same WGSL for 10 and 4000 iterations
+/// (only the constant differs), one WGSL `loop` per IR loop.
+#[test]
+fn a_loop_kernel_does_not_grow_with_the_trip_count() {
+    let body = |trips: i32| {
+        format!(
+            "  %i0 = const 0 : int\n  %l = loop %i0, %p while {{\n    %ci = loop.var 0 : int\n    %nt = const {trips} : int\n    %cc = lt %ci, %nt : bool\n    yield %cc\n  }} do {{\n    %bi = loop.var 0 : int\n    %bv = loop.var 1 : vec3\n    %one = const 1 : int\n    %bi1 = add %bi, %one : int\n    %w = cross %bv, %n : vec3\n    %w2 = normalize %w : vec3\n    %bv1 = add %bv, %w2 : vec3\n    yield %bi1, %bv1\n  }}\n  %x = proj %l, 1 : vec3"
+        )
+    };
+    let wgsl = |trips| {
+        let p = program("trips", &body(trips), "  output r %x");
+        let pl = plan(&p, &GpuOptions::default(), &wgpu::Limits::default()).unwrap();
+        assert_eq!(pl.passes(), 1, "{pl}");
+        pl.wgsl()
+    };
+    let (short, long) = (wgsl(10), wgsl(4000));
+    eprintln!(
+        "a loop of 10 and of 4000 trips: {} and {} WGSL lines",
+        short.lines().count(),
+        long.lines().count()
+    );
+    assert_eq!(short.replace("10", "4000"), long.replace("10", "4000"));
+    assert_eq!(short.matches("loop {").count(), 1, "{short}");
 }

@@ -1,20 +1,21 @@
 //! One WGSL compute kernel per pass of a [`Plan`] (docs/gpu.md, "Data layout" and "Plan").
 //!
 //! Owns: the bindings (`sn_uni`, `sn_frag`, `sn_out`, `sn_tmp`, and where a pass needs them
-//! `sn_light`, `sn_texels`, `sn_tex_info`), the entry point (`@compute
-//! @workgroup_size(W)`, one invocation per fragment, `if (i >= n) { return; }`), the loads
-//! of streams, uniforms and `sn_tmp` columns, the pass's guard as an early return, every
-//! value as a function-scope `var` (so a value assigned under a guard stays visible to the
-//! merge after it), guarded items as nested `if` blocks, merges as `select`, the light loop
-//! (`for (var j = 0u; j < S; j++)` over the samples the host wrote, the body's yields summed
-//! from zero in sample order as the interpreter does), and the stores of crossing values and
-//! outputs. The ops that are not pure are written here: streams, parameters and prelude
-//! values (loads), `transform` (the uniform matrices, through world space, normals by the
-//! inverse transpose, as `runtime::interp::transform`), `component_enabled` (the mask),
-//! `ambient`, the light sample, `texture` (`sn_texture`), `proj`; every pure op comes from
-//! [`emit::op_expr`]. Every float value (and float constant) is assigned behind a value
-//! barrier (an XOR with a uniform zero) so that the shader compiler cannot rewrite
-//! arithmetic across IR ops: see `writer::keep` for why.
+//! `sn_light`, `sn_texels`, `sn_tex_info`), the entry point (`@compute @workgroup_size(W)`, one
+//! invocation per fragment, `if (i >= n) { return; }`), the loads of streams, uniforms and
+//! `sn_tmp` columns, the pass's guard as an early return, every value as a function-scope `var`
+//! (so a value assigned under a guard stays visible to the merge after it), guarded items as
+//! nested `if` blocks, merges as `select`, the light loop (`for (var j = 0u; j < S; j++)` over
+//! the samples the host wrote, the body's yields summed from zero in sample order as the
+//! interpreter does), loops (a WGSL `loop` over the carried values' `var`s, stopped at the
+//! iteration limit: `writer::loops`), and the stores of crossing values and outputs. The ops
+//! that are not pure are written here: streams, parameters and prelude values (loads),
+//! `transform` (the uniform matrices, through world space, normals by the inverse transpose, as
+//! `runtime::interp::transform`), `component_enabled` (the mask), `ambient`, the light sample,
+//! `texture` (`sn_texture`), `proj`; every pure op comes from [`emit::op_expr`]. Every float
+//! value (and float constant) is assigned behind a value barrier (an XOR with a uniform zero)
+//! so that the shader compiler cannot rewrite arithmetic across IR ops: see `writer::keep` for
+//! why.
 //!
 //! [`validate`] runs naga's WGSL front end and validator on a kernel.
 //!
@@ -88,7 +89,7 @@ pub(crate) fn write(
 }
 
 /// The values the pass assigns (declared as function-scope `var`s), sorted: its items'
-/// values, the results of its merges, and every value inside its light loops.
+/// values, the results of its merges, and every value inside its light loops and loops.
 fn pass_locals(w: &Writer<'_>, p: &Program, plan: &Plan, pass: &Pass) -> Vec<Value> {
     let remat = |v: Value| is_remat(p, &plan.layout.prelude, v);
     let mut locals: Vec<Value> = Vec::new();
@@ -96,6 +97,16 @@ fn pass_locals(w: &Writer<'_>, p: &Program, plan: &Plan, pass: &Pass) -> Vec<Val
         match &it.kind {
             ItemKind::Value(v) => locals.push(*v),
             ItemKind::Merge(r) => locals.extend(w.projs(*r).into_iter().map(|x| x.0)),
+            ItemKind::Loop { region } => {
+                for b in p.op(*region).blocks() {
+                    p.walk(b, &mut |v| {
+                        if !remat(v) && p.expr(v).ty.is_some() {
+                            locals.push(v);
+                        }
+                    });
+                }
+                locals.extend(w.projs(*region).into_iter().map(|x| x.0));
+            }
             ItemKind::Illuminance { region, .. } => {
                 if let Op::Illuminance { body, .. } = p.op(*region) {
                     p.walk(body, &mut |v| {

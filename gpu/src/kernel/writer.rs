@@ -4,10 +4,12 @@
 //! Owns: the WGSL names of values, operands (streams, parameters and prelude values loaded
 //! once; constants; the mask, ambient light and light sample; values of earlier steps from
 //! `sn_tmp`), the value barrier ([`keep`]), the ops that are not pure (`transform`,
-//! `texture`), items (values, merges, light loops), the structured blocks inside a light
-//! loop, and the stores of crossing values and outputs. Must not touch: the order of a
-//! kernel's parts and its bindings ([`super`]), the included library ([`super::library`]),
-//! the WGSL of pure ops ([`crate::emit`]).
+//! `texture`), items (values, merges, light loops, loops: `loops`), the structured blocks
+//! inside a light loop or loop, and the stores of crossing values and outputs. Must not
+//! touch: the order of a kernel's parts and its bindings ([`super`]), the included library
+//! ([`super::library`]), the WGSL of pure ops ([`crate::emit`]).
+
+mod loops;
 
 use crate::emit;
 use crate::plan::{
@@ -44,6 +46,8 @@ pub(super) struct Writer<'a> {
     pub(super) loads: BTreeSet<Value>,
     /// Whether the code being written is inside a light loop (the light sample is in scope).
     in_loop: bool,
+    /// The loops whose blocks are being written, innermost last (`loop.var` reads the last).
+    loops: Vec<Value>,
     /// Whether some operand reads the component mask (`sn_mask`).
     pub(super) uses_mask: bool,
     /// Whether some operand reads the ambient light (`sn_ambient`).
@@ -153,6 +157,7 @@ impl<'a> Writer<'a> {
             remat: BTreeSet::new(),
             loads: BTreeSet::new(),
             in_loop: false,
+            loops: Vec::new(),
             uses_mask: false,
             uses_ambient: false,
             uses_xf: false,
@@ -316,7 +321,12 @@ impl Writer<'_> {
                 let bits = sampling.bits();
                 format!("sn_texture({texture}u, {bits}u, {uv}, {dx}, {dy}).{sw}")
             }
-            Op::Trace { .. } | Op::Occlusion { .. } | Op::Illuminance { .. } | Op::If { .. } => {
+            Op::Trace { .. }
+            | Op::Occlusion { .. }
+            | Op::Illuminance { .. }
+            | Op::If { .. }
+            | Op::Loop { .. }
+            | Op::LoopVar(_) => {
                 return Err(self.codegen(format!(
                     "{} is not a kernel item",
                     value_name(&self.plan.names, v)
@@ -411,6 +421,12 @@ impl Writer<'_> {
                 }
                 self.check()?;
             }
+            ItemKind::Loop { region } => {
+                self.loop_region(out, depth, *region)?;
+                for (pv, _) in self.projs(*region) {
+                    self.stores(out, depth, pv);
+                }
+            }
             ItemKind::Illuminance { region, set } => {
                 let Op::Illuminance { body, .. } = p.op(*region) else {
                     return Err(self.codegen("a light loop of a value that is not one".into()));
@@ -477,8 +493,8 @@ impl Writer<'_> {
         Ok(())
     }
 
-    /// A block inside a light loop, as structured WGSL: an `if` runs only its taken arm, as
-    /// in the interpreter.
+    /// A block inside a light loop or loop, as structured WGSL: an `if` runs only its taken
+    /// arm, as in the interpreter; a loop is written whole (`loops`).
     fn structured(
         &mut self,
         out: &mut String,
@@ -509,10 +525,12 @@ impl Writer<'_> {
                         line(out, depth, if last { "}" } else { "} else {" });
                     }
                 }
+                Op::Loop { .. } => self.loop_region(out, depth, v)?,
+                Op::LoopVar(k) => self.loop_var(out, depth, v, *k)?,
                 Op::Illuminance { .. } | Op::Trace { .. } | Op::Occlusion { .. } => {
                     return Err(self.unsupported(
                         v,
-                        "a light loop runs whole in one kernel: no host step or other light \
+                        "a light loop or loop runs whole in one kernel: no host step or light \
                          loop inside it"
                             .into(),
                     ));

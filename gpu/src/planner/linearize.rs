@@ -2,8 +2,9 @@
 //!
 //! Owns: walking the body once, in order; an `If` becomes its arms' items under a [`Guard`]
 //! and a merge, an `Illuminance` one atomic item (plus a host step for its light samples when
-//! they are seen from a point other than the stream `P`), `trace` and `occlusion` host
-//! steps; the light sets. Must not touch: how the sequence is cut into passes
+//! they are seen from a point other than the stream `P`), a `Loop` one atomic item (refused
+//! when it holds a host step or a light loop), `trace` and `occlusion` host steps; the light
+//! sets. Must not touch: how the sequence is cut into passes
 //! ([`super::partition`]) or which values cross a step ([`super::liveness`]).
 
 use crate::plan::{Guard, HostKind, Item, ItemKind, LightSet, is_remat, value_name};
@@ -127,8 +128,16 @@ impl Linearizer<'_> {
                         cost: cost.max(1),
                     }));
                 }
-                Op::Loop { .. } | Op::LoopVar(_) => {
-                    let why = "the GPU back end does not run loops yet".to_string();
+                Op::Loop { .. } => {
+                    let cost = self.loop_cost(v)?;
+                    self.entries.push(Entry::Item(Item {
+                        kind: ItemKind::Loop { region: v },
+                        guard: guard.clone(),
+                        cost,
+                    }));
+                }
+                Op::LoopVar(_) => {
+                    let why = "`loop.var` outside a loop".to_string();
                     return Err(unsupported(p, self.names, v, why));
                 }
                 Op::Trace { .. } => self
@@ -145,6 +154,42 @@ impl Linearizer<'_> {
             }
         }
         Ok(())
+    }
+}
+
+impl Linearizer<'_> {
+    /// The cost of the loop `v` (the ops inside it, run once), or the refusal of what it
+    /// holds that one kernel cannot run: a host step (`trace`, `occlusion`) or a light loop.
+    fn loop_cost(&self, v: Value) -> Result<usize, BackendError> {
+        let p = self.p;
+        let mut cost = 0;
+        let mut bad = None;
+        for inner in p.op(v).blocks() {
+            p.walk(inner, &mut |b| {
+                if matches!(
+                    p.op(b),
+                    Op::Trace { .. } | Op::Occlusion { .. } | Op::Illuminance { .. }
+                ) {
+                    bad.get_or_insert(b);
+                }
+                if !is_remat(p, self.prelude, b) && !matches!(p.op(b), Op::Proj(..)) {
+                    cost += 1;
+                }
+            });
+        }
+        if let Some(b) = bad {
+            return Err(unsupported(
+                p,
+                self.names,
+                b,
+                format!(
+                    "inside the loop {}: the GPU back end runs a loop whole in one kernel and \
+                     cannot stop it for a host step or a light loop",
+                    value_name(self.names, v)
+                ),
+            ));
+        }
+        Ok(cost.max(1))
     }
 }
 

@@ -92,6 +92,18 @@ pub(super) fn flow(
                                 }
                             }
                         }
+                        ItemKind::Loop { region } => {
+                            if let Op::Loop { init, cond, body } = p.op(*region) {
+                                u.extend(init.iter().copied());
+                                for b in [cond, body] {
+                                    u.extend(free_values(p, b));
+                                    p.walk(b, &mut |x| def[x.index()] = Some(s));
+                                }
+                            }
+                            for &(pv, _) in projs.get(&region.index()).into_iter().flatten() {
+                                def[pv.index()] = Some(s);
+                            }
+                        }
                         ItemKind::Illuminance { region, .. } => {
                             if let Op::Illuminance { body, .. } = p.op(*region) {
                                 u.extend(free_values(p, body));
