@@ -958,6 +958,14 @@ fn hw_class(row: &Row) -> OpClass {
             OpClass::Contracted
         }
         Op::Call(Intrinsic::RgbToHsv | Intrinsic::HsvToRgb, _) => OpClass::Contracted,
+        Op::Call(
+            Intrinsic::Fbm3
+            | Intrinsic::MxFractal2
+            | Intrinsic::MxFractal3
+            | Intrinsic::MxVFractal2
+            | Intrinsic::MxVFractal3,
+            _,
+        ) => OpClass::Fractal,
         Op::Call(..) => OpClass::Noise,
         _ => OpClass::Exact,
     }

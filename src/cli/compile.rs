@@ -172,6 +172,7 @@ fn gpu_outputs(
                 ItemKind::Illuminance { region, .. } => {
                     format!("illuminance({})", plan.name(*region))
                 }
+                ItemKind::Loop { region } => format!("loop({})", plan.name(*region)),
             })
             .collect();
         let mut line = String::from("// items:");
