@@ -65,31 +65,7 @@ impl Linearizer<'_> {
                     }));
                 }
                 Op::Illuminance { p: point, body } => {
-                    let mut cost = 0;
-                    let mut bad = None;
-                    p.walk(body, &mut |b| {
-                        match p.op(b) {
-                            Op::Trace { .. } | Op::Occlusion { .. } | Op::Illuminance { .. } => {
-                                bad.get_or_insert(b);
-                            }
-                            _ => {}
-                        }
-                        if !is_remat(p, self.prelude, b) && !matches!(p.op(b), Op::Proj(..)) {
-                            cost += 1;
-                        }
-                    });
-                    if let Some(b) = bad {
-                        return Err(unsupported(
-                            p,
-                            self.names,
-                            b,
-                            format!(
-                                "inside the light loop {}: the GPU back end runs a light loop \
-                                 whole in one kernel and cannot stop it for a host step",
-                                value_name(self.names, v)
-                            ),
-                        ));
-                    }
+                    let cost = self.region_cost(v, "light loop")?;
                     let reads_visible = {
                         let mut r = false;
                         p.walk(body, &mut |b| r |= *p.op(b) == Op::LightVisible);
@@ -125,11 +101,11 @@ impl Linearizer<'_> {
                     self.entries.push(Entry::Item(Item {
                         kind: ItemKind::Illuminance { region: v, set },
                         guard: guard.clone(),
-                        cost: cost.max(1),
+                        cost,
                     }));
                 }
                 Op::Loop { .. } => {
-                    let cost = self.loop_cost(v)?;
+                    let cost = self.region_cost(v, "loop")?;
                     self.entries.push(Entry::Item(Item {
                         kind: ItemKind::Loop { region: v },
                         guard: guard.clone(),
@@ -158,9 +134,10 @@ impl Linearizer<'_> {
 }
 
 impl Linearizer<'_> {
-    /// The cost of the loop `v` (the ops inside it, run once), or the refusal of what it
-    /// holds that one kernel cannot run: a host step (`trace`, `occlusion`) or a light loop.
-    fn loop_cost(&self, v: Value) -> Result<usize, BackendError> {
+    /// The cost of the region `v` (a light loop or a loop: the ops inside it, run once), or
+    /// the refusal of what it holds that one kernel cannot run: a host step (`trace`,
+    /// `occlusion`) or a light loop. `kind` names the region in the message.
+    fn region_cost(&self, v: Value, kind: &str) -> Result<usize, BackendError> {
         let p = self.p;
         let mut cost = 0;
         let mut bad = None;
@@ -183,8 +160,8 @@ impl Linearizer<'_> {
                 self.names,
                 b,
                 format!(
-                    "inside the loop {}: the GPU back end runs a loop whole in one kernel and \
-                     cannot stop it for a host step or a light loop",
+                    "inside the {kind} {}: the GPU back end runs a {kind} whole in one kernel \
+                     and cannot stop it for a host step or a light loop",
                     value_name(self.names, v)
                 ),
             ));

@@ -62,6 +62,41 @@ impl Op {
         }
     }
 
+    /// Whether the op is a pure function of its operands' values alone (`Unary`, `Binary`,
+    /// `Select`, `Construct`, `Extract`, `Splat`, `Convert`, `Call`): what constant folding
+    /// evaluates, loop unrolling simulates and uniform hoisting may move. Every other op
+    /// reads an input, the context, the scene or a region's state, or is a region.
+    pub fn is_pure(&self) -> bool {
+        match self {
+            Op::Unary(..)
+            | Op::Binary(..)
+            | Op::Select { .. }
+            | Op::Construct(_)
+            | Op::Extract(..)
+            | Op::Splat(_)
+            | Op::Convert(_)
+            | Op::Call(..) => true,
+            Op::Const(_)
+            | Op::Param(_)
+            | Op::Stream(_)
+            | Op::Transform { .. }
+            | Op::ComponentEnabled(_)
+            | Op::LightL
+            | Op::LightCl
+            | Op::LightVisible
+            | Op::LightPdf
+            | Op::Ambient
+            | Op::Texture { .. }
+            | Op::Trace { .. }
+            | Op::Occlusion { .. }
+            | Op::If { .. }
+            | Op::Illuminance { .. }
+            | Op::Loop { .. }
+            | Op::LoopVar(_)
+            | Op::Proj(..) => false,
+        }
+    }
+
     /// Whether the op is a region (`If`, `Illuminance`, `Loop`).
     pub fn is_region(&self) -> bool {
         matches!(

@@ -144,17 +144,9 @@ fn konst(p: &Program, v: Value) -> Option<&ConstValue> {
 /// `op` (operands already resolved) evaluated in f32 when every operand is a constant, as
 /// a constant of type `ty`; `None` when it cannot or must not be folded.
 fn fold(p: &Program, op: &Op, ty: Type) -> Option<ConstValue> {
-    match op {
-        Op::Unary(..)
-        | Op::Binary(..)
-        | Op::Select { .. }
-        | Op::Construct(_)
-        | Op::Extract(..)
-        | Op::Splat(_)
-        | Op::Convert(_)
-        | Op::Call(..) => {}
-        // Inputs, context-dependent ops, regions and projections.
-        _ => return None,
+    // Inputs, context-dependent ops, regions and projections are never folded.
+    if !op.is_pure() {
+        return None;
     }
     let mut consts: Vec<&ConstValue> = Vec::new();
     let mut all = true;
@@ -294,15 +286,9 @@ fn constant_memo(
                 consts.push(constant_memo(p, o, memo, depth + 1)?);
             }
             let refs: Vec<&ConstValue> = consts.iter().collect();
-            match op {
-                Op::Unary(..)
-                | Op::Binary(..)
-                | Op::Construct(_)
-                | Op::Extract(..)
-                | Op::Splat(_)
-                | Op::Convert(_)
-                | Op::Call(..) => fold_consts(op, ty, &refs),
-                _ => None,
+            match op.is_pure() {
+                true => fold_consts(op, ty, &refs),
+                false => None,
             }
         }
     };

@@ -92,34 +92,8 @@ pub fn run(p: &mut Program, _spec: &Specialization) -> usize {
     count
 }
 
-/// Whether an op may be computed in the prelude (given prelude operands).
+/// Whether an op may be computed in the prelude (given prelude operands): constants,
+/// parameters and pure ops ([`Op::is_pure`]).
 fn allowed(op: &Op) -> bool {
-    match op {
-        Op::Const(_)
-        | Op::Param(_)
-        | Op::Unary(..)
-        | Op::Binary(..)
-        | Op::Select { .. }
-        | Op::Construct(_)
-        | Op::Extract(..)
-        | Op::Splat(_)
-        | Op::Convert(_)
-        | Op::Call(..) => true,
-        Op::Stream(_)
-        | Op::Transform { .. }
-        | Op::ComponentEnabled(_)
-        | Op::LightL
-        | Op::LightCl
-        | Op::LightVisible
-        | Op::LightPdf
-        | Op::Ambient
-        | Op::Texture { .. }
-        | Op::Trace { .. }
-        | Op::Occlusion { .. }
-        | Op::If { .. }
-        | Op::Illuminance { .. }
-        | Op::Loop { .. }
-        | Op::LoopVar(_)
-        | Op::Proj(..) => false,
-    }
+    matches!(op, Op::Const(_) | Op::Param(_)) || op.is_pure()
 }

@@ -184,14 +184,7 @@ fn eval(
     let c = match &e.op {
         Op::Const(c) => Some(c.clone()),
         Op::LoopVar(_) => vars.get(&v).and_then(|k| env.get(*k).cloned().flatten()),
-        Op::Unary(..)
-        | Op::Binary(..)
-        | Op::Select { .. }
-        | Op::Construct(_)
-        | Op::Extract(..)
-        | Op::Splat(_)
-        | Op::Convert(_)
-        | Op::Call(..) => {
+        op if op.is_pure() => {
             let mut operands = Vec::new();
             e.op.for_each_operand(|o| operands.push(o));
             let mut consts = Vec::with_capacity(operands.len());
