@@ -248,7 +248,7 @@ def test_compile_ir_and_stats_are_compile_s():
     assert f"total: {s['ops_before']} → {s['ops_after']} ops in " in cli_stats
     assert s["ops_after"] < s["ops_before"]
     assert [x["pass"] for x in s["passes"]] == [
-        "specialize", "fold", "dead_branch", "cse", "dce", "hoist"]
+        "specialize", "fold", "dead_branch", "unroll", "cse", "dce", "hoist"]
     jit_line = next(line for line in cli_stats.splitlines() if line.startswith("jit: "))
     assert s["jit"].split(";")[0] == jit_line[len("jit: "):].split(";")[0]  # "140 ops"
     assert s["jit"].split("; ")[-1] == jit_line.split("; ")[-1]  # IR and code size
