@@ -131,6 +131,13 @@ fn jit(opt: OptLevel) -> JitBackend {
     })
 }
 
+/// Whether the shared device is held to the hardware contract
+/// ([`shadenet_gpu::Accuracy::Hardware`]) instead of the bit-exact one.
+fn hardware_contract() -> bool {
+    shadenet_gpu::GpuContext::shared()
+        .is_ok_and(|c| accuracy(&c) == shadenet_gpu::Accuracy::Hardware)
+}
+
 /// The GPU back end on the shared device, without fallback; `None` (after `SKIPPED: …` on
 /// stderr, once per test binary) without an adapter.
 fn gpu() -> Option<GpuBackend> {
@@ -161,8 +168,7 @@ fn backends() -> Vec<UnderTest> {
         ut("jit-many", jit(OptLevel::Speed), Drive::Many),
     ];
     if let Some(gpu) = gpu() {
-        let hardware = shadenet_gpu::GpuContext::shared()
-            .is_ok_and(|c| accuracy(&c) == shadenet_gpu::Accuracy::Hardware);
+        let hardware = hardware_contract();
         v.push(UnderTest {
             name: "gpu",
             backend: Box::new(gpu),
@@ -1570,14 +1576,7 @@ fn check_scene_on(
 ) -> bool {
     shadenet_graph::ir::validate(program).unwrap_or_else(|e| panic!("{what}: {e}\n{program}"));
     // A hardware GPU's traced directions differ by ulps: it is asked a smooth scene.
-    let hardware = gpu().is_some()
-        && shadenet_gpu::GpuContext::shared()
-            .is_ok_and(|c| accuracy(&c) == shadenet_gpu::Accuracy::Hardware);
-    let scene = if hardware {
-        HashScene::smooth()
-    } else {
-        HashScene::default()
-    };
+    let scene = HashScene::new(gpu().is_some() && hardware_contract());
     let reference = InterpBackend
         .compile_program(program, Duration::ZERO)
         .unwrap();
@@ -1805,8 +1804,7 @@ fn gpu_pass_plans_agree() {
     };
     let frags: Vec<Fragment> = hard_fragments().into_iter().step_by(3).collect();
     let env = env();
-    let hardware_contract = shadenet_gpu::GpuContext::shared()
-        .is_ok_and(|c| accuracy(&c) == shadenet_gpu::Accuracy::Hardware);
+    let hardware_contract = hardware_contract();
     let mut programs: Vec<(String, Program)> = Vec::new();
     for path in examples() {
         let c = shadenet::load_network(&path).unwrap();

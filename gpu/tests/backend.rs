@@ -642,11 +642,7 @@ fn scene_services_match_the_interpreter() {
     )
     .unwrap();
     let e = env();
-    let scene = if hardware_contract() {
-        HashScene::smooth()
-    } else {
-        HashScene::default()
-    };
+    let scene = HashScene::new(hardware_contract());
     let mut frags = fragments(120);
     frags.extend(hard_fragments().into_iter().step_by(5));
     let plan = check(
@@ -798,11 +794,7 @@ fn every_example_network_matches_the_interpreter() {
         return;
     }
     let frags = fragments(23 * 17);
-    let scene = if hardware_contract() {
-        HashScene::smooth()
-    } else {
-        HashScene::default()
-    };
+    let scene = HashScene::new(hardware_contract());
     let all = modes();
     let some: Vec<(&str, GpuOptions)> = all
         .into_iter()

@@ -108,7 +108,7 @@ pub const HARD_INTS: &[i32] = &[0, 1, -1, 2, -2, 7, -7, 31, 100, -100, i32::MAX,
 
 /// A scene whose every answer is a hash of all its arguments' bits (so any argument a back
 /// end passes differently shows), with out-of-range and NaN occlusion answers; it counts its
-/// calls. [`HashScene::smooth`] answers `trace` and `occlusion` with smooth functions of
+/// calls. A smooth one ([`HashScene::new`]) answers `trace` and `occlusion` with smooth functions of
 /// their arguments instead, for back ends held to a tolerance (a hardware GPU's directions
 /// differ from the CPU's by ulps, which a hash turns into unrelated answers).
 #[derive(Debug, Default)]
@@ -118,12 +118,13 @@ pub struct HashScene {
 }
 
 impl HashScene {
-    /// The scene with smooth `trace` and `occlusion` answers (shadow rays still hashed: their
-    /// end points come from the host's light samples, the same bits on every back end).
-    pub fn smooth() -> HashScene {
+    /// The scene, with smooth `trace` and `occlusion` answers where `smooth` (shadow rays
+    /// still hashed: their end points come from the host's light samples, the same bits on
+    /// every back end); `HashScene::default()` is `new(false)`.
+    pub fn new(smooth: bool) -> HashScene {
         HashScene {
             calls: AtomicUsize::new(0),
-            smooth: true,
+            smooth,
         }
     }
 

@@ -107,6 +107,33 @@ impl Op {
 }
 
 impl Program {
+    /// Runs `f` on each block of region `v` in turn, with the program (the blocks are taken
+    /// out of the arena while `f` runs, so `f` may edit the program and add values, and put
+    /// back after); returns the sum of what `f` returns. Nothing for a value that is not a
+    /// region.
+    pub fn rewrite_blocks(
+        &mut self,
+        v: Value,
+        mut f: impl FnMut(&mut Program, &mut Block) -> usize,
+    ) -> usize {
+        let mut blocks: Vec<Block> = self.exprs[v.index()]
+            .op
+            .blocks_mut()
+            .into_iter()
+            .map(std::mem::take)
+            .collect();
+        let n = blocks.iter_mut().map(|b| f(self, b)).sum();
+        for (slot, b) in self.exprs[v.index()]
+            .op
+            .blocks_mut()
+            .into_iter()
+            .zip(blocks)
+        {
+            *slot = b;
+        }
+        n
+    }
+
     /// Appends an expr to the arena without listing it in any block; the caller lists it.
     pub fn add_expr(&mut self, expr: Expr) -> Value {
         self.exprs.push(expr);

@@ -140,17 +140,9 @@ impl DeadBranch {
 
     /// Rewrites the blocks of the region `i`, kept in place.
     fn region(&mut self, p: &mut Program, i: usize) {
-        let mut blocks: Vec<Block> = p.exprs[i]
-            .op
-            .blocks_mut()
-            .into_iter()
-            .map(std::mem::take)
-            .collect();
-        for b in &mut blocks {
+        p.rewrite_blocks(Value::new(i), |p, b| {
             self.block(p, b);
-        }
-        for (slot, b) in p.exprs[i].op.blocks_mut().into_iter().zip(blocks) {
-            *slot = b;
-        }
+            0
+        });
     }
 }

@@ -67,18 +67,7 @@ fn unroll_block(
             continue;
         }
         // Inner regions first: an inner loop unrolled may make the outer one cheaper.
-        let mut blocks: Vec<Block> = p.exprs[v.index()]
-            .op
-            .blocks_mut()
-            .into_iter()
-            .map(std::mem::take)
-            .collect();
-        for b in &mut blocks {
-            n += unroll_block(p, b, map, gone);
-        }
-        for (slot, b) in p.exprs[v.index()].op.blocks_mut().into_iter().zip(blocks) {
-            *slot = b;
-        }
+        n += p.rewrite_blocks(v, |p, b| unroll_block(p, b, map, gone));
         let Op::Loop { init, cond, body } = &p.exprs[v.index()].op else {
             out.push(v);
             continue;

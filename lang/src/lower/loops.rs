@@ -127,11 +127,7 @@ impl<'a> Lower<'a> {
             );
             return;
         }
-        let t = Val::V {
-            v: b.boolean(true),
-            ty: Ty::Bool,
-            varying: false,
-        };
+        let t = Self::known(b, true);
         // Every loop it leaves breaks; `continue N` continues the N-th.
         let leaves = if is_break { n } else { n - 1 };
         let flags: Vec<LoopFlags> = self.loops[depth - n..].to_vec();
@@ -171,11 +167,7 @@ impl<'a> Lower<'a> {
         let f = self.loops.last()?.clone();
         let mut set: Option<(Value, bool)> = None;
         for name in [&f.brk, &f.cnt] {
-            if let Some(super::Var {
-                val: Val::V { v, varying, .. },
-                ..
-            }) = self.lookup(name).cloned()
-            {
+            if let Some((v, varying)) = self.flag(name) {
                 set = Some(match set {
                     None => (v, varying),
                     Some((s, vs)) => (b.binary(BinOp::Or, s, v), vs || varying),
@@ -194,21 +186,13 @@ impl<'a> Lower<'a> {
         };
         let jumps = self.jumps(&[parts.body]);
         self.scopes.push(HashMap::new());
-        let f = Val::V {
-            v: b.boolean(false),
-            ty: Ty::Bool,
-            varying: false,
-        };
         let first = format!("$first{depth}");
         if jumps.brk {
-            self.declare_hidden(&flags.brk, f.clone());
+            let f = Self::known(b, false);
+            self.declare_hidden(&flags.brk, f);
         }
         if parts.do_while {
-            let t = Val::V {
-                v: b.boolean(true),
-                ty: Ty::Bool,
-                varying: false,
-            };
+            let t = Self::known(b, true);
             self.declare_hidden(&first, t);
         }
         // What the loop carries: outer variables assigned anywhere in it, and its flags.
@@ -290,6 +274,24 @@ impl<'a> Lower<'a> {
         self.scopes.pop();
     }
 
+    /// A bool known at compile time, as a value.
+    fn known(b: &mut Builder, x: bool) -> Val {
+        Val::V {
+            v: b.boolean(x),
+            ty: Ty::Bool,
+            varying: false,
+        }
+    }
+
+    /// The current value of a hidden flag and whether it varies; `None` where the flag is not
+    /// declared (its loop has no such jump).
+    fn flag(&self, name: &str) -> Option<(Value, bool)> {
+        match self.lookup(name).map(|v| &v.val) {
+            Some(Val::V { v, varying, .. }) => Some((*v, *varying)),
+            _ => None,
+        }
+    }
+
     /// Declares a hidden variable (a loop flag) in the current scope.
     fn declare_hidden(&mut self, name: &str, val: Val) {
         let scope = self.scopes.last_mut().expect("a scope");
@@ -336,17 +338,13 @@ impl<'a> Lower<'a> {
                 (c, vc)
             }
         };
-        let flag = |me: &Self, name: &str| match me.lookup(name).map(|v| v.val.clone()) {
-            Some(Val::V { v, varying, .. }) => Some((v, varying)),
-            _ => None,
-        };
         if parts.do_while
-            && let Some((f, vf)) = flag(self, first)
+            && let Some((f, vf)) = self.flag(first)
         {
             c = b.binary(BinOp::Or, f, c);
             vc |= vf;
         }
-        if let Some((brk, vb)) = flag(self, &flags.brk) {
+        if let Some((brk, vb)) = self.flag(&flags.brk) {
             let go = b.unary(UnOp::Not, brk);
             c = b.binary(BinOp::And, go, c);
             vc |= vb;
@@ -365,28 +363,16 @@ impl<'a> Lower<'a> {
     ) {
         self.scopes.push(HashMap::new());
         if jumps.cnt {
-            let f = Val::V {
-                v: b.boolean(false),
-                ty: Ty::Bool,
-                varying: false,
-            };
+            let f = Self::known(b, false);
             self.declare_hidden(&flags.cnt, f);
         }
         if parts.do_while {
-            let f = Val::V {
-                v: b.boolean(false),
-                ty: Ty::Bool,
-                varying: false,
-            };
+            let f = Self::known(b, false);
             self.set_flag(first, f);
         }
         self.stmt(b, parts.body);
         if !parts.step.is_empty() {
-            let brk = match self.lookup(&flags.brk).map(|v| v.val.clone()) {
-                Some(Val::V { v, varying, .. }) => Some((v, varying)),
-                _ => None,
-            };
-            match brk {
+            match self.flag(&flags.brk) {
                 None => {
                     for e in parts.step {
                         self.expr(b, e);
