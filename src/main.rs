@@ -39,7 +39,7 @@ enum Cmd {
     Compile(CompileArgs),
     /// Link a network and report every error, or `ok` with a summary.
     Check {
-        /// The network file (.json), MaterialX document (.mtlx) or shader source (.sl).
+        /// The network file (.json), MaterialX document (.mtlx) or shader source (.sl, .osl).
         network: PathBuf,
         #[command(flatten)]
         mtlx: cli::SourceArgs,

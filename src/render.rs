@@ -242,7 +242,7 @@ pub fn compile_material(
         message,
     };
     if let MaterialSource::File(p) = &m.source
-        && p.extension().is_some_and(|e| e == "sl")
+        && p.extension().is_some_and(|e| e == "sl" || e == "osl")
     {
         return shader_material(m, p, files).map_err(fail);
     }
@@ -294,7 +294,8 @@ pub fn compile_material(
     })
 }
 
-/// A material that is an RSL surface shader (`network = "plastic.sl"`): compiled by the
+/// A material that is a shader source (`network = "plastic.sl"`, an RSL surface, or an
+/// OSL `surface`/`shader`, `network = "glossy.osl"`): compiled by the
 /// shading-language front end, its `set` overrides (`"shader.param" = value`, the shader
 /// named as in the file) changing its parameters' values.
 fn shader_material(m: &MaterialRef, path: &Path, files: Files) -> Result<CompiledMaterial, String> {

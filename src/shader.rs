@@ -1,4 +1,4 @@
-//! Shader sources (`.sl`; `.osl` is parsed, compiled with issue 22): read, preprocessed,
+//! Shader sources (`.sl` RSL, `.osl` OSL): read, preprocessed,
 //! parsed, checked and lowered by `shadenet-lang` into a material program, as a network file
 //! is by [`crate::load_network`]. Errors come back rendered as the front end prints them
 //! (file:line:column, the source line, a caret, what was expected).

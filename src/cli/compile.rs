@@ -11,7 +11,7 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub(crate) struct CompileArgs {
-    /// The network file (.json), MaterialX document (.mtlx) or shader source (.sl).
+    /// The network file (.json), MaterialX document (.mtlx) or shader source (.sl, .osl).
     network: PathBuf,
     /// What to print: `ir` (the optimized program), `ir:after=PASS` (the program after every
     /// run of PASS: specialize, fold, dead_branch, unroll, cse, dce, hoist), `ir:before` (the

@@ -34,7 +34,7 @@ pub(crate) enum Precision {
 /// `shadenet shade`'s arguments.
 #[derive(clap::Args)]
 pub(crate) struct ShadeArgs {
-    /// The network file (.json), MaterialX document (.mtlx) or shader source (.sl).
+    /// The network file (.json), MaterialX document (.mtlx) or shader source (.sl, .osl).
     network: PathBuf,
     /// Output image: .png (sRGB preview) or .exr (every output and component as f32 layers).
     #[arg(short, long)]

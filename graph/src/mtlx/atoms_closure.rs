@@ -83,7 +83,7 @@ fn frame(b: &mut Builder, inp: &NodeInputs) -> Frame {
 }
 
 /// The frame of normal `n` and tangent `t` (zero: any), its side from the geometric normal.
-fn frame_at(b: &mut Builder, n: Value, t: Value) -> Frame {
+pub fn frame_at(b: &mut Builder, n: Value, t: Value) -> Frame {
     let wo = view_dir(b);
     let mut f = Frame::new(b, n, t, wo);
     // The renderer's `N` already faces the viewer; which side of the material the viewer

@@ -2,8 +2,8 @@
 //! (`inthash`), signed Perlin noise (`snoise`, float and vector, 2D and 3D), cell noise
 //! (`cellnoise`, float and vector), and MaterialX's fractal and Worley noise built on them.
 //!
-//! Sources ported (docs/noise.md says how each was checked): OSL
-//! `src/include/OSL/oslnoise.h` (the non-SIMD path: `inthash`, `bjmix`/`bjfinal` from
+//! Sources ported (docs/materialx.md, "Noise: OSL's generators", says how each was
+//! checked): OSL `src/include/OSL/oslnoise.h` (the non-SIMD path: `inthash`, `bjmix`/`bjfinal` from
 //! OpenImageIO's `hash.h`, `floorfrac`, `fade`, `grad`, `scale2`/`scale3`, `perlin` with
 //! `OIIO::bilerp`/`trilerp`, `HashVector`'s `sliceup`, `CellNoise` and `inthashVec`), and
 //! MaterialX 1.39 `libraries/stdlib/genglsl/lib/mx_noise.glsl` (`mx_fractal*_noise_*`,

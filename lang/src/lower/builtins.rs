@@ -4,7 +4,8 @@
 //! normalisation: `diffuse` has no 1/π), `ambient` is the ambient light, `trace` traces a
 //! reflection ray, `noise` is OSL's Perlin noise mapped to [0, 1].
 
-use super::{Lower, Ty, Val};
+use super::{Lower, Ty, Val, osl};
+use crate::Dialect;
 use crate::ast::{self, Expr};
 use crate::source::Span;
 use shadenet_graph::Type;
@@ -93,19 +94,28 @@ impl<'a> Lower<'a> {
         args: &'a [Expr],
         span: Span,
     ) -> Val {
+        let want = self.want.take();
         let vals: Vec<(Val, Span)> = args.iter().map(|a| (self.expr(b, a), a.span)).collect();
         if let Some(defs) = self.functions.get(callee.name.as_str()).cloned() {
-            let fits = |f: &&&ast::FunctionDef| {
+            // An exact match of the argument types first, then one by widening.
+            let fits = |f: &&&ast::FunctionDef, exact: bool| {
                 f.params.len() == vals.len()
                     && f.params
                         .iter()
                         .zip(&vals)
-                        .all(|(p, (v, _))| accepts(&p.ty.base, v))
+                        .all(|(p, (v, _))| accepts(&p.ty, v, exact))
             };
-            return match defs.iter().find(fits) {
-                Some(f) => self.inline(b, f, vals.into_iter().map(|v| v.0).collect(), span),
+            let found = defs
+                .iter()
+                .find(|f| fits(f, true))
+                .or_else(|| defs.iter().find(|f| fits(f, false)));
+            return match found {
+                Some(f) => {
+                    let vals = vals.into_iter().map(|v| v.0).collect();
+                    self.inline(b, f, vals, args, span)
+                }
                 None => {
-                    let got: Vec<&str> = vals.iter().map(|(v, _)| type_name(v)).collect();
+                    let got: Vec<&str> = vals.iter().map(|(v, _)| v.type_name()).collect();
                     let cands: Vec<String> = defs
                         .iter()
                         .map(|f| {
@@ -131,13 +141,27 @@ impl<'a> Lower<'a> {
                 }
             };
         }
-        match self.builtin(b, &callee.name, &vals, span) {
+        let name = callee.name.as_str();
+        if self.dialect == Dialect::Osl {
+            if let Some(v) = self.closure_call(b, name, &vals, span) {
+                return v;
+            }
+            if let Some(v) = self.osl_builtin(b, name, &vals, span, want) {
+                return v;
+            }
+            if osl::RSL_ONLY.contains(&name) {
+                return self.unknown(b, callee, "function");
+            }
+        }
+        match self.builtin(b, name, &vals, span) {
             Some(v) => v,
             None => {
-                if !NAMES.contains(&callee.name.as_str()) {
+                let known = NAMES.contains(&name)
+                    || (self.dialect == Dialect::Osl && osl::NAMES.contains(&name));
+                if !known {
                     return self.unknown(b, callee, "function");
                 } else {
-                    let got: Vec<&str> = vals.iter().map(|(v, _)| type_name(v)).collect();
+                    let got: Vec<&str> = vals.iter().map(|(v, _)| v.type_name()).collect();
                     self.error(
                         format!(
                             "`{}` does not take ({}): it takes {}",
@@ -165,13 +189,7 @@ impl<'a> Lower<'a> {
         if name == "texture" {
             return self.texture(b, args);
         }
-        let vs: Vec<(Value, Ty, bool)> = args
-            .iter()
-            .map(|(v, _)| match v {
-                Val::V { v, ty, varying } => Some((*v, *ty, *varying)),
-                Val::Str(_) => None,
-            })
-            .collect::<Option<_>>()?;
+        let vs = super::numbers(b, args)?;
         let varying = vs.iter().any(|v| v.2);
         let out = |v: Value, ty: Ty| Some(Val::V { v, ty, varying });
         let float = |t: Ty| t == Ty::Float;
@@ -204,7 +222,7 @@ impl<'a> Lower<'a> {
                 out(b.binary(BinOp::Atan2, *y, *x), Ty::Float)
             }
             ("pow" | "min" | "max" | "mod", [(x, tx, _), (y, ty, _)]) => {
-                let (x, y, t) = same(b, (*x, *tx), (*y, *ty))?;
+                let (x, y, t) = super::same(b, (*x, *tx), (*y, *ty))?;
                 let op = match name {
                     "pow" => BinOp::Pow,
                     "min" => BinOp::Min,
@@ -214,13 +232,13 @@ impl<'a> Lower<'a> {
                 out(b.binary(op, x, y), t)
             }
             ("clamp", [(x, tx, _), (lo, tl, _), (hi, th, _)]) => {
-                let (x, lo, t) = same(b, (*x, *tx), (*lo, *tl))?;
-                let (x, hi, t) = same(b, (x, t), (*hi, *th))?;
+                let (x, lo, t) = super::same(b, (*x, *tx), (*lo, *tl))?;
+                let (x, hi, t) = super::same(b, (x, t), (*hi, *th))?;
                 let lo = b.splat_to(t.ir(), lo);
                 out(b.clamp(x, lo, hi), t)
             }
             ("mix", [(x, tx, _), (y, ty, _), (t, tt, _)]) if float(*tt) => {
-                let (x, y, ty) = same(b, (*x, *tx), (*y, *ty))?;
+                let (x, y, ty) = super::same(b, (*x, *tx), (*y, *ty))?;
                 out(b.mix(x, y, *t), ty)
             }
             ("step", [(e, te, _), (x, tx, _)]) if float(*te) && float(*tx) => {
@@ -463,37 +481,36 @@ impl<'a> Lower<'a> {
     }
 }
 
-/// Whether a parameter of base type `p` takes the value `v` (RSL's widening).
-fn accepts(p: &ast::BaseType, v: &Val) -> bool {
-    let Val::V { ty, .. } = v else {
-        return matches!(p, ast::BaseType::String);
+/// Whether a parameter of type `p` takes the value `v`: the same type when `exact`, else
+/// by widening (a float or int to a triple, an int to a float, geometric types mixed).
+fn accepts(p: &ast::Type, v: &Val, exact: bool) -> bool {
+    let ty = match v {
+        Val::Closure(_) => return p.closure.is_some(),
+        Val::Str(_) => return matches!(p.base, ast::BaseType::String),
+        Val::V { ty, .. } => *ty,
     };
-    match p {
-        ast::BaseType::Float => *ty == Ty::Float,
-        ast::BaseType::Color => matches!(ty, Ty::Color | Ty::Float),
+    if p.closure.is_some() {
+        return false;
+    }
+    let same = match p.base {
+        ast::BaseType::Float => ty == Ty::Float,
+        ast::BaseType::Int => ty == Ty::Int,
+        ast::BaseType::Color => ty == Ty::Color,
+        ast::BaseType::Point => ty == Ty::Point,
+        ast::BaseType::Vector => ty == Ty::Vector,
+        ast::BaseType::Normal => ty == Ty::Normal,
+        _ => false,
+    };
+    if same || exact {
+        return same;
+    }
+    let number = matches!(ty, Ty::Float | Ty::Int);
+    match p.base {
+        ast::BaseType::Float | ast::BaseType::Color => number,
         ast::BaseType::Point | ast::BaseType::Vector | ast::BaseType::Normal => {
-            ty.is_geometric() || *ty == Ty::Float
+            ty.is_geometric() || number
         }
         _ => false,
-    }
-}
-
-fn type_name(v: &Val) -> &'static str {
-    match v {
-        Val::V { ty, .. } => ty.name(),
-        Val::Str(_) => "string",
-    }
-}
-
-/// Two operands brought to one type: equal, a float widened, geometric types mixed.
-fn same(b: &mut Builder, (x, tx): (Value, Ty), (y, ty): (Value, Ty)) -> Option<(Value, Value, Ty)> {
-    match (tx, ty) {
-        _ if tx == Ty::Bool || ty == Ty::Bool => None,
-        _ if tx == ty => Some((x, y, tx)),
-        (Ty::Float, t) => Some((b.splat(t.ir(), x), y, t)),
-        (t, Ty::Float) => Some((x, b.splat(t.ir(), y), t)),
-        (a, c) if a.is_geometric() && c.is_geometric() => Some((x, y, a)),
-        _ => None,
     }
 }
 

@@ -13,6 +13,12 @@ impl<'a> Lower<'a> {
     pub(crate) fn expr_as(&mut self, b: &mut Builder, e: &'a Expr, ty: Ty) -> Val {
         let v = match &e.kind {
             ExprKind::Tuple(items) if ty.is_triple() => self.triple(b, items, ty, e.span),
+            ExprKind::Call { .. } => {
+                self.want = Some(ty);
+                let v = self.expr(b, e);
+                self.want = None;
+                v
+            }
             _ => self.expr(b, e),
         };
         self.coerce(b, v, ty, e.span)
@@ -21,23 +27,45 @@ impl<'a> Lower<'a> {
     /// `v` as a `to`: the same type, a float widened to a triple, a geometric type as
     /// another; else an error naming both types.
     pub(crate) fn coerce(&mut self, b: &mut Builder, v: Val, to: Ty, span: Span) -> Val {
-        let Val::V { v, ty, varying } = v else {
+        let Val::V {
+            mut v,
+            mut ty,
+            varying,
+        } = v
+        else {
+            let found = v.type_name();
             self.error(
-                format!("expected a {}, found a string", to.name()),
+                format!("expected {}, found {}", an(to.name()), an(found)),
                 span,
-                "a string",
+                an(found),
             );
             return Self::poison(b, to);
         };
         if ty == to || (ty.is_geometric() && to.is_geometric()) {
             return Val::V { v, ty: to, varying };
         }
+        // OSL: an int (or a comparison's truth, an int there) widens to a float.
+        let osl = self.dialect == crate::Dialect::Osl;
+        if osl && ty == Ty::Bool && matches!(to, Ty::Int | Ty::Float) {
+            return Val::V {
+                v: b.convert(to.ir(), v),
+                ty: to,
+                varying,
+            };
+        }
+        if ty == Ty::Int && (to == Ty::Float || to.is_triple()) {
+            v = b.convert(shadenet_graph::Type::Float, v);
+            ty = Ty::Float;
+            if to == Ty::Float {
+                return Val::V { v, ty, varying };
+            }
+        }
         if ty == Ty::Float && to.is_triple() {
             let v = b.splat(to.ir(), v);
             return Val::V { v, ty: to, varying };
         }
         self.error(
-            format!("expected a {}, found a {}", to.name(), ty.name()),
+            format!("expected {}, found {}", an(to.name()), an(ty.name())),
             span,
             format!("this is a {}", ty.name()),
         );
@@ -46,19 +74,50 @@ impl<'a> Lower<'a> {
 
     /// A value that must be an IR value (not a string), or an error.
     pub(crate) fn value(&mut self, b: &mut Builder, e: &'a Expr) -> (Value, Ty, bool) {
-        match self.expr(b, e) {
+        let v = self.expr(b, e);
+        self.plain(b, v, e.span)
+    }
+
+    /// `v` as an IR value, or an error (a string or a closure is not one).
+    pub(crate) fn plain(&mut self, b: &mut Builder, v: Val, span: Span) -> (Value, Ty, bool) {
+        match v {
             Val::V { v, ty, varying } => (v, ty, varying),
-            Val::Str(_) => {
-                self.error("a string cannot be used here", e.span, "a string");
+            other => {
+                let what = other.type_name();
+                self.error(
+                    format!("a {what} cannot be used here"),
+                    span,
+                    format!("a {what}"),
+                );
                 (b.float(0.0), Ty::Float, false)
             }
         }
+    }
+
+    /// A condition: a comparison's truth; in OSL also an int or a float (true where not 0).
+    pub(crate) fn truth(
+        &mut self,
+        b: &mut Builder,
+        (v, t, vy): (Value, Ty, bool),
+    ) -> (Value, Ty, bool) {
+        if self.dialect != crate::Dialect::Osl || !matches!(t, Ty::Int | Ty::Float) {
+            return (v, t, vy);
+        }
+        let zero = if t == Ty::Int { b.int(0) } else { b.float(0.0) };
+        (b.binary(BinOp::Ne, v, zero), Ty::Bool, vy)
+    }
+
+    /// A condition expression ([`Lower::truth`] of its value).
+    pub(crate) fn condition(&mut self, b: &mut Builder, e: &'a Expr) -> (Value, Ty, bool) {
+        let v = self.value(b, e);
+        self.truth(b, v)
     }
 
     /// Lowers an expression.
     pub(crate) fn expr(&mut self, b: &mut Builder, e: &'a Expr) -> Val {
         match &e.kind {
             ExprKind::Float(x) => self.number(b, *x, e.span),
+            ExprKind::Int(i) if self.dialect == crate::Dialect::Osl => self.int(b, *i, e.span),
             ExprKind::Int(i) => self.number(b, *i as f64, e.span),
             ExprKind::Str(s) => Val::Str(s.clone()),
             ExprKind::Ident(id) => match self.lookup(&id.name) {
@@ -86,9 +145,12 @@ impl<'a> Lower<'a> {
             ExprKind::Cast { ty, ty_span, expr } => {
                 let to = self.base_type(ty, *ty_span);
                 let v = self.expr(b, expr);
-                self.coerce(b, v, to, expr.span)
+                self.cast(b, v, to, expr.span)
             }
             ExprKind::Index { base, index } => self.component(b, base, index),
+            ExprKind::Member { base, field } if self.dialect == crate::Dialect::Osl => {
+                self.member(b, base, field)
+            }
             ExprKind::Member { .. } | ExprKind::InitList(_) => {
                 self.error(
                     "struct fields and initialiser lists are not built yet (arrays and structs: issues 21 and 22)",
@@ -112,6 +174,67 @@ impl<'a> Lower<'a> {
             "not defined",
         );
         Self::poison(b, Ty::Float)
+    }
+
+    /// An OSL integer literal.
+    fn int(&mut self, b: &mut Builder, i: i64, span: Span) -> Val {
+        let Ok(k) = i32::try_from(i) else {
+            self.error(
+                format!("{i} does not fit a 32-bit int"),
+                span,
+                "out of range",
+            );
+            return Self::poison(b, Ty::Int);
+        };
+        Val::V {
+            v: b.int(k),
+            ty: Ty::Int,
+            varying: false,
+        }
+    }
+
+    /// An explicit conversion `(ty) x` or `ty(x)`: as [`Lower::coerce`], and a float to an
+    /// int (toward zero) where OSL allows it.
+    fn cast(&mut self, b: &mut Builder, v: Val, to: Ty, span: Span) -> Val {
+        match v {
+            Val::V {
+                v,
+                ty: Ty::Float | Ty::Bool,
+                varying,
+            } if to == Ty::Int => Val::V {
+                v: b.convert(shadenet_graph::Type::Int, v),
+                ty: Ty::Int,
+                varying,
+            },
+            v => self.coerce(b, v, to, span),
+        }
+    }
+
+    /// OSL's `p.x`, `c.r`…: a component of a triple.
+    fn member(&mut self, b: &mut Builder, base: &'a Expr, field: &ast::Ident) -> Val {
+        let (v, ty, varying) = self.value(b, base);
+        let k = match (field.name.as_str(), ty) {
+            ("x", t) | ("r", t) if t.is_triple() => 0,
+            ("y", t) | ("g", t) if t.is_triple() => 1,
+            ("z", t) | ("b", t) if t.is_triple() => 2,
+            _ => {
+                self.error(
+                    format!(
+                        "a {} has no field `{}` (structs are not built yet; triples have x, y, z or r, g, b)",
+                        ty.name(),
+                        field.name
+                    ),
+                    field.span,
+                    "no such field",
+                );
+                return Self::poison(b, Ty::Float);
+            }
+        };
+        Val::V {
+            v: b.extract(v, k),
+            ty: Ty::Float,
+            varying,
+        }
     }
 
     fn number(&mut self, b: &mut Builder, x: f64, span: Span) -> Val {
@@ -161,13 +284,14 @@ impl<'a> Lower<'a> {
     fn base_type(&mut self, t: &ast::BaseType, span: Span) -> Ty {
         match t {
             ast::BaseType::Float => Ty::Float,
+            ast::BaseType::Int if self.dialect == crate::Dialect::Osl => Ty::Int,
             ast::BaseType::Point => Ty::Point,
             ast::BaseType::Vector => Ty::Vector,
             ast::BaseType::Normal => Ty::Normal,
             ast::BaseType::Color => Ty::Color,
             _ => {
                 self.error(
-                    "only float, point, vector, normal and color values are built",
+                    "only float, point, vector, normal and color values (and OSL's int) are built",
                     span,
                     "this type",
                 );
@@ -177,7 +301,10 @@ impl<'a> Lower<'a> {
     }
 
     fn unary(&mut self, b: &mut Builder, op: UnaryOp, operand: &'a Expr, span: Span) -> Val {
-        let (v, ty, varying) = self.value(b, operand);
+        let (v, ty, varying) = match op {
+            UnaryOp::Not => self.condition(b, operand),
+            _ => self.value(b, operand),
+        };
         let v = match (op, ty) {
             (UnaryOp::Plus, _) if ty != Ty::Bool => v,
             (UnaryOp::Neg, _) if ty != Ty::Bool => b.unary(UnOp::Neg, v),
@@ -217,6 +344,24 @@ impl<'a> Lower<'a> {
             );
             None
         };
+        // OSL: truth values count as ints; ints widen to floats beside anything else.
+        let osl = self.dialect == crate::Dialect::Osl;
+        let (mut a, mut ta, mut c, mut tc) = (a, ta, c, tc);
+        for (v, t) in [(&mut a, &mut ta), (&mut c, &mut tc)] {
+            if osl && *t == Ty::Bool {
+                *v = b.convert(shadenet_graph::Type::Int, *v);
+                *t = Ty::Int;
+            }
+        }
+        if ta == Ty::Int && tc == Ty::Int {
+            return Some((a, c, Ty::Int));
+        }
+        for (v, t) in [(&mut a, &mut ta), (&mut c, &mut tc)] {
+            if *t == Ty::Int {
+                *v = b.convert(shadenet_graph::Type::Float, *v);
+                *t = Ty::Float;
+            }
+        }
         if ta == Ty::Bool || tc == Ty::Bool {
             return bad(self);
         }
@@ -252,8 +397,13 @@ impl<'a> Lower<'a> {
         rhs: &'a Expr,
         span: Span,
     ) -> Val {
-        let (a, ta, va) = self.value(b, lhs);
-        let (c, tc, vc) = self.value(b, rhs);
+        let l = self.expr(b, lhs);
+        let r = self.expr(b, rhs);
+        if matches!(l, Val::Closure(_)) || matches!(r, Val::Closure(_)) {
+            return self.closure_binary(b, op, &l, &r, span);
+        }
+        let (a, ta, va) = self.plain(b, l, lhs.span);
+        let (c, tc, vc) = self.plain(b, r, rhs.span);
         let varying = va || vc;
         let out = |v, ty| Val::V { v, ty, varying };
         match op {
@@ -261,6 +411,9 @@ impl<'a> Lower<'a> {
                 let Some((a, c, ty)) = self.arith(b, op, (a, ta), (c, tc), span) else {
                     return Self::poison(b, ta);
                 };
+                if op == BinaryOp::Rem && self.dialect == crate::Dialect::Osl {
+                    return out(rem(b, a, c, ty), ty);
+                }
                 let ir = match op {
                     BinaryOp::Add => BinOp::Add,
                     BinaryOp::Sub => BinOp::Sub,
@@ -296,7 +449,13 @@ impl<'a> Lower<'a> {
             | BinaryOp::Ge
             | BinaryOp::Eq
             | BinaryOp::Ne => {
-                if ta != Ty::Float || tc != Ty::Float {
+                let (a, c, ta, tc) = match (ta, tc) {
+                    (Ty::Int, Ty::Float) => (b.convert(shadenet_graph::Type::Float, a), c, tc, tc),
+                    (Ty::Float, Ty::Int) => (a, b.convert(shadenet_graph::Type::Float, c), ta, ta),
+                    _ => (a, c, ta, tc),
+                };
+                let number = |t: Ty| matches!(t, Ty::Float | Ty::Int);
+                if !number(ta) || ta != tc {
                     self.error(
                         format!(
                             "comparisons are built for floats only, not a {} and a {}",
@@ -319,6 +478,8 @@ impl<'a> Lower<'a> {
                 out(b.binary(ir, a, c), Ty::Bool)
             }
             BinaryOp::And | BinaryOp::Or => {
+                let (a, ta, _) = self.truth(b, (a, ta, va));
+                let (c, tc, _) = self.truth(b, (c, tc, vc));
                 if ta != Ty::Bool || tc != Ty::Bool {
                     self.error(
                         format!(
@@ -351,7 +512,25 @@ impl<'a> Lower<'a> {
     }
 
     fn ternary(&mut self, b: &mut Builder, cond: &'a Expr, then: &'a Expr, els: &'a Expr) -> Val {
-        let (c, tc, vc) = self.value(b, cond);
+        let (c, tc, vc) = self.condition(b, cond);
+        let (tv, ev) = (self.expr(b, then), self.expr(b, els));
+        if tc == Ty::Bool && (matches!(tv, Val::Closure(_)) || matches!(ev, Val::Closure(_))) {
+            let zero = |me: &mut Self, v: Val| match v {
+                Val::V { .. } if Self::closure_or_zero(b, &v) => Val::Closure(Box::default()),
+                v => {
+                    if !matches!(v, Val::Closure(_)) {
+                        me.error(
+                            "both arms must be closures (or 0)",
+                            then.span.to(els.span),
+                            "here",
+                        );
+                    }
+                    v
+                }
+            };
+            let (tv, ev) = (zero(self, tv), zero(self, ev));
+            return self.merge(b, c, vc, tv, ev);
+        }
         if tc != Ty::Bool {
             self.error(
                 format!("a condition must be a comparison, not a {}", tc.name()),
@@ -359,8 +538,8 @@ impl<'a> Lower<'a> {
                 "here",
             );
         }
-        let (t, tt, vt) = self.value(b, then);
-        let (e, te, ve) = self.value(b, els);
+        let (t, tt, vt) = self.plain(b, tv, then.span);
+        let (e, te, ve) = self.plain(b, ev, els.span);
         let (t, e, ty) = if tt == te {
             (t, e, tt)
         } else {
@@ -399,9 +578,13 @@ impl<'a> Lower<'a> {
         let Some(var) = self.lookup(&id.name).cloned() else {
             return self.unknown(b, id, "name");
         };
-        let Val::V { ty, .. } = var.val else {
-            self.error("strings cannot be assigned", id.span, "a string");
-            return Self::poison(b, Ty::Float);
+        let ty = match var.val {
+            Val::V { ty, .. } => ty,
+            Val::Closure(_) => return self.assign_closure(b, op, id, target, value, span),
+            Val::Str(_) => {
+                self.error("strings cannot be assigned", id.span, "a string");
+                return Self::poison(b, Ty::Float);
+            }
         };
         let rhs = match op {
             AssignOp::Set => self.expr_as(b, value, ty),
@@ -427,6 +610,73 @@ impl<'a> Lower<'a> {
         };
         self.rebind(id, rhs.clone(), var.uniform, span);
         rhs
+    }
+
+    /// `c = x`, `c += x`, `c *= k`, `c /= k` for a closure variable `c` (`x` a closure or
+    /// 0, `k` a float or a color).
+    fn assign_closure(
+        &mut self,
+        b: &mut Builder,
+        op: AssignOp,
+        id: &ast::Ident,
+        target: &'a Expr,
+        value: &'a Expr,
+        span: Span,
+    ) -> Val {
+        let v = match op {
+            AssignOp::Set => {
+                let v = self.expr(b, value);
+                if Self::closure_or_zero(b, &v) && !matches!(v, Val::Closure(_)) {
+                    Val::Closure(Box::default())
+                } else {
+                    v
+                }
+            }
+            AssignOp::Add => self.binary(b, BinaryOp::Add, target, value, span),
+            AssignOp::Mul => self.binary(b, BinaryOp::Mul, target, value, span),
+            AssignOp::Div => self.binary(b, BinaryOp::Div, target, value, span),
+            _ => Val::Str(String::new()),
+        };
+        if !matches!(v, Val::Closure(_)) {
+            self.error(
+                format!(
+                    "`{}` is a closure: it takes a closure (or 0) by `=` and `+=`, and a float or color by `*=` and `/=`",
+                    id.name
+                ),
+                span,
+                "not a closure",
+            );
+            return Val::Closure(Box::default());
+        }
+        self.rebind(id, v.clone(), false, span);
+        v
+    }
+
+    /// An operator with a closure operand ([`Lower::closure_arith`]), or an error.
+    fn closure_binary(
+        &mut self,
+        b: &mut Builder,
+        op: BinaryOp,
+        l: &Val,
+        r: &Val,
+        span: Span,
+    ) -> Val {
+        match self.closure_arith(b, op, l, r) {
+            Some(c) => Val::Closure(Box::new(c)),
+            None => {
+                self.error(
+                    format!(
+                        "`{}` does not combine a {} and a {}: closures add to closures and scale by a float or a color",
+                        op.as_str(),
+                        l.type_name(),
+                        r.type_name()
+                    ),
+                    span,
+                    "here",
+                );
+                Val::Closure(Box::default())
+            }
+        }
     }
 
     /// Stores `val` in the variable `id` where it lives; a uniform variable may not take a
@@ -471,16 +721,26 @@ impl<'a> Lower<'a> {
             );
             return before;
         };
-        let Val::V {
-            v,
-            ty: Ty::Float,
-            varying,
-        } = before.clone()
-        else {
-            self.error("`++` and `--` apply to floats", span, "not a float");
-            return before;
+        let (v, ty, varying) = match before.clone() {
+            Val::V {
+                v,
+                ty: ty @ (Ty::Float | Ty::Int),
+                varying,
+            } => (v, ty, varying),
+            _ => {
+                self.error(
+                    "`++` and `--` apply to floats and ints",
+                    span,
+                    "not a number",
+                );
+                return before;
+            }
         };
-        let one = b.float(1.0);
+        let one = if ty == Ty::Int {
+            b.int(1)
+        } else {
+            b.float(1.0)
+        };
         let after = if increment {
             b.add(v, one)
         } else {
@@ -488,7 +748,7 @@ impl<'a> Lower<'a> {
         };
         let after = Val::V {
             v: after,
-            ty: Ty::Float,
+            ty,
             varying,
         };
         let uniform = self.lookup(&id.name).is_some_and(|v| v.uniform);
@@ -545,6 +805,10 @@ impl<'a> Lower<'a> {
             }
         };
         let v = match args {
+            [one] if to == Ty::Int => {
+                let v = self.expr(b, one);
+                self.cast(b, v, to, one.span)
+            }
             [one] => self.expr_as(b, one, to),
             [_, _, _] if to.is_triple() => self.triple(b, args, to, span),
             _ => {
@@ -569,5 +833,26 @@ impl<'a> Lower<'a> {
             },
             v => v,
         }
+    }
+}
+
+/// OSL's `%`: C's remainder (the sign of `a`) of ints, `fmod` of floats; 0 where `c` is 0.
+fn rem(b: &mut Builder, a: Value, c: Value, ty: Ty) -> Value {
+    if ty == Ty::Int {
+        let q = b.div(a, c);
+        let qc = b.mul(q, c);
+        let r = b.sub(a, qc);
+        let zero = b.int(0);
+        let c0 = b.binary(BinOp::Eq, c, zero);
+        return b.select(c0, zero, r);
+    }
+    super::osl::componentwise2(b, a, c, ty, super::osl::fmod)
+}
+
+/// `name` with its indefinite article ("a float", "an int").
+pub(crate) fn an(name: &str) -> String {
+    match name.chars().next() {
+        Some('a' | 'e' | 'i' | 'o' | 'u') => format!("an {name}"),
+        _ => format!("a {name}"),
     }
 }

@@ -179,6 +179,23 @@ impl<'a> Lower<'a> {
     }
 
     fn lower_loop(&mut self, b: &mut Builder, parts: LoopParts<'a>) {
+        let mut closures = self.assigned_closures(&[parts.body]);
+        if closures.is_empty() {
+            let wrapped: Vec<Stmt> = parts
+                .step
+                .iter()
+                .map(|e| Stmt {
+                    kind: StmtKind::Expr(e.clone()),
+                    span: e.span,
+                })
+                .collect();
+            closures = self.assigned_closures(&wrapped.iter().collect::<Vec<_>>());
+        }
+        if let Some(c) = closures.first() {
+            let form = (parts.cond, parts.step, parts.body, parts.do_while);
+            self.unroll_closure_loop(b, form, c);
+            return;
+        }
         let depth = self.loops.len() + 1;
         let flags = LoopFlags {
             brk: format!("$break{depth}"),
@@ -326,7 +343,7 @@ impl<'a> Lower<'a> {
         let (mut c, mut vc) = match parts.cond {
             None => (b.boolean(true), false),
             Some(e) => {
-                let (c, t, vc) = self.value(b, e);
+                let (c, t, vc) = self.condition(b, e);
                 if t != Ty::Bool {
                     self.error(
                         format!("a loop condition must be a comparison, not a {}", t.name()),

@@ -7,21 +7,27 @@
 //!
 //! What is built: RSL `surface` shaders with `float`, `point`/`vector`/`normal`, `color` and
 //! `string` values; declarations, assignments (all compound forms), `if`/`else`, blocks,
-//! `illuminance`; the operators (`.` dot, `^` cross); constructors in `"rgb"`,
-//! `"current"` and `"world"`; user functions (inlined); the builtins of [`builtins`]. What
-//! is not yet — loops, arrays, matrices, other spaces, light/volume/displacement shaders,
-//! OSL — is an error that says so, naming the construct. It owns the rules of the language;
+//! loops, `illuminance`; the operators (`.` dot, `^` cross); constructors in `"rgb"`,
+//! `"current"` and `"world"`; user functions (inlined); the builtins of [`builtins`]. OSL
+//! `surface` and `shader` shaders add `int`, closures ([`closure`]: lobe lists), output
+//! parameters and OSL's builtins and noise ([`osl`]). What is not yet — arrays, matrices,
+//! structs, other spaces, light/volume/displacement shaders — is an error that says so,
+//! naming the construct. It owns the rules of the language;
 //! it must not hold op semantics (the IR's) nor touch the renderer.
 
 mod builtins;
+mod closure;
 mod expr;
 mod loops;
+mod osl;
 mod stmt;
+mod unroll;
 
 use crate::ast::{self, Item, ShaderKind};
 use crate::diag::{Diagnostic, Diagnostics};
 use crate::source::Span;
 use crate::{Dialect, Parsed};
+use shadenet_graph::closure::Closure;
 use shadenet_graph::ir::{Builder, Program, Stream, Value};
 use shadenet_graph::{ConstValue, Type};
 use std::collections::HashMap;
@@ -45,6 +51,8 @@ pub(crate) enum Ty {
     Normal,
     /// `color`.
     Color,
+    /// OSL's `int` (32-bit, wrapping; RSL has none).
+    Int,
     /// A condition (comparisons, `&&`, `!`).
     Bool,
 }
@@ -56,6 +64,7 @@ impl Ty {
             Ty::Float => Type::Float,
             Ty::Point | Ty::Vector | Ty::Normal => Type::Vec3,
             Ty::Color => Type::Color,
+            Ty::Int => Type::Int,
             Ty::Bool => Type::Bool,
         }
     }
@@ -68,6 +77,7 @@ impl Ty {
             Ty::Vector => "vector",
             Ty::Normal => "normal",
             Ty::Color => "color",
+            Ty::Int => "int",
             Ty::Bool => "bool (a condition)",
         }
     }
@@ -98,6 +108,51 @@ pub(crate) enum Val {
     },
     /// A string constant.
     Str(String),
+    /// An OSL `closure color`: a lobe list built while lowering (never an IR value).
+    Closure(Box<Closure>),
+}
+
+impl Val {
+    /// Its type's name in messages.
+    pub(crate) fn type_name(&self) -> &'static str {
+        match self {
+            Val::V { ty, .. } => ty.name(),
+            Val::Str(_) => "string",
+            Val::Closure(_) => "closure color",
+        }
+    }
+}
+
+/// The IR values of call arguments that are all values (`None` if one is a string or a
+/// closure), ints as floats: the math builtins take floats, and OSL promotes ints.
+pub(crate) fn numbers(b: &mut Builder, args: &[(Val, Span)]) -> Option<Vec<(Value, Ty, bool)>> {
+    args.iter()
+        .map(|(v, _)| match v {
+            Val::V {
+                v,
+                ty: Ty::Int,
+                varying,
+            } => Some((b.convert(Type::Float, *v), Ty::Float, *varying)),
+            Val::V { v, ty, varying } => Some((*v, *ty, *varying)),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Two operands brought to one type: equal, a float widened, geometric types mixed.
+pub(crate) fn same(
+    b: &mut Builder,
+    (x, tx): (Value, Ty),
+    (y, ty): (Value, Ty),
+) -> Option<(Value, Value, Ty)> {
+    match (tx, ty) {
+        _ if tx == Ty::Bool || ty == Ty::Bool => None,
+        _ if tx == ty => Some((x, y, tx)),
+        (Ty::Float, t) => Some((b.splat(t.ir(), x), y, t)),
+        (t, Ty::Float) => Some((x, b.splat(t.ir(), y), t)),
+        (a, c) if a.is_geometric() && c.is_geometric() => Some((x, y, a)),
+        _ => None,
+    }
 }
 
 /// A variable: its current value and whether it was declared `uniform`.
@@ -121,6 +176,11 @@ pub(crate) struct Lower<'a> {
     /// The hidden flags of the loops enclosing the current point, innermost last (emptied
     /// inside light-loop bodies and inlined functions, which no jump may leave).
     pub(crate) loops: Vec<loops::LoopFlags>,
+    /// The dialect being lowered (OSL's types, globals and builtins differ from RSL's).
+    pub(crate) dialect: Dialect,
+    /// The type the expression being lowered is assigned to, where a call's result type
+    /// depends on it (OSL's noise: a float or a vector); taken by the call.
+    pub(crate) want: Option<Ty>,
 }
 
 /// Compiles shader `name` (the file's only or first shader when `None`) of a parsed file to
@@ -156,18 +216,14 @@ fn compile_here(parsed: &Parsed, name: Option<&str>) -> Result<Program, Diagnost
         })
         .into());
     };
-    if parsed.dialect == Dialect::Osl {
-        return Err(Diagnostic::error(
-            "OSL shaders are parsed but not compiled yet (issue 22)",
-            shader.kind_span,
-            "not built yet",
-        )
-        .into());
-    }
-    if shader.kind != ShaderKind::Surface {
+    let built = match parsed.dialect {
+        Dialect::Rsl => shader.kind == ShaderKind::Surface,
+        Dialect::Osl => matches!(shader.kind, ShaderKind::Surface | ShaderKind::Shader),
+    };
+    if !built {
         return Err(Diagnostic::error(
             format!(
-                "{} shaders are not compiled yet: only surface shaders are built (issue 21)",
+                "{} shaders are not compiled yet: built are RSL `surface` shaders and OSL `surface` and `shader` shaders (issues 21, 22)",
                 kind_name(shader.kind)
             ),
             shader.kind_span,
@@ -188,9 +244,14 @@ fn compile_here(parsed: &Parsed, name: Option<&str>) -> Result<Program, Diagnost
         diags: Diagnostics::new(),
         in_illuminance: false,
         loops: Vec::new(),
+        dialect: parsed.dialect,
+        want: None,
     };
     let mut b = Builder::new(&shader.name.name);
-    lower.surface(&mut b, shader);
+    match parsed.dialect {
+        Dialect::Rsl => lower.surface(&mut b, shader),
+        Dialect::Osl => lower.osl_shader(&mut b, shader),
+    }
     if lower.diags.has_errors() {
         return Err(lower.diags);
     }
@@ -307,6 +368,10 @@ impl<'a> Lower<'a> {
             }
             return;
         }
+        if self.dialect == Dialect::Osl && (p.ty.output.is_some() || p.ty.closure.is_some()) {
+            self.osl_output_param(b, p);
+            return;
+        }
         let Some(ty) = self.declared_type(&p.ty) else {
             return;
         };
@@ -349,11 +414,18 @@ impl<'a> Lower<'a> {
     /// The language type of a declared type, or an error for what is not built.
     pub(crate) fn declared_type(&mut self, t: &ast::Type) -> Option<Ty> {
         if let Some(s) = t.closure {
-            self.error("closures are OSL's (issue 22)", s, "not built yet");
+            let what = match self.dialect {
+                Dialect::Rsl => "closures are OSL's",
+                Dialect::Osl => {
+                    "a closure is not a value of this kind here (closures are built for `Ci`, closure locals, output parameters and function results)"
+                }
+            };
+            self.error(what, s, "a closure");
             return None;
         }
         match &t.base {
             ast::BaseType::Float => Some(Ty::Float),
+            ast::BaseType::Int if self.dialect == Dialect::Osl => Some(Ty::Int),
             ast::BaseType::Point => Some(Ty::Point),
             ast::BaseType::Vector => Some(Ty::Vector),
             ast::BaseType::Normal => Some(Ty::Normal),
@@ -395,6 +467,10 @@ impl<'a> Lower<'a> {
         let mut v: Vec<String> = self.scopes.iter().flat_map(|s| s.keys().cloned()).collect();
         v.extend(self.functions.keys().map(|k| k.to_string()));
         v.extend(builtins::NAMES.iter().map(|s| s.to_string()));
+        if self.dialect == Dialect::Osl {
+            v.extend(osl::NAMES.iter().map(|s| s.to_string()));
+            v.extend(closure::names().map(str::to_string));
+        }
         v.sort();
         v.dedup();
         v
@@ -433,6 +509,9 @@ fn const_eval(e: &ast::Expr, ty: Ty) -> Option<ConstValue> {
     let v = eval(e)?;
     match (ty, v.as_slice()) {
         (Ty::Float, [x]) => Some(ConstValue::Float(*x)),
+        (Ty::Int, [x]) if x.fract() == 0.0 && x.abs() <= i32::MAX as f64 => {
+            Some(ConstValue::Int(*x as i32))
+        }
         (Ty::Color, [x]) => Some(ConstValue::Color([*x; 3])),
         (Ty::Color, [r, g, b]) => Some(ConstValue::Color([*r, *g, *b])),
         (t, [x]) if t.is_geometric() => Some(ConstValue::Vec3([*x; 3])),

@@ -103,6 +103,10 @@ impl<'a> Lower<'a> {
     }
 
     pub(crate) fn decl(&mut self, b: &mut Builder, d: &'a ast::Decl) {
+        if d.ty.closure.is_some() && self.dialect == crate::Dialect::Osl {
+            self.closure_decl(b, d);
+            return;
+        }
         let Some(ty) = self.declared_type(&d.ty) else {
             return;
         };
@@ -128,6 +132,52 @@ impl<'a> Lower<'a> {
             }
             self.declare(&v.name, val, uniform);
         }
+    }
+
+    /// `closure color c [= x], …;`: closure variables, empty or holding `x` (a closure or 0).
+    fn closure_decl(&mut self, b: &mut Builder, d: &'a ast::Decl) {
+        for v in &d.vars {
+            if let Some(a) = &v.array {
+                self.error("arrays are not built yet (issue 21)", a.span, "an array");
+                continue;
+            }
+            let val = match &v.init {
+                None => Val::Closure(Box::default()),
+                Some(e) => {
+                    let x = self.expr(b, e);
+                    match x {
+                        Val::Closure(_) => x,
+                        _ if Self::closure_or_zero(b, &x) => Val::Closure(Box::default()),
+                        _ => {
+                            self.error(
+                                format!("`{}` is a closure: it takes a closure or 0", v.name.name),
+                                e.span,
+                                "not a closure",
+                            );
+                            Val::Closure(Box::default())
+                        }
+                    }
+                }
+            };
+            self.declare(&v.name, val, false);
+        }
+    }
+
+    /// The closure variables `stmts` assign that are visible here.
+    pub(crate) fn assigned_closures(&self, stmts: &[&'a Stmt]) -> Vec<ast::Ident> {
+        let mut names: Vec<ast::Ident> = Vec::new();
+        for s in stmts {
+            walk_stmt(s, &mut |e| {
+                if let ExprKind::Assign { target, .. } = &e.kind
+                    && let ExprKind::Ident(id) = &target.kind
+                    && !names.iter().any(|n| n.name == id.name)
+                {
+                    names.push(id.clone());
+                }
+            });
+        }
+        names.retain(|n| matches!(self.lookup(&n.name).map(|v| &v.val), Some(Val::Closure(_))));
+        names
     }
 
     /// The outer variables `stmts` assign, in order of first assignment, that are visible
@@ -189,16 +239,8 @@ impl<'a> Lower<'a> {
     }
 
     pub(crate) fn restore(&mut self, names: &[(ast::Ident, Ty)], saved: Vec<Option<Var>>) {
-        for ((n, _), var) in names.iter().zip(saved) {
-            if let Some(var) = var {
-                for scope in self.scopes.iter_mut().rev() {
-                    if let Some(v) = scope.get_mut(&n.name) {
-                        *v = var;
-                        break;
-                    }
-                }
-            }
-        }
+        let ids: Vec<ast::Ident> = names.iter().map(|(n, _)| n.clone()).collect();
+        self.put_back(&ids, &saved);
     }
 
     /// One arm of an `if`: lowered from the values before the `if`, yielding `names`' values
@@ -309,7 +351,7 @@ impl<'a> Lower<'a> {
     }
 
     fn if_stmt(&mut self, b: &mut Builder, cond: &'a Expr, then: &'a Stmt, els: Option<&'a Stmt>) {
-        let (c, tc, vc) = self.value(b, cond);
+        let (c, tc, vc) = self.condition(b, cond);
         if tc != Ty::Bool {
             self.error(
                 format!(
@@ -323,6 +365,10 @@ impl<'a> Lower<'a> {
         }
         let arms: Vec<&Stmt> = [Some(then), els].into_iter().flatten().collect();
         let names = self.assigned_outer(&arms);
+        if !self.assigned_closures(&arms).is_empty() {
+            self.flat_if(b, (c, vc), &arms, &names);
+            return;
+        }
         self.if_region(
             b,
             c,
@@ -335,6 +381,67 @@ impl<'a> Lower<'a> {
                 }
             },
         );
+    }
+
+    /// An `if` that assigns closures: both arms lowered in the enclosing block, then each
+    /// variable they assign set to the arm's value the condition picks ([`Lower::merge`]:
+    /// closures keep both lobe lists, weighted by the condition). Shading ops have no side
+    /// effects, so running both arms changes nothing but cost.
+    fn flat_if(
+        &mut self,
+        b: &mut Builder,
+        (c, vc): (Value, bool),
+        arms: &[&'a Stmt],
+        values: &[(ast::Ident, Ty)],
+    ) {
+        let mut names: Vec<ast::Ident> = values.iter().map(|(n, _)| n.clone()).collect();
+        names.extend(self.assigned_closures(arms));
+        let before: Vec<Option<Var>> = names
+            .iter()
+            .map(|n| self.lookup(&n.name).cloned())
+            .collect();
+        let mut results: Vec<Vec<Option<Val>>> = Vec::new();
+        for k in 0..2 {
+            if let Some(arm) = arms.get(k) {
+                self.scopes.push(HashMap::new());
+                self.stmt(b, arm);
+                self.scopes.pop();
+            }
+            results.push(
+                names
+                    .iter()
+                    .map(|n| self.lookup(&n.name).map(|v| v.val.clone()))
+                    .collect(),
+            );
+            self.put_back(&names, &before);
+        }
+        let (els, then) = (
+            results.pop().unwrap_or_default(),
+            results.pop().unwrap_or_default(),
+        );
+        for ((n, t), e) in names.iter().zip(then).zip(els) {
+            let (Some(t), Some(e)) = (t, e) else { continue };
+            let val = self.merge(b, c, vc, t, e);
+            if n.name.starts_with('$') {
+                self.set_flag(&n.name, val);
+            } else {
+                let uniform = self.lookup(&n.name).is_some_and(|v| v.uniform);
+                self.rebind(n, val, uniform, n.span);
+            }
+        }
+    }
+
+    /// Puts the variables `names` back to `saved` (their values before an arm).
+    fn put_back(&mut self, names: &[ast::Ident], saved: &[Option<Var>]) {
+        for (n, var) in names.iter().zip(saved) {
+            let Some(var) = var else { continue };
+            for scope in self.scopes.iter_mut().rev() {
+                if let Some(v) = scope.get_mut(&n.name) {
+                    *v = var.clone();
+                    break;
+                }
+            }
+        }
     }
 
     /// `illuminance(P [, N, angle]) body`: the IR's light loop over the light samples seen
@@ -487,30 +594,57 @@ impl<'a> Lower<'a> {
         }
     }
 
-    /// Inlines a call of user function `f` with `args`: its parameters bound to the
-    /// arguments in a scope that sees only the globals, its body lowered, its value the
-    /// expression of its final `return`.
+    /// Inlines a call of user function `f` with `args` (the values of `arg_exprs`): its
+    /// parameters bound to the arguments in a scope that sees only the globals, its body
+    /// lowered, its value the expression of its final `return`; then each `output`
+    /// parameter's final value is stored in the variable passed for it.
     pub(crate) fn inline(
         &mut self,
         b: &mut Builder,
         f: &'a ast::FunctionDef,
         args: Vec<Val>,
+        arg_exprs: &'a [Expr],
         span: Span,
     ) -> Val {
         // No jump leaves a function.
         let outer = std::mem::take(&mut self.loops);
-        let v = self.inline_body(b, f, args, span);
+        let (v, outs) = self.inline_body(b, f, args, span);
         self.loops = outer;
+        for (k, val) in outs {
+            let Some(e) = arg_exprs.get(k) else { continue };
+            let ExprKind::Ident(id) = &e.kind else {
+                self.error(
+                    format!(
+                        "argument {} of `{}` is an `output` parameter: pass a variable",
+                        k + 1,
+                        f.name.name
+                    ),
+                    e.span,
+                    "not a variable",
+                );
+                continue;
+            };
+            let Some(var) = self.lookup(&id.name).cloned() else {
+                continue;
+            };
+            let val = match (&var.val, val) {
+                (Val::V { ty, .. }, v @ Val::V { .. }) => self.coerce(b, v, *ty, e.span),
+                (_, v) => v,
+            };
+            self.rebind(id, val, var.uniform, e.span);
+        }
         v
     }
 
+    /// The body of [`Lower::inline`]: the value and the output parameters' final values
+    /// (by argument position).
     fn inline_body(
         &mut self,
         b: &mut Builder,
         f: &'a ast::FunctionDef,
         args: Vec<Val>,
         span: Span,
-    ) -> Val {
+    ) -> (Val, Vec<(usize, Val)>) {
         if let Some((_, at)) = self.inlining.iter().find(|(n, _)| *n == f.name.name) {
             let chain: Vec<&str> = self
                 .inlining
@@ -527,13 +661,15 @@ impl<'a> Lower<'a> {
             if !self.stopped() {
                 self.diags.push(d);
             }
-            return Self::poison(b, Ty::Float);
+            return (Self::poison(b, Ty::Float), Vec::new());
         }
         if self.inlining.len() >= MAX_INLINE_DEPTH {
             self.error("functions nest too deeply", span, "here");
-            return Self::poison(b, Ty::Float);
+            return (Self::poison(b, Ty::Float), Vec::new());
         }
+        let closure_ret = f.ret.closure.is_some() && self.dialect == crate::Dialect::Osl;
         let ret = match &f.ret.base {
+            _ if closure_ret => None,
             ast::BaseType::Void => None,
             _ => self.declared_type(&f.ret),
         };
@@ -550,10 +686,13 @@ impl<'a> Lower<'a> {
         let globals = self.scopes[0].clone();
         let saved = std::mem::replace(&mut self.scopes, vec![globals, HashMap::new()]);
         for (p, a) in f.params.iter().zip(args) {
-            if p.ty.output.is_some() {
+            if p.ty.output.is_some() && self.dialect == crate::Dialect::Rsl {
                 self.error("output parameters are not built yet", p.span, "`output`");
             }
-            if let Some(ty) = self.declared_type(&p.ty) {
+            if p.ty.closure.is_some() && self.dialect == crate::Dialect::Osl {
+                // `accepts` matched a closure to it.
+                self.declare(&p.name, a, false);
+            } else if let Some(ty) = self.declared_type(&p.ty) {
                 let v = self.coerce(b, a, ty, span);
                 self.declare(&p.name, v, false);
             }
@@ -563,6 +702,18 @@ impl<'a> Lower<'a> {
             self.stmt(b, s);
         }
         let out = match (ret, last) {
+            _ if closure_ret => match last.map(|e| self.expr(b, e)) {
+                Some(v @ Val::Closure(_)) => v,
+                Some(v) if Self::closure_or_zero(b, &v) => Val::Closure(Box::default()),
+                _ => {
+                    self.error(
+                        format!("function `{}` must return a closure", f.name.name),
+                        f.name.span,
+                        "returns a closure",
+                    );
+                    Val::Closure(Box::default())
+                }
+            },
             (Some(ty), Some(e)) => self.expr_as(b, e, ty),
             (Some(ty), None) => {
                 self.error(
@@ -574,9 +725,16 @@ impl<'a> Lower<'a> {
             }
             (None, _) => Self::poison(b, Ty::Float),
         };
+        let outs = f
+            .params
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.ty.output.is_some())
+            .filter_map(|(k, p)| Some((k, self.lookup(&p.name.name)?.val.clone())))
+            .collect();
         self.inlining.pop();
         self.scopes = saved;
-        out
+        (out, outs)
     }
 }
 
@@ -642,7 +800,7 @@ fn assignment_in(e: &Expr) -> Option<Span> {
 }
 
 /// Whether `s` holds a `break` or `continue` (at any depth).
-fn has_jump(s: &Stmt) -> bool {
+pub(crate) fn has_jump(s: &Stmt) -> bool {
     match &s.kind {
         StmtKind::Break { .. } | StmtKind::Continue { .. } => true,
         StmtKind::Block(b) => b.stmts.iter().any(has_jump),

@@ -11,7 +11,9 @@
 //!
 //! Predefined macros: `__SHADENET__` (1) in both dialects; `__RSL__` (1) for RSL;
 //! `__OSL__` (1), `OSL_VERSION_MAJOR` (1), `OSL_VERSION_MINOR` (13), `OSL_VERSION_PATCH` (0)
-//! and `OSL_VERSION` (11300) for OSL; then the `-D` defines in order. They live in a
+//! and `OSL_VERSION` (11300) for OSL, with the constants of OSL's standard header (`M_PI`,
+//! `M_2PI`, `M_SQRT2`…; `#include "stdosl.h"` not found on the search path is built in and
+//! reads nothing); then the `-D` defines in order. They live in a
 //! synthetic file named `<predefined>` so their tokens have spans like any other.
 //!
 //! Limits: [`MAX_INCLUDE_DEPTH`] nested includes, [`MAX_SCANNED`] tokens read in all,
@@ -86,6 +88,27 @@ pub(crate) fn load_file(
     }
 }
 
+/// The header every OSL shader may include; not found on the search path, it is built in.
+const STDOSL: &str = "stdosl.h";
+
+/// The mathematical constants OSL's standard header defines (`M_PI`…), predefined in OSL.
+const OSL_CONSTANTS: &[(&str, f64)] = &[
+    ("M_PI", std::f64::consts::PI),
+    ("M_PI_2", std::f64::consts::FRAC_PI_2),
+    ("M_PI_4", std::f64::consts::FRAC_PI_4),
+    ("M_2_PI", std::f64::consts::FRAC_2_PI),
+    ("M_2PI", std::f64::consts::TAU),
+    ("M_4PI", 2.0 * std::f64::consts::TAU),
+    ("M_2_SQRTPI", std::f64::consts::FRAC_2_SQRT_PI),
+    ("M_E", std::f64::consts::E),
+    ("M_LN2", std::f64::consts::LN_2),
+    ("M_LN10", std::f64::consts::LN_10),
+    ("M_LOG2E", std::f64::consts::LOG2_E),
+    ("M_LOG10E", std::f64::consts::LOG10_E),
+    ("M_SQRT2", std::f64::consts::SQRT_2),
+    ("M_SQRT1_2", std::f64::consts::FRAC_1_SQRT_2),
+];
+
 /// Preprocesses `main` (already in `sm`) in `dialect` with `options`' include directories
 /// and defines.
 pub fn preprocess(
@@ -113,10 +136,15 @@ pub fn preprocess(
     let mut pre = String::from("#define __SHADENET__ 1\n");
     match dialect {
         Dialect::Rsl => pre.push_str("#define __RSL__ 1\n"),
-        Dialect::Osl => pre.push_str(
-            "#define __OSL__ 1\n#define OSL_VERSION_MAJOR 1\n#define OSL_VERSION_MINOR 13\n\
-             #define OSL_VERSION_PATCH 0\n#define OSL_VERSION 11300\n",
-        ),
+        Dialect::Osl => {
+            pre.push_str(
+                "#define __OSL__ 1\n#define OSL_VERSION_MAJOR 1\n#define OSL_VERSION_MINOR 13\n\
+                 #define OSL_VERSION_PATCH 0\n#define OSL_VERSION 11300\n",
+            );
+            for (name, value) in OSL_CONSTANTS {
+                pre.push_str(&format!("#define {name} {value:?}\n"));
+            }
+        }
     }
     for (name, value) in &options.defines {
         let value = value.replace(['\n', '\r'], " ");
@@ -548,7 +576,13 @@ impl Pp<'_> {
             );
         }
         dirs.extend(self.include_dirs.iter().cloned());
-        let Some(path) = dirs.iter().map(|d| d.join(&target)).find(|p| p.is_file()) else {
+        let found = dirs.iter().map(|d| d.join(&target)).find(|p| p.is_file());
+        if found.is_none() && self.dialect == Dialect::Osl && target == STDOSL {
+            // OSL's standard header: its functions are our builtins and its constants are
+            // predefined, so there is nothing to read.
+            return;
+        }
+        let Some(path) = found else {
             let searched: Vec<String> = dirs.iter().map(|d| d.display().to_string()).collect();
             self.error(
                 Diagnostic::error(

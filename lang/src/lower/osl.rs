@@ -1,0 +1,632 @@
+//! OSL's side of the lowering: a `surface` or `shader` with OSL's globals (`P`, `I`, `N`,
+//! `Ng`, `u`, `v`, `dPdu`, `dPdv`, `time`, `Ci`), its output parameters as the program's
+//! outputs, and the builtins whose meaning differs from RSL's: the noise family with OSL's
+//! generators (`noise`, `snoise`, `cellnoise` with `"perlin"`, `"uperlin"`, `"cell"`; a
+//! float or a vector by the type the result is assigned to) and OSL's extra math. The
+//! closures are [`super::closure`]'s. It owns OSL's language rules; the noise itself is
+//! `shadenet_graph::ops::osl_noise` (OSL's generators, ported), reached through the IR's
+//! intrinsics.
+
+use super::{Lower, Ty, Val};
+use crate::ast::{self, ShaderKind};
+use crate::source::Span;
+use shadenet_graph::ir::{BinOp, Builder, Intrinsic, Stream, UnOp, Value};
+use shadenet_graph::nodes::LowVal;
+use shadenet_graph::{ConstValue, Type};
+use std::collections::HashMap;
+
+/// OSL's builtins beyond those both dialects share (for "did you mean").
+pub(crate) const NAMES: &[&str] = &[
+    "noise",
+    "snoise",
+    "cellnoise",
+    "hashnoise",
+    "pnoise",
+    "psnoise",
+    "fabs",
+    "sign",
+    "trunc",
+    "round",
+    "fmod",
+    "exp2",
+    "log2",
+    "log10",
+    "inversesqrt",
+    "hypot",
+    "dot",
+    "cross",
+    "luminance",
+    "linearstep",
+    "atan2",
+    "backfacing",
+    "isnan",
+    "isinf",
+    "isfinite",
+];
+
+/// RSL builtins that OSL does not have (or has as closures: `diffuse`, `phong`).
+pub(crate) const RSL_ONLY: &[&str] = &["ambient", "specular", "trace", "xcomp", "ycomp", "zcomp"];
+
+/// The OSL builtins we know of but have not built, with what to use instead.
+const UNBUILT: &[(&str, &str)] = &[
+    (
+        "printf",
+        "side effects (printf, format, warning, error) are not built yet",
+    ),
+    (
+        "format",
+        "side effects (printf, format, warning, error) are not built yet",
+    ),
+    (
+        "warning",
+        "side effects (printf, format, warning, error) are not built yet",
+    ),
+    (
+        "error",
+        "side effects (printf, format, warning, error) are not built yet",
+    ),
+    (
+        "transform",
+        "spaces other than \"common\" are not built yet",
+    ),
+    ("getattribute", "attributes are not built yet"),
+    ("raytype", "ray types are not readable by shaders yet"),
+    ("spline", "splines need arrays, which are not built yet"),
+    (
+        "splineinverse",
+        "splines need arrays, which are not built yet",
+    ),
+    (
+        "environment",
+        "environment lookups are not built for OSL yet",
+    ),
+    ("Dx", "derivatives are not exposed to OSL shaders yet"),
+    ("Dy", "derivatives are not exposed to OSL shaders yet"),
+    (
+        "filterwidth",
+        "derivatives are not exposed to OSL shaders yet",
+    ),
+    ("blackbody", "blackbody is not built for OSL yet"),
+    ("wavelength_color", "wavelength_color is not built yet"),
+];
+
+impl<'a> Lower<'a> {
+    /// An OSL `surface` or `shader`: the globals, the parameters, the body; then the outputs
+    /// (`Ci` first for a surface, lit by the surface lowering; then the output parameters in
+    /// order, a closure-valued one lit the same way).
+    pub(crate) fn osl_shader(&mut self, b: &mut Builder, shader: &'a ast::ShaderDef) {
+        self.osl_globals(b);
+        for p in &shader.params {
+            self.param(b, p);
+        }
+        self.scopes.push(HashMap::new());
+        self.block(b, &shader.body);
+        self.scopes.pop();
+        let outputs: Vec<&str> = shader
+            .params
+            .iter()
+            .filter(|p| p.ty.output.is_some())
+            .map(|p| p.name.name.as_str())
+            .collect();
+        let mut names: Vec<&str> = Vec::new();
+        if shader.kind == ShaderKind::Surface || outputs.is_empty() {
+            names.push("Ci");
+        }
+        names.extend(outputs);
+        for name in names {
+            match self.lookup(name).map(|v| v.val.clone()) {
+                Some(Val::V { v, .. }) => b.output(name, None, v),
+                Some(Val::Closure(c)) => {
+                    let low = LowVal::closure(b, *c);
+                    shadenet_graph::lower::declare_output(b, name, &low);
+                }
+                _ => {}
+            }
+        }
+    }
+
+    /// OSL's shader globals. `time` is 0 (the renderer has no motion); `Ci` starts as the
+    /// empty closure.
+    fn osl_globals(&mut self, b: &mut Builder) {
+        let set = |me: &mut Self, name: &str, val: Val| {
+            me.scopes[0].insert(
+                name.to_string(),
+                super::Var {
+                    val,
+                    uniform: false,
+                    decl: None,
+                },
+            );
+        };
+        for (name, stream, ty) in [
+            ("P", Stream::P, Ty::Point),
+            ("N", Stream::N, Ty::Normal),
+            ("Ng", Stream::Ng, Ty::Normal),
+            ("I", Stream::I, Ty::Vector),
+            ("dPdu", Stream::DPdu, Ty::Vector),
+            ("dPdv", Stream::DPdv, Ty::Vector),
+        ] {
+            let v = b.stream(stream);
+            set(
+                self,
+                name,
+                Val::V {
+                    v,
+                    ty,
+                    varying: true,
+                },
+            );
+        }
+        let uv = b.stream(Stream::Uv);
+        for (k, name) in ["u", "v"].into_iter().enumerate() {
+            let v = b.extract(uv, k);
+            set(
+                self,
+                name,
+                Val::V {
+                    v,
+                    ty: Ty::Float,
+                    varying: true,
+                },
+            );
+        }
+        for name in ["time", "dtime"] {
+            let v = b.float(0.0);
+            set(
+                self,
+                name,
+                Val::V {
+                    v,
+                    ty: Ty::Float,
+                    varying: false,
+                },
+            );
+        }
+        let v = b.zero(Type::Vec3);
+        set(
+            self,
+            "dPdtime",
+            Val::V {
+                v,
+                ty: Ty::Vector,
+                varying: false,
+            },
+        );
+        set(self, "Ci", Val::Closure(Box::default()));
+    }
+
+    /// An OSL `output` parameter (or a closure parameter): a variable holding its default
+    /// (zero where it has none), read back as a program output at the end.
+    pub(crate) fn osl_output_param(&mut self, b: &mut Builder, p: &'a ast::Param) {
+        if p.ty.output.is_none() {
+            self.error(
+                "closure inputs are not built: a closure parameter must be an `output`",
+                p.span,
+                "closure input",
+            );
+            return;
+        }
+        if p.ty.closure.is_some() {
+            if let Some(d) = &p.default {
+                let v = self.expr(b, d);
+                if !Self::closure_or_zero(b, &v) {
+                    self.error(
+                        "a closure output's default must be 0 or a closure",
+                        d.span,
+                        "not a closure",
+                    );
+                }
+            }
+            self.declare(&p.name, Val::Closure(Box::default()), false);
+            return;
+        }
+        let Some(ty) = self.declared_type(&p.ty) else {
+            return;
+        };
+        let val = match &p.default {
+            Some(d) => self.expr_as(b, d, ty),
+            None => Self::poison(b, ty),
+        };
+        self.declare(&p.name, val, false);
+    }
+
+    /// An OSL builtin other than the closures, or `None` when `name` is not one (or is one
+    /// RSL has that takes these arguments: the caller tries those next). `want` is the type
+    /// the result is assigned to (noise is a float or a vector by it).
+    pub(crate) fn osl_builtin(
+        &mut self,
+        b: &mut Builder,
+        name: &str,
+        args: &[(Val, Span)],
+        span: Span,
+        want: Option<Ty>,
+    ) -> Option<Val> {
+        if let Some((_, why)) = UNBUILT.iter().find(|(n, _)| *n == name) {
+            self.error(format!("`{name}`: {why}"), span, "not built yet");
+            return Some(Self::poison(b, want.unwrap_or(Ty::Float)));
+        }
+        if matches!(
+            name,
+            "noise" | "snoise" | "cellnoise" | "hashnoise" | "pnoise" | "psnoise"
+        ) {
+            return Some(self.osl_noise(b, name, args, span, want));
+        }
+        if let Some(v) = int_builtin(b, name, args) {
+            return Some(v);
+        }
+        let vs = super::numbers(b, args)?;
+        let varying = vs.iter().any(|v| v.2);
+        let out = |v: Value, ty: Ty| Some(Val::V { v, ty, varying });
+        let num = |t: Ty| t == Ty::Float || t.is_triple();
+        match (name, vs.as_slice()) {
+            ("fabs", [(x, t, _)]) if num(*t) => out(b.unary(UnOp::Abs, *x), *t),
+            ("sign", [(x, t, _)]) if num(*t) => {
+                let s = componentwise(b, *x, *t, |b, x| {
+                    let z = b.float(0.0);
+                    let (p, m) = (b.float(1.0), b.float(-1.0));
+                    let gt = b.binary(BinOp::Gt, x, z);
+                    let lt = b.binary(BinOp::Lt, x, z);
+                    let s = b.select(lt, m, z);
+                    b.select(gt, p, s)
+                });
+                out(s, *t)
+            }
+            ("trunc", [(x, t, _)]) if num(*t) => out(componentwise(b, *x, *t, trunc), *t),
+            ("round", [(x, t, _)]) if num(*t) => out(
+                componentwise(b, *x, *t, |b, x| {
+                    // Half away from zero, as C's roundf.
+                    let half = b.float(0.5);
+                    let a = b.unary(UnOp::Abs, x);
+                    let a = b.add(a, half);
+                    let r = b.unary(UnOp::Floor, a);
+                    let zero = b.float(0.0);
+                    let neg = b.binary(BinOp::Lt, x, zero);
+                    let nr = b.unary(UnOp::Neg, r);
+                    b.select(neg, nr, r)
+                }),
+                *t,
+            ),
+            ("fmod", [(x, tx, _), (y, ty, _)]) if num(*tx) && num(*ty) => {
+                let (x, y, t) = super::same(b, (*x, *tx), (*y, *ty))?;
+                out(componentwise2(b, x, y, t, fmod), t)
+            }
+            ("exp2" | "log2" | "log10", [(x, t, _)]) if num(*t) => {
+                let k = match name {
+                    "exp2" => std::f64::consts::LN_2,
+                    "log2" => std::f64::consts::LOG2_E,
+                    _ => std::f64::consts::LOG10_E,
+                };
+                let k = b.float(k);
+                let k = b.splat_to(t.ir(), k);
+                let v = if name == "exp2" {
+                    let a = b.mul(*x, k);
+                    b.unary(UnOp::Exp, a)
+                } else {
+                    let l = b.unary(UnOp::Log, *x);
+                    b.mul(l, k)
+                };
+                out(v, *t)
+            }
+            ("inversesqrt", [(x, t, _)]) if num(*t) => {
+                let s = b.unary(UnOp::Sqrt, *x);
+                let one = b.float(1.0);
+                let one = b.splat_to(t.ir(), one);
+                out(b.div(one, s), *t)
+            }
+            ("hypot", [(x, tx, _), (y, ty, _)]) if *tx == Ty::Float && *ty == Ty::Float => {
+                let v = b.construct(Type::Vec2, &[*x, *y]);
+                out(b.unary(UnOp::Length, v), Ty::Float)
+            }
+            ("dot", [(x, tx, _), (y, ty, _)]) if tx.is_triple() && ty.is_triple() => {
+                out(b.dot(*x, *y), Ty::Float)
+            }
+            ("cross", [(x, tx, _), (y, ty, _)]) if tx.is_geometric() && ty.is_geometric() => {
+                out(b.binary(BinOp::Cross, *x, *y), Ty::Vector)
+            }
+            ("luminance", [(c, Ty::Color, _)]) => {
+                let w = b.color(LUMA_REC709);
+                out(b.dot(*c, w), Ty::Float)
+            }
+            ("atan2", [(y, ty, _), (x, tx, _)]) if *ty == Ty::Float && *tx == Ty::Float => {
+                out(b.binary(BinOp::Atan2, *y, *x), Ty::Float)
+            }
+            ("linearstep", [(e0, t0, _), (e1, t1, _), (x, tx, _)])
+                if [*t0, *t1, *tx].iter().all(|t| *t == Ty::Float) =>
+            {
+                let d = b.sub(*x, *e0);
+                let w = b.sub(*e1, *e0);
+                let t = b.div(d, w);
+                let (zero, one) = (b.float(0.0), b.float(1.0));
+                let t = b.clamp(t, zero, one);
+                // Exact ends where the edges coincide (a step at e0).
+                let below = b.binary(BinOp::Lt, *x, *e0);
+                let t = b.select(below, zero, t);
+                let above = b.binary(BinOp::Ge, *x, *e1);
+                out(b.select(above, one, t), Ty::Float)
+            }
+            ("backfacing", []) => {
+                let ng = b.stream(Stream::Ng);
+                let i = b.stream(Stream::I);
+                let d = b.dot(ng, i);
+                let zero = b.float(0.0);
+                let back = b.binary(BinOp::Gt, d, zero);
+                let k = b.convert(Type::Int, back);
+                Some(Val::V {
+                    v: k,
+                    ty: Ty::Int,
+                    varying: true,
+                })
+            }
+            ("isnan" | "isinf" | "isfinite", [(x, Ty::Float, _)]) => {
+                let nan = b.binary(BinOp::Ne, *x, *x);
+                let a = b.unary(UnOp::Abs, *x);
+                let big = b.float(f64::from(f32::MAX));
+                let inf = b.binary(BinOp::Gt, a, big);
+                let v = match name {
+                    "isnan" => nan,
+                    "isinf" => inf,
+                    _ => {
+                        let bad = b.binary(BinOp::Or, nan, inf);
+                        b.unary(UnOp::Not, bad)
+                    }
+                };
+                out(b.convert(Type::Int, v), Ty::Int)
+            }
+            _ => None,
+        }
+    }
+
+    /// `noise`, `snoise`, `cellnoise` (and the refused `hashnoise`, `pnoise`, `psnoise`):
+    /// an optional generator name, then `(x, y)` or a point; a float, or a vector where
+    /// `want` is a triple.
+    fn osl_noise(
+        &mut self,
+        b: &mut Builder,
+        name: &str,
+        args: &[(Val, Span)],
+        span: Span,
+        want: Option<Ty>,
+    ) -> Val {
+        let out_ty = match want {
+            Some(t) if t.is_triple() => t,
+            _ => Ty::Float,
+        };
+        let (generator, rest) = match args.split_first() {
+            Some(((Val::Str(g), at), rest)) if name == "noise" || name == "pnoise" => {
+                (g.as_str(), (rest, Some(*at)))
+            }
+            _ => (
+                match name {
+                    "noise" | "pnoise" => "uperlin",
+                    "snoise" | "psnoise" => "perlin",
+                    "cellnoise" => "cell",
+                    _ => "hash",
+                },
+                (args, None),
+            ),
+        };
+        let (rest, gen_at) = rest;
+        if name == "pnoise" || name == "psnoise" {
+            self.error(
+                format!("`{name}`: periodic noise is not built yet"),
+                span,
+                "not built yet",
+            );
+            return Self::poison(b, out_ty);
+        }
+        let kind = match generator {
+            "perlin" | "snoise" => (true, false),
+            "uperlin" | "noise" => (false, false),
+            "cell" | "cellnoise" => (false, true),
+            other => {
+                let why = match other {
+                    "hash" | "hashnoise" => "the hash generator is not built yet".to_string(),
+                    "simplex" | "usimplex" => {
+                        "the simplex generators are not built yet".to_string()
+                    }
+                    "gabor" => "gabor noise is not built yet".to_string(),
+                    _ => format!(
+                        "unknown noise generator \"{other}\" (OSL's: perlin, uperlin, cell, hash, simplex, usimplex, gabor)"
+                    ),
+                };
+                self.error(format!("`{name}`: {why}"), gen_at.unwrap_or(span), "here");
+                return Self::poison(b, out_ty);
+            }
+        };
+        let mut vals = Vec::new();
+        let mut varying = false;
+        for (v, at) in rest {
+            match v {
+                Val::V { v, ty, varying: vy } => {
+                    varying |= vy;
+                    let v = match ty {
+                        Ty::Int => b.convert(Type::Float, *v),
+                        _ => *v,
+                    };
+                    let ty = if *ty == Ty::Int { Ty::Float } else { *ty };
+                    vals.push((v, ty));
+                }
+                _ => {
+                    self.error(
+                        format!("`{name}` takes numbers and points"),
+                        *at,
+                        "not a number",
+                    );
+                    return Self::poison(b, out_ty);
+                }
+            }
+        }
+        let p = match vals.as_slice() {
+            [(x, Ty::Float), (y, Ty::Float)] => (b.construct(Type::Vec2, &[*x, *y]), false),
+            [(p, t)] if t.is_geometric() => (*p, true),
+            [(_, Ty::Float)] | [(_, _), (_, Ty::Float)] => {
+                self.error(
+                    format!(
+                        "`{name}`: 1D and 4D noise are not built yet (built: `{name}(x, y)` and `{name}(point)`)"
+                    ),
+                    span,
+                    "not built yet",
+                );
+                return Self::poison(b, out_ty);
+            }
+            _ => {
+                self.error(
+                    format!("`{name}` takes (float x, float y) or (point p), after an optional generator name"),
+                    span,
+                    "wrong arguments",
+                );
+                return Self::poison(b, out_ty);
+            }
+        };
+        let (signed, cell) = kind;
+        let vector = out_ty != Ty::Float;
+        let f = match (cell, vector, p.1) {
+            (false, false, false) => Intrinsic::OslPerlin2,
+            (false, false, true) => Intrinsic::OslPerlin3,
+            (false, true, false) => Intrinsic::OslVPerlin2,
+            (false, true, true) => Intrinsic::OslVPerlin3,
+            (true, false, false) => Intrinsic::OslCell2,
+            (true, false, true) => Intrinsic::OslCell3,
+            (true, true, false) => Intrinsic::OslVCell2,
+            (true, true, true) => Intrinsic::OslVCell3,
+        };
+        let mut v = b.call(f, &[p.0]);
+        if !cell && !signed {
+            // OSL's unsigned Perlin noise: 0.5 · (n + 1).
+            let one = b.float(1.0);
+            let one = b.splat_to(if vector { Type::Vec3 } else { Type::Float }, one);
+            let half = b.float(0.5);
+            let half = b.splat_to(if vector { Type::Vec3 } else { Type::Float }, half);
+            let s = b.add(v, one);
+            v = b.mul(half, s);
+        }
+        if vector && out_ty == Ty::Color {
+            v = b.retype(Type::Color, v);
+        }
+        Val::V {
+            v,
+            ty: out_ty,
+            varying,
+        }
+    }
+
+    /// Whether `v` is a closure or a constant 0 (OSL's null closure: `closure color c = 0`).
+    pub(crate) fn closure_or_zero(b: &Builder, v: &Val) -> bool {
+        match v {
+            Val::Closure(_) => true,
+            Val::V { v, .. } => {
+                shadenet_graph::opt::fold::constant(b.program(), *v)
+                    .as_ref()
+                    .and_then(const_number)
+                    == Some(0.0)
+            }
+            Val::Str(_) => false,
+        }
+    }
+}
+
+/// `abs`, `min`, `max` and `clamp` of ints: ints (the IR's int ops), as OSL overloads them.
+fn int_builtin(b: &mut Builder, name: &str, args: &[(Val, Span)]) -> Option<Val> {
+    let mut ints = Vec::new();
+    let mut varying = false;
+    for (v, _) in args {
+        match v {
+            Val::V {
+                v,
+                ty: Ty::Int,
+                varying: vy,
+            } => {
+                ints.push(*v);
+                varying |= vy;
+            }
+            _ => return None,
+        }
+    }
+    let v = match (name, ints.as_slice()) {
+        ("abs", [x]) => b.unary(UnOp::Abs, *x),
+        ("min", [x, y]) => b.min(*x, *y),
+        ("max", [x, y]) => b.max(*x, *y),
+        ("clamp", [x, lo, hi]) => {
+            let m = b.max(*x, *lo);
+            b.min(m, *hi)
+        }
+        _ => return None,
+    };
+    Some(Val::V {
+        v,
+        ty: Ty::Int,
+        varying,
+    })
+}
+
+/// Rec. 709 luminance weights (OSL's default color space).
+const LUMA_REC709: [f64; 3] = [0.2126, 0.7152, 0.0722];
+
+/// `f` on each component of `x` (a float or a triple of type `t`).
+fn componentwise(
+    b: &mut Builder,
+    x: Value,
+    t: Ty,
+    f: impl Fn(&mut Builder, Value) -> Value,
+) -> Value {
+    if t == Ty::Float {
+        return f(b, x);
+    }
+    let c: Vec<Value> = (0..3)
+        .map(|k| {
+            let xk = b.extract(x, k);
+            f(b, xk)
+        })
+        .collect();
+    b.construct(t.ir(), &c)
+}
+
+/// `f` on each pair of components of `x` and `y` (both of type `t`).
+pub(crate) fn componentwise2(
+    b: &mut Builder,
+    x: Value,
+    y: Value,
+    t: Ty,
+    f: impl Fn(&mut Builder, Value, Value) -> Value,
+) -> Value {
+    if t == Ty::Float {
+        return f(b, x, y);
+    }
+    let c: Vec<Value> = (0..3)
+        .map(|k| {
+            let (xk, yk) = (b.extract(x, k), b.extract(y, k));
+            f(b, xk, yk)
+        })
+        .collect();
+    b.construct(t.ir(), &c)
+}
+
+/// `trunc(x)`: toward zero.
+pub(crate) fn trunc(b: &mut Builder, x: Value) -> Value {
+    let zero = b.float(0.0);
+    let neg = b.binary(BinOp::Lt, x, zero);
+    let c = b.unary(UnOp::Ceil, x);
+    let f = b.unary(UnOp::Floor, x);
+    b.select(neg, c, f)
+}
+
+/// C's `fmod(x, y)` = `x − y · trunc(x / y)` (the sign of `x`); 0 where `y` is 0, as
+/// OSL's safe `fmod`.
+pub(crate) fn fmod(b: &mut Builder, x: Value, y: Value) -> Value {
+    let q = b.div(x, y);
+    let t = trunc(b, q);
+    let yt = b.mul(y, t);
+    let r = b.sub(x, yt);
+    let zero = b.float(0.0);
+    let y0 = b.binary(BinOp::Eq, y, zero);
+    b.select(y0, zero, r)
+}
+
+/// A float constant `x` of a numeric const type, if `c` is one.
+pub(crate) fn const_number(c: &ConstValue) -> Option<f64> {
+    match c {
+        ConstValue::Float(x) => Some(*x),
+        ConstValue::Int(i) => Some(*i as f64),
+        _ => None,
+    }
+}
