@@ -299,6 +299,51 @@ pub fn mult_tree_sl(levels: u32) -> Result<String, GenError> {
     Ok(s)
 }
 
+/// The shaders of [`mult_tree_group`]: a leaf reading `P` and a multiply, as `(file name,
+/// source)`.
+pub const MULT_TREE_SHADERS: [(&str, &str); 2] = [
+    (
+        "mt_leaf.osl",
+        "// Benchmark B1's leaf as an OSL layer: P as a color.\nshader mt_leaf(output color out = 0) { out = color(P[0], P[1], P[2]); }\n",
+    ),
+    (
+        "mt_mult.osl",
+        "// Benchmark B1's multiply as an OSL layer.\nshader mt_mult(color a = 0, color b = 0, output color out = 0) { out = a * b; }\n",
+    ),
+];
+
+/// [`mult_tree`] as an OSL shader group in OSL's serialized text: 2^N leaf layers and
+/// 2^N − 1 multiply layers (2047 layers at level 10), connected as the network's nodes are;
+/// the shaders are [`MULT_TREE_SHADERS`], written beside it.
+pub fn mult_tree_group(levels: u32) -> Result<String, GenError> {
+    if !MULT_TREE_LEVELS.contains(&levels) {
+        return Err(GenError::Levels { levels });
+    }
+    let leaves = 1usize << levels;
+    let mut s = format!(
+        "// Benchmark B1 (Larsson 2005, §5.1.1) as an OSL shader group: {} layers.\n",
+        2 * leaves - 1
+    );
+    for i in 0..leaves {
+        s += &format!("shader mt_leaf p{i} ;\n");
+    }
+    for l in 1..=levels {
+        for i in 0..leaves >> l {
+            s += &format!("shader mt_mult m{l}_{i} ;\n");
+            let (a, b) = if l == 1 {
+                (format!("p{}", 2 * i), format!("p{}", 2 * i + 1))
+            } else {
+                (
+                    format!("m{}_{}", l - 1, 2 * i),
+                    format!("m{}_{}", l - 1, 2 * i + 1),
+                )
+            };
+            s += &format!("connect {a}.out m{l}_{i}.a ;\nconnect {b}.out m{l}_{i}.b ;\n");
+        }
+    }
+    Ok(s)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -242,7 +242,8 @@ pub fn compile_material(
         message,
     };
     if let MaterialSource::File(p) = &m.source
-        && p.extension().is_some_and(|e| e == "sl" || e == "osl")
+        && p.extension()
+            .is_some_and(|e| e == "sl" || e == "osl" || e == crate::shader::GROUP_EXTENSION)
     {
         return shader_material(m, p, files).map_err(fail);
     }

@@ -1,4 +1,4 @@
-//! Shader sources (`.sl` RSL, `.osl` OSL): read, preprocessed,
+//! Shader sources (`.sl` RSL, `.osl` OSL, `.oslgroup` OSL shader groups): read, preprocessed,
 //! parsed, checked and lowered by `shadenet-lang` into a material program, as a network file
 //! is by [`crate::load_network`]. Errors come back rendered as the front end prints them
 //! (file:line:column, the source line, a caret, what was expected).
@@ -33,10 +33,49 @@ pub fn load(path: &Path, include: &[PathBuf], defines: &[String]) -> Result<Comp
         path: path.to_path_buf(),
         rendered: d.render(sources).trim_end().to_string(),
     };
+    if path.extension().is_some_and(|e| e == GROUP_EXTENSION) {
+        return load_group(path, include, defines);
+    }
     let parsed =
         shadenet_lang::parse_file(&mut sources, path, &options).map_err(|d| fail(&sources, d))?;
     let mut program =
         shadenet_lang::lower::compile(&parsed, None).map_err(|d| fail(&sources, d))?;
+    let dir = path.parent().unwrap_or(Path::new(""));
+    program.resolve_textures(dir);
+    Ok(Compiled {
+        program,
+        lights: Vec::new(),
+    })
+}
+
+/// The extension of OSL shader-group files (`shade --group` reads any name).
+pub const GROUP_EXTENSION: &str = "oslgroup";
+
+/// Reads an OSL shader group in OSL's serialized text (`param`, `shader`, `connect`
+/// statements) and the `NAME.osl` source of each shader it names (in the group file's
+/// folder, then `include`), and compiles the group into one material named after its last
+/// layer; its parameters are named `layer.param`.
+pub fn load_group(
+    path: &Path,
+    include: &[PathBuf],
+    defines: &[String],
+) -> Result<Compiled, ShaderError> {
+    let mut options = Options {
+        include_dirs: include.to_vec(),
+        ..Options::default()
+    };
+    for d in defines {
+        options = options.define(d);
+    }
+    let mut sources = SourceMap::new();
+    let fail = |sources: &SourceMap, d: shadenet_lang::Diagnostics| ShaderError {
+        path: path.to_path_buf(),
+        rendered: d.render(sources).trim_end().to_string(),
+    };
+    let loaded =
+        shadenet_lang::group::load(&mut sources, path, &options).map_err(|d| fail(&sources, d))?;
+    let mut program =
+        shadenet_lang::lower::compile_group(&loaded).map_err(|d| fail(&sources, d))?;
     let dir = path.parent().unwrap_or(Path::new(""));
     program.resolve_textures(dir);
     Ok(Compiled {

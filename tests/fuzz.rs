@@ -1,6 +1,6 @@
 //! Fuzz targets, run for a bounded time in CI (docs/fuzzing.md says how to run them for
 //! hours): byte-level mutation of network JSON, scene TOML, MaterialX documents, shader
-//! source (`.sl`, `.osl`), OBJ meshes and image files, and
+//! source (`.sl`, `.osl`), OSL shader groups, OBJ meshes and image files, and
 //! value-level mutation of our example scenes and networks (a number replaced by ±1e308,
 //! 1e-45, 2³¹, 0…; a key deleted; an array element duplicated), each loaded and rendered or
 //! shaded as a tiny image on every CPU back end. Any panic, hang or over-allocation fails
@@ -180,6 +180,59 @@ material = "m"
         root().join("examples/scenes/materials/matte.json")
     );
     render_scene_text(&scene, &dir);
+}
+
+/// The two OSL shaders the group target's layers may name.
+const GROUP_SHADERS: [(&str, &str); 2] = [
+    (
+        "noisy",
+        "shader noisy(float scale = 1, color tint = 1, output float n = 0, output color c = 0) { n = snoise(P * scale); c = tint * n; }",
+    ),
+    (
+        "tint",
+        "surface tint(color base = 1, float amount = 0, float k = 1) { Ci = (base * k + amount) * diffuse(N); }",
+    ),
+];
+
+/// OSL shader-group text: parsed; a group whose layers name the two shaders above is
+/// lowered, and what lowers is a valid program.
+fn exec_osl_group(bytes: &[u8]) {
+    let Ok(text) = std::str::from_utf8(bytes) else {
+        return;
+    };
+    if text.len() > shadenet_lang::source::MAX_FILE_BYTES {
+        return;
+    }
+    let mut sources = shadenet_lang::SourceMap::new();
+    let file = sources.add("fuzz.oslgroup", text.to_string());
+    let group = match shadenet_lang::group::parse(&sources, file) {
+        Ok(g) => g,
+        Err(d) => {
+            let _ = d.render(&sources);
+            return;
+        }
+    };
+    let options = shadenet_lang::Options::new(shadenet_lang::Dialect::Osl);
+    let mut shaders = std::collections::HashMap::new();
+    for layer in &group.layers {
+        let Some((name, src)) = GROUP_SHADERS.iter().find(|(n, _)| *n == layer.shader.name) else {
+            return;
+        };
+        let parsed = shadenet_lang::parse_str(&mut sources, &format!("{name}.osl"), src, &options)
+            .expect("the group target's shaders parse");
+        shaders.insert(name.to_string(), parsed);
+    }
+    let loaded = shadenet_lang::group::LoadedGroup { group, shaders };
+    match shadenet_lang::lower::compile_group(&loaded) {
+        Ok(p) => {
+            if let Err(e) = shadenet::graph::ir::validate(&p) {
+                panic!("a shader group lowered to an invalid program: {e}\n{p}");
+            }
+        }
+        Err(d) => {
+            let _ = d.render(&sources);
+        }
+    }
 }
 
 /// Shader source through the shading-language front end (preprocess, parse) in both
@@ -477,10 +530,21 @@ fn targets() -> Vec<Target> {
         },
         Target {
             name: "shading_language",
-            seeds: files(&root().join("lang/tests/shaders"), &["sl", "osl"]),
+            seeds: [
+                files(&root().join("lang/tests/shaders"), &["sl", "osl"]),
+                files(&root().join("examples/shaders"), &["osl"]),
+            ]
+            .concat(),
             mutate: mutate_bytes,
             exec: exec_shader_source,
             ext: "sl",
+        },
+        Target {
+            name: "osl_group",
+            seeds: files(&root().join("tests/fuzz/corpus/oslgroup"), &["oslgroup"]),
+            mutate: mutate_bytes,
+            exec: exec_osl_group,
+            ext: "oslgroup",
         },
         Target {
             name: "mtlx",

@@ -437,3 +437,188 @@ fn the_osl_scene_renders() {
     // The glossy sphere's base is red.
     assert!(spheres[0][0] > 2.0 * spheres[0][2], "{spheres:?}");
 }
+
+/// Writes `files` (name, text) into a fresh folder and returns it.
+fn folder(name: &str, files: &[(&str, &str)]) -> std::path::PathBuf {
+    let dir = common::tmp("shader_osl", name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    for (f, text) in files {
+        std::fs::write(dir.join(f), text).unwrap();
+    }
+    dir
+}
+
+const NOISE_LAYER: &str = "shader noisy(float scale = 1, output float n = 0, output color c = 0) {
+    n = snoise(P * scale); c = color(n, 2 * n, scale); }";
+const TINT_LAYER: &str =
+    "surface tint(color base = color(1, 0, 0), float amount = 0, float k = 1) {
+    Ci = (base * k + amount) * emission(); }";
+
+/// A shader group in OSL's serialized text: `param` values for the next layer, layers
+/// connected output to parameter (an int or float widening as in calls), the last layer's
+/// outputs the program's, the instance values program parameters named `layer.param`.
+#[test]
+fn shader_groups_connect_layers() {
+    let group = "param float scale 3.5 ;\nshader noisy tex ;\n\
+                 param float k 0.5 [[ string help = \"gain\" ]] ;\nshader tint mat ;\n\
+                 connect tex.c mat.base ;\nconnect tex.n mat.amount ;\n";
+    let dir = folder(
+        "group",
+        &[
+            ("noisy.osl", NOISE_LAYER),
+            ("tint.osl", TINT_LAYER),
+            ("g.oslgroup", group),
+        ],
+    );
+    let compiled = shadenet::shader::load(&dir.join("g.oslgroup"), &[], &[]).unwrap();
+    let p = &compiled.program;
+    assert_eq!(p.name, "mat");
+    let names: Vec<&str> = p.params.iter().map(|q| q.name.as_str()).collect();
+    assert_eq!(names, ["tex.scale", "mat.k"]);
+    let mut f = plane_fragment();
+    f.p = [0.3, -0.7, 0.2];
+    let o = run_program(p, &f, &[], u32::MAX);
+    let q: [f32; 3] = std::array::from_fn(|i| f.p[i] * 3.5);
+    let n = osl_noise::perlin3(q) as f64;
+    let want = [n * 0.5 + n, 2.0 * n * 0.5 + n, 3.5 * 0.5 + n];
+    assert_close(&o.get("Ci"), &want, 1e-6, "Ci of the group");
+    // `--param tex.scale=1` reaches the first layer.
+    let mut p2 = p.clone();
+    shadenet::shader::set_param(&mut p2, "tex.scale", &[1.0]).unwrap();
+    let o = run_program(&p2, &f, &[], u32::MAX);
+    let q: [f32; 3] = f.p;
+    let n = osl_noise::perlin3(q) as f64;
+    assert_close(&o.get("Ci"), &[1.5 * n, 2.0 * n, 0.5 + n], 1e-6, "scale 1");
+}
+
+/// B1's tree as a group of 2^N leaf and 2^N − 1 multiply layers (`shadenet gen mult-tree -o
+/// tree.oslgroup`) shades what the network does and optimizes to as few ops.
+#[test]
+fn the_multiplication_tree_as_a_group_is_the_network() {
+    let levels = 6;
+    let mut files: Vec<(&str, String)> = shadenet::generate::MULT_TREE_SHADERS
+        .iter()
+        .map(|(n, s)| (*n, s.to_string()))
+        .collect();
+    files.push((
+        "tree.oslgroup",
+        shadenet::generate::mult_tree_group(levels).unwrap(),
+    ));
+    let refs: Vec<(&str, &str)> = files.iter().map(|(n, s)| (*n, s.as_str())).collect();
+    let dir = folder("tree", &refs);
+    let group = shadenet::shader::load(&dir.join("tree.oslgroup"), &[], &[]).unwrap();
+    let net = shadenet::generate::mult_tree(levels, shadenet::graph::ir::Space::World).unwrap();
+    let net = compile_json(&net.to_string(), &NodeLibrary::standard()).unwrap();
+    let spec = Specialization::default();
+    let (g, _) = opt::run(&group.program, &spec);
+    let (n, _) = opt::run(&net.program, &spec);
+    // The leaves' point-to-color construct is the only difference.
+    assert!(
+        g.op_count() <= n.op_count() + 4,
+        "{} vs {}",
+        g.op_count(),
+        n.op_count()
+    );
+    let mut f = plane_fragment();
+    f.p = [1.01, 0.99, 1.003];
+    let a = run_program(&g, &f, &[], u32::MAX);
+    let b = run_program(&n, &f, &[], u32::MAX);
+    assert_eq!(a.get32("out"), b.get32("color"));
+    assert_eq!(a.get("out"), b.get("color"));
+}
+
+/// Bad groups: each error names the statement (file:line) and what is wrong.
+#[test]
+fn shader_group_errors_name_the_statement() {
+    for (group, want) in [
+        (
+            "shader tint mat ;\nconnect tex.c mat.base ;",
+            "no layer `tex` in the group",
+        ),
+        (
+            "shader noisy a ;\nshader tint b ;\nconnect b.Ci a.scale ;",
+            "`b` is not an earlier layer than `a`",
+        ),
+        (
+            "param float scal 2 ;\nshader noisy a ;",
+            "has no input parameter `scal`",
+        ),
+        (
+            "shader noisy a ;\nshader tint b ;\nconnect a.m b.k ;",
+            "layer `a` has no output `m`",
+        ),
+        ("shader nowhere a ;", "no source for shader `nowhere`"),
+        (
+            "shader noisy a ;\nshader noisy a ;",
+            "a second layer named `a`",
+        ),
+        (
+            "param float scale \"big\" ;\nshader noisy a ;",
+            "(\"big\") is not a float value",
+        ),
+        (
+            "param float scale ;\nshader noisy a ;",
+            "`param scale` has no value",
+        ),
+        (
+            "shader noisy a ;\nparam float scale 1 ;",
+            "`param` after the last `shader`",
+        ),
+        (
+            "layer noisy a ;",
+            "expected `param`, `shader` or `connect`, found `layer`",
+        ),
+        ("shader noisy ;", "expected a layer name"),
+    ] {
+        let dir = folder(
+            "group_errors",
+            &[
+                ("noisy.osl", NOISE_LAYER),
+                ("tint.osl", TINT_LAYER),
+                ("g.oslgroup", group),
+            ],
+        );
+        let err = shadenet::shader::load(&dir.join("g.oslgroup"), &[], &[])
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains(want), "{group}\n→ {err}");
+        assert!(err.contains("g.oslgroup"), "{group}: names the file\n{err}");
+    }
+}
+
+/// `shadenet shade --group FILE` reads a group whatever its file is called; `check` takes
+/// `.oslgroup` files as they are.
+#[test]
+fn the_cli_shades_a_group() {
+    let group =
+        "param float scale 2 ;\nshader noisy tex ;\nshader tint mat ;\nconnect tex.c mat.base ;\n";
+    let dir = folder(
+        "group_cli",
+        &[
+            ("noisy.osl", NOISE_LAYER),
+            ("tint.osl", TINT_LAYER),
+            ("layers.txt", group),
+        ],
+    );
+    let file = dir.join("layers.txt");
+    let out = dir.join("out.exr");
+    let (code, _, err) = shadenet(&[
+        "shade",
+        "--group",
+        file.to_str().unwrap(),
+        "--res",
+        "8x8",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.is_file());
+    std::fs::copy(&file, dir.join("layers.oslgroup")).unwrap();
+    let (code, stdout, err) = shadenet(&["check", dir.join("layers.oslgroup").to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(stdout.contains("outputs: Ci"), "{stdout}");
+    let (code, _, err) = shadenet(&["check", file.to_str().unwrap()]);
+    assert_ne!(code, 0, "a .txt file without --group is not a group");
+    assert!(!err.is_empty());
+}

@@ -19,6 +19,7 @@
 
 pub mod ast;
 pub mod diag;
+pub mod group;
 pub mod lex;
 pub mod lower;
 mod options;

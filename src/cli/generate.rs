@@ -19,8 +19,9 @@ pub(crate) enum GenCmd {
         /// The space the leaves read P in.
         #[arg(long, value_enum, default_value_t = GenSpace::World)]
         space: GenSpace,
-        /// The file to write: a network (.json), or the same tree as an RSL surface shader
-        /// (.sl, world space).
+        /// The file to write: a network (.json), the same tree as an RSL surface shader
+        /// (.sl, world space) or as an OSL shader group (.oslgroup, world space; its
+        /// shaders mt_leaf.osl and mt_mult.osl are written beside it).
         #[arg(short, long)]
         output: PathBuf,
     },
@@ -80,8 +81,21 @@ pub(crate) fn run(what: GenCmd) -> Result<()> {
                 GenSpace::World => Space::World,
                 GenSpace::Camera => Space::Camera,
             };
-            // `-o tree.sl`: the same tree written as an RSL surface shader.
-            let text = if output.extension().is_some_and(|e| e == "sl") {
+            // `-o tree.sl`: the same tree written as an RSL surface shader; `-o
+            // tree.oslgroup`: as an OSL shader group, its two shaders written beside it.
+            let group = output
+                .extension()
+                .is_some_and(|e| e == shadenet::shader::GROUP_EXTENSION);
+            let text = if group {
+                if !matches!(space, Space::World) {
+                    bail!("--space camera: the group form reads P in world space only");
+                }
+                let dir = output.parent().unwrap_or(std::path::Path::new(""));
+                for (name, source) in shadenet::generate::MULT_TREE_SHADERS {
+                    write_bytes_atomic(&dir.join(name), source.as_bytes())?;
+                }
+                shadenet::generate::mult_tree_group(levels).context("--levels")?
+            } else if output.extension().is_some_and(|e| e == "sl") {
                 if !matches!(space, Space::World) {
                     bail!("--space camera: the shader form reads P in world space only");
                 }

@@ -238,6 +238,11 @@ pub(crate) struct SourceArgs {
     /// file's own; repeatable.
     #[arg(short = 'I', value_name = "DIR")]
     pub(crate) include: Vec<std::path::PathBuf>,
+    /// The file is an OSL shader group in OSL's serialized text (`param`, `shader`,
+    /// `connect` statements; the default for `.oslgroup` files): each shader's source is
+    /// `NAME.osl` beside the group file or in an -I folder.
+    #[arg(long)]
+    pub(crate) group: bool,
     /// A preprocessor macro for shader sources: NAME or NAME=VALUE; repeatable.
     #[arg(short = 'D', value_name = "NAME[=VALUE]")]
     pub(crate) define: Vec<String>,
@@ -291,13 +296,20 @@ fn set_params(program: &mut shadenet::graph::ir::Program, params: &[String]) -> 
 /// validates its IR.
 pub(crate) fn load(path: &Path, mtlx: &SourceArgs) -> Result<shadenet::Compiled> {
     let is_mtlx = path.extension().is_some_and(|e| e == "mtlx");
-    let is_shader = path.extension().is_some_and(|e| e == "sl" || e == "osl");
+    let is_shader = mtlx.group
+        || path
+            .extension()
+            .is_some_and(|e| e == "sl" || e == "osl" || e == shadenet::shader::GROUP_EXTENSION);
     let preprocessor = !(mtlx.include.is_empty() && mtlx.define.is_empty());
     if preprocessor && !is_shader {
-        bail!("-I and -D apply to shader sources (.sl, .osl) only");
+        bail!("-I and -D apply to shader sources (.sl, .osl, .oslgroup) only");
     }
     if is_shader {
-        let mut compiled = shadenet::shader::load(path, &mtlx.include, &mtlx.define)?;
+        let mut compiled = if mtlx.group {
+            shadenet::shader::load_group(path, &mtlx.include, &mtlx.define)?
+        } else {
+            shadenet::shader::load(path, &mtlx.include, &mtlx.define)?
+        };
         set_params(&mut compiled.program, &mtlx.param)?;
         shadenet::graph::ir::validate(&compiled.program)
             .with_context(|| format!("{}: internal error: invalid IR", path.display()))?;

@@ -18,6 +18,7 @@
 mod builtins;
 mod closure;
 mod expr;
+mod group;
 mod loops;
 mod osl;
 mod stmt;
@@ -31,6 +32,8 @@ use shadenet_graph::closure::Closure;
 use shadenet_graph::ir::{Builder, Program, Stream, Value};
 use shadenet_graph::{ConstValue, Type};
 use std::collections::HashMap;
+
+pub use group::compile_group;
 
 /// The most errors collected before lowering stops.
 const MAX_ERRORS: usize = 20;
@@ -181,6 +184,10 @@ pub(crate) struct Lower<'a> {
     /// The type the expression being lowered is assigned to, where a call's result type
     /// depends on it (OSL's noise: a float or a vector); taken by the call.
     pub(crate) want: Option<Ty>,
+    /// Prefixed to the program parameters' names (`layer.` in a shader group).
+    pub(crate) prefix: String,
+    /// A shader group layer's instance values and connections, by parameter name.
+    pub(crate) inputs: HashMap<String, group::LayerInput>,
 }
 
 /// Compiles shader `name` (the file's only or first shader when `None`) of a parsed file to
@@ -231,22 +238,7 @@ fn compile_here(parsed: &Parsed, name: Option<&str>) -> Result<Program, Diagnost
         )
         .into());
     }
-    let mut functions: HashMap<&str, Vec<&ast::FunctionDef>> = HashMap::new();
-    for item in &parsed.file.items {
-        if let Item::Function(f) = item {
-            functions.entry(f.name.name.as_str()).or_default().push(f);
-        }
-    }
-    let mut lower = Lower {
-        scopes: vec![HashMap::new()],
-        functions,
-        inlining: Vec::new(),
-        diags: Diagnostics::new(),
-        in_illuminance: false,
-        loops: Vec::new(),
-        dialect: parsed.dialect,
-        want: None,
-    };
+    let mut lower = Lower::new(parsed);
     let mut b = Builder::new(&shader.name.name);
     match parsed.dialect {
         Dialect::Rsl => lower.surface(&mut b, shader),
@@ -277,6 +269,28 @@ fn kind_name(k: ShaderKind) -> &'static str {
 }
 
 impl<'a> Lower<'a> {
+    /// A lowering of a shader of `parsed`: its user functions known, nothing else bound.
+    pub(crate) fn new(parsed: &'a Parsed) -> Lower<'a> {
+        let mut functions: HashMap<&str, Vec<&ast::FunctionDef>> = HashMap::new();
+        for item in &parsed.file.items {
+            if let Item::Function(f) = item {
+                functions.entry(f.name.name.as_str()).or_default().push(f);
+            }
+        }
+        Lower {
+            scopes: vec![HashMap::new()],
+            functions,
+            inlining: Vec::new(),
+            diags: Diagnostics::new(),
+            in_illuminance: false,
+            loops: Vec::new(),
+            dialect: parsed.dialect,
+            want: None,
+            prefix: String::new(),
+            inputs: HashMap::new(),
+        }
+    }
+
     /// A surface shader: the globals, the parameters, the body, the outputs.
     fn surface(&mut self, b: &mut Builder, shader: &'a ast::ShaderDef) {
         self.globals(b);
@@ -372,6 +386,10 @@ impl<'a> Lower<'a> {
             self.osl_output_param(b, p);
             return;
         }
+        if let Some(input) = self.inputs.remove(&p.name.name) {
+            self.layer_input(b, p, input);
+            return;
+        }
         let Some(ty) = self.declared_type(&p.ty) else {
             return;
         };
@@ -390,7 +408,7 @@ impl<'a> Lower<'a> {
         };
         let val = match const_eval(default, ty) {
             Some(c) => Val::V {
-                v: b.param(&p.name.name, c),
+                v: b.param(&format!("{}{}", self.prefix, p.name.name), c),
                 ty,
                 varying: false,
             },

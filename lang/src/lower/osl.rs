@@ -92,10 +92,33 @@ const UNBUILT: &[(&str, &str)] = &[
 
 impl<'a> Lower<'a> {
     /// An OSL `surface` or `shader`: the globals, the parameters, the body; then the outputs
-    /// (`Ci` first for a surface, lit by the surface lowering; then the output parameters in
-    /// order, a closure-valued one lit the same way).
+    /// ([`Lower::osl_outputs`]).
     pub(crate) fn osl_shader(&mut self, b: &mut Builder, shader: &'a ast::ShaderDef) {
-        self.osl_globals(b);
+        let outputs = self.osl_layer(b, shader, Val::Closure(Box::default()));
+        declare_outputs(b, outputs);
+    }
+
+    /// The globals (unless already bound: a group's layers share one set; `Ci` starting
+    /// as `ci`), the parameters and the body of `shader`; its
+    /// outputs by name: `Ci` first for a surface (or a shader without outputs), then the
+    /// output parameters in order.
+    pub(crate) fn osl_layer(
+        &mut self,
+        b: &mut Builder,
+        shader: &'a ast::ShaderDef,
+        ci: Val,
+    ) -> Vec<(String, Val)> {
+        if self.scopes[0].is_empty() {
+            self.osl_globals(b);
+        }
+        self.scopes[0].insert(
+            "Ci".to_string(),
+            super::Var {
+                val: ci,
+                uniform: false,
+                decl: None,
+            },
+        );
         for p in &shader.params {
             self.param(b, p);
         }
@@ -113,21 +136,15 @@ impl<'a> Lower<'a> {
             names.push("Ci");
         }
         names.extend(outputs);
-        for name in names {
-            match self.lookup(name).map(|v| v.val.clone()) {
-                Some(Val::V { v, .. }) => b.output(name, None, v),
-                Some(Val::Closure(c)) => {
-                    let low = LowVal::closure(b, *c);
-                    shadenet_graph::lower::declare_output(b, name, &low);
-                }
-                _ => {}
-            }
-        }
+        names
+            .into_iter()
+            .filter_map(|n| Some((n.to_string(), self.lookup(n)?.val.clone())))
+            .collect()
     }
 
     /// OSL's shader globals. `time` is 0 (the renderer has no motion); `Ci` starts as the
     /// empty closure.
-    fn osl_globals(&mut self, b: &mut Builder) {
+    pub(crate) fn osl_globals(&mut self, b: &mut Builder) {
         let set = |me: &mut Self, name: &str, val: Val| {
             me.scopes[0].insert(
                 name.to_string(),
@@ -557,6 +574,21 @@ fn int_builtin(b: &mut Builder, name: &str, args: &[(Val, Span)]) -> Option<Val>
         ty: Ty::Int,
         varying,
     })
+}
+
+/// Declares `outputs` as the program's outputs in order: values as they are, closures lit
+/// by the surface lowering (one output per render component).
+pub(crate) fn declare_outputs(b: &mut Builder, outputs: Vec<(String, Val)>) {
+    for (name, val) in outputs {
+        match val {
+            Val::V { v, .. } => b.output(&name, None, v),
+            Val::Closure(c) => {
+                let low = LowVal::closure(b, *c);
+                shadenet_graph::lower::declare_output(b, &name, &low);
+            }
+            Val::Str(_) => {}
+        }
+    }
 }
 
 /// Rec. 709 luminance weights (OSL's default color space).
