@@ -1,8 +1,8 @@
 //! RenderMan Shading Language surface shaders compiled by `shadenet-lang` into the IR:
 //! values against the RenderMan Interface's formulas and our built-in `lambert`, the
 //! optimizer seeing through the language, every back end agreeing, and errors that name
-//! the place. (Loops: `tests/shader_loops.rs`; arrays, light and volume shaders: issue
-//! 21, not built yet.)
+//! the place. (Loops: `tests/shader_loops.rs`; arrays: `tests/shader_arrays.rs`; light and
+//! volume shaders: issue 21, not built yet.)
 
 mod common;
 use common::*;
@@ -271,7 +271,10 @@ fn errors_name_the_place_and_the_problem() {
             "surface s() { uniform float k = 1; k = v; }",
             "uniform variable `k` is assigned a varying value",
         ),
-        ("surface s() { float a[3]; }", "arrays are not built yet"),
+        (
+            "surface s() { matrix m; }",
+            "matrix values are not built yet",
+        ),
         (
             "surface s() { color c = 0; illuminance(P) { c = Cl; } Ci = c; }",
             "may only be accumulated with += or -=",

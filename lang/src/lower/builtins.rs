@@ -52,6 +52,7 @@ pub(crate) const NAMES: &[&str] = &[
     "trace",
     "noise",
     "texture",
+    "arraylength",
 ];
 
 /// The signatures, for errors: `name(args) -> result`.
@@ -81,6 +82,7 @@ fn signature(name: &str) -> &'static str {
         "trace" => "(point P, vector R) -> color",
         "noise" => "(float or point) -> float",
         "texture" => "(string file[, float s, float t]) -> color",
+        "arraylength" => "(array) -> its length",
         _ => "",
     }
 }
@@ -103,7 +105,7 @@ impl<'a> Lower<'a> {
                     && f.params
                         .iter()
                         .zip(&vals)
-                        .all(|(p, (v, _))| accepts(&p.ty, v, exact))
+                        .all(|(p, (v, _))| accepts(p, v, exact))
             };
             let found = defs
                 .iter()
@@ -188,6 +190,9 @@ impl<'a> Lower<'a> {
     ) -> Option<Val> {
         if name == "texture" {
             return self.texture(b, args);
+        }
+        if let Some(v) = self.array_builtin(b, name, args) {
+            return Some(v);
         }
         let vs = super::numbers(b, args)?;
         let varying = vs.iter().any(|v| v.2);
@@ -483,10 +488,15 @@ impl<'a> Lower<'a> {
 
 /// Whether a parameter of type `p` takes the value `v`: the same type when `exact`, else
 /// by widening (a float or int to a triple, an int to a float, geometric types mixed).
-fn accepts(p: &ast::Type, v: &Val, exact: bool) -> bool {
+fn accepts(param: &ast::Param, v: &Val, exact: bool) -> bool {
+    let p = &param.ty;
+    if param.array.is_some() {
+        return matches!(v, Val::Array(..));
+    }
     let ty = match v {
         Val::Closure(_) => return p.closure.is_some(),
         Val::Str(_) => return matches!(p.base, ast::BaseType::String),
+        Val::Array(..) | Val::ArrayVar { .. } => return false,
         Val::V { ty, .. } => *ty,
     };
     if p.closure.is_some() {

@@ -120,8 +120,9 @@ impl<'a> Lower<'a> {
             ExprKind::Int(i) if self.dialect == crate::Dialect::Osl => self.int(b, *i, e.span),
             ExprKind::Int(i) => self.number(b, *i as f64, e.span),
             ExprKind::Str(s) => Val::Str(s.clone()),
-            ExprKind::Ident(id) => match self.lookup(&id.name) {
-                Some(v) => v.val.clone(),
+            ExprKind::Ident(id) => match self.lookup(&id.name).map(|v| v.val.clone()) {
+                Some(Val::ArrayVar { len, .. }) => self.array_value(&id.name, len),
+                Some(v) => v,
                 None => self.unknown(b, id, "name"),
             },
             ExprKind::Tuple(items) => self.triple(b, items, Ty::Point, e.span),
@@ -147,7 +148,7 @@ impl<'a> Lower<'a> {
                 let v = self.expr(b, expr);
                 self.cast(b, v, to, expr.span)
             }
-            ExprKind::Index { base, index } => self.component(b, base, index),
+            ExprKind::Index { base, index } => self.index(b, base, index),
             ExprKind::Member { base, field } if self.dialect == crate::Dialect::Osl => {
                 self.member(b, base, field)
             }
@@ -399,11 +400,23 @@ impl<'a> Lower<'a> {
     ) -> Val {
         let l = self.expr(b, lhs);
         let r = self.expr(b, rhs);
+        self.binary_vals(b, op, (l, lhs.span), (r, rhs.span), span)
+    }
+
+    /// A binary operator on lowered operands (with their spans, for errors).
+    pub(crate) fn binary_vals(
+        &mut self,
+        b: &mut Builder,
+        op: BinaryOp,
+        (l, lspan): (Val, Span),
+        (r, rspan): (Val, Span),
+        span: Span,
+    ) -> Val {
         if matches!(l, Val::Closure(_)) || matches!(r, Val::Closure(_)) {
             return self.closure_binary(b, op, &l, &r, span);
         }
-        let (a, ta, va) = self.plain(b, l, lhs.span);
-        let (c, tc, vc) = self.plain(b, r, rhs.span);
+        let (a, ta, va) = self.plain(b, l, lspan);
+        let (c, tc, vc) = self.plain(b, r, rspan);
         let varying = va || vc;
         let out = |v, ty| Val::V { v, ty, varying };
         match op {
@@ -567,9 +580,14 @@ impl<'a> Lower<'a> {
         value: &'a Expr,
         span: Span,
     ) -> Val {
+        if let ExprKind::Index { base, index } = &target.kind
+            && let ExprKind::Ident(id) = &base.kind
+        {
+            return self.assign_index(b, op, (id, index), value, span);
+        }
         let ExprKind::Ident(id) = &target.kind else {
             self.error(
-                "only variables can be assigned (components through comp/setcomp are not built yet)",
+                "only variables, array elements and components can be assigned",
                 target.span,
                 "not a variable",
             );
@@ -581,6 +599,20 @@ impl<'a> Lower<'a> {
         let ty = match var.val {
             Val::V { ty, .. } => ty,
             Val::Closure(_) => return self.assign_closure(b, op, id, target, value, span),
+            Val::ArrayVar { len, ty } if op == AssignOp::Set => {
+                return self.assign_array(b, id, (len, ty), value, var.uniform);
+            }
+            Val::Array(..) | Val::ArrayVar { .. } => {
+                self.error(
+                    format!(
+                        "`{}` is an array: assign its elements, or a whole array with `=`",
+                        id.name
+                    ),
+                    span,
+                    "an array",
+                );
+                return Self::poison(b, Ty::Float);
+            }
             Val::Str(_) => {
                 self.error("strings cannot be assigned", id.span, "a string");
                 return Self::poison(b, Ty::Float);
@@ -589,20 +621,13 @@ impl<'a> Lower<'a> {
         let rhs = match op {
             AssignOp::Set => self.expr_as(b, value, ty),
             _ => {
-                let bin = match op {
-                    AssignOp::Add => BinaryOp::Add,
-                    AssignOp::Sub => BinaryOp::Sub,
-                    AssignOp::Mul => BinaryOp::Mul,
-                    AssignOp::Div => BinaryOp::Div,
-                    AssignOp::Rem => BinaryOp::Rem,
-                    _ => {
-                        self.error(
-                            "bitwise assignments are OSL's (issue 22)",
-                            span,
-                            "not built yet",
-                        );
-                        return Self::poison(b, ty);
-                    }
+                let Some(bin) = arith_of(op) else {
+                    self.error(
+                        "bitwise assignments are OSL's (issue 22)",
+                        span,
+                        "not built yet",
+                    );
+                    return Self::poison(b, ty);
                 };
                 let v = self.binary(b, bin, target, value, span);
                 self.coerce(b, v, ty, span)
@@ -756,27 +781,6 @@ impl<'a> Lower<'a> {
         if prefix { after } else { before }
     }
 
-    /// `p[i]` with a constant index: a component of a triple.
-    fn component(&mut self, b: &mut Builder, base: &'a Expr, index: &'a Expr) -> Val {
-        let (v, ty, varying) = self.value(b, base);
-        let k = match &index.kind {
-            ExprKind::Int(k) if (0..3).contains(k) && ty.is_triple() => *k as usize,
-            _ => {
-                self.error(
-                    "indexing is built for a constant component 0, 1 or 2 of a triple (arrays: issue 21)",
-                    index.span,
-                    "here",
-                );
-                return Self::poison(b, Ty::Float);
-            }
-        };
-        Val::V {
-            v: b.extract(v, k),
-            ty: Ty::Float,
-            varying,
-        }
-    }
-
     fn construct(
         &mut self,
         b: &mut Builder,
@@ -854,5 +858,17 @@ pub(crate) fn an(name: &str) -> String {
     match name.chars().next() {
         Some('a' | 'e' | 'i' | 'o' | 'u') => format!("an {name}"),
         _ => format!("a {name}"),
+    }
+}
+
+/// The arithmetic operator of a compound assignment (`None` for `=` and the bitwise ones).
+pub(crate) fn arith_of(op: AssignOp) -> Option<BinaryOp> {
+    match op {
+        AssignOp::Add => Some(BinaryOp::Add),
+        AssignOp::Sub => Some(BinaryOp::Sub),
+        AssignOp::Mul => Some(BinaryOp::Mul),
+        AssignOp::Div => Some(BinaryOp::Div),
+        AssignOp::Rem => Some(BinaryOp::Rem),
+        _ => None,
     }
 }

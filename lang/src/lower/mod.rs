@@ -8,13 +8,15 @@
 //! What is built: RSL `surface` shaders with `float`, `point`/`vector`/`normal`, `color` and
 //! `string` values; declarations, assignments (all compound forms), `if`/`else`, blocks,
 //! loops, `illuminance`; the operators (`.` dot, `^` cross); constructors in `"rgb"`,
-//! `"current"` and `"world"`; user functions (inlined); the builtins of [`builtins`]. OSL
-//! `surface` and `shader` shaders add `int`, closures ([`closure`]: lobe lists), output
-//! parameters and OSL's builtins and noise ([`osl`]). What is not yet — arrays, matrices,
+//! `"current"` and `"world"`; user functions (inlined); the builtins of `builtins`. OSL
+//! `surface` and `shader` shaders add `int`, closures (`closure`: lobe lists), output
+//! parameters and OSL's builtins and noise (`osl`); both have fixed-size arrays (`arrays`)
+//! and OSL shader groups lower through `group`. What is not yet — matrices,
 //! structs, other spaces, light/volume/displacement shaders — is an error that says so,
 //! naming the construct. It owns the rules of the language;
 //! it must not hold op semantics (the IR's) nor touch the renderer.
 
+mod arrays;
 mod builtins;
 mod closure;
 mod expr;
@@ -113,6 +115,16 @@ pub(crate) enum Val {
     Str(String),
     /// An OSL `closure color`: a lobe list built while lowering (never an IR value).
     Closure(Box<Closure>),
+    /// An array's elements (of the element type), as an expression's value.
+    Array(Vec<Val>),
+    /// In a scope: an array variable of `len` elements, held in hidden element variables
+    /// ([`element`]).
+    ArrayVar {
+        /// Its length.
+        len: usize,
+        /// The element type.
+        ty: Ty,
+    },
 }
 
 impl Val {
@@ -122,6 +134,7 @@ impl Val {
             Val::V { ty, .. } => ty.name(),
             Val::Str(_) => "string",
             Val::Closure(_) => "closure color",
+            Val::Array(..) | Val::ArrayVar { .. } => "array",
         }
     }
 }
@@ -156,6 +169,30 @@ pub(crate) fn same(
         (a, c) if a.is_geometric() && c.is_geometric() => Some((x, y, a)),
         _ => None,
     }
+}
+
+/// The hidden variable holding element `k` of array `name` ([`arrays`]).
+pub(crate) fn element(name: &str, k: usize) -> String {
+    format!("{name}[{k}]")
+}
+
+/// Whether `v` depends on a program parameter (through the operands of its ops).
+pub(crate) fn reads_param(p: &Program, v: Value) -> bool {
+    let mut seen = std::collections::HashSet::new();
+    let mut todo = vec![v];
+    while let Some(v) = todo.pop() {
+        if !seen.insert(v.index()) {
+            continue;
+        }
+        let Some(e) = p.exprs.get(v.index()) else {
+            continue;
+        };
+        if matches!(e.op, shadenet_graph::ir::Op::Param(_)) {
+            return true;
+        }
+        e.op.for_each_operand(|a| todo.push(a));
+    }
+    false
 }
 
 /// A variable: its current value and whether it was declared `uniform`.
@@ -358,11 +395,7 @@ impl<'a> Lower<'a> {
     /// instance as uniform code.
     fn param(&mut self, b: &mut Builder, p: &'a ast::Param) {
         if let Some(a) = &p.array {
-            self.error(
-                "array parameters are not built yet (issue 21: arrays)",
-                a.span,
-                "an array",
-            );
+            self.array_param(b, p, a);
             return;
         }
         if p.ty.base == ast::BaseType::String {
@@ -523,7 +556,7 @@ impl<'a> Lower<'a> {
 
 /// A parameter default that is a constant of type `ty` (literals, signs, triples,
 /// constructors of constants, arithmetic on them), as the program's parameter value.
-fn const_eval(e: &ast::Expr, ty: Ty) -> Option<ConstValue> {
+pub(crate) fn const_eval(e: &ast::Expr, ty: Ty) -> Option<ConstValue> {
     let v = eval(e)?;
     match (ty, v.as_slice()) {
         (Ty::Float, [x]) => Some(ConstValue::Float(*x)),
@@ -539,7 +572,7 @@ fn const_eval(e: &ast::Expr, ty: Ty) -> Option<ConstValue> {
 }
 
 /// The components of a constant expression (one for a float, three for a triple).
-fn eval(e: &ast::Expr) -> Option<Vec<f64>> {
+pub(crate) fn eval(e: &ast::Expr) -> Option<Vec<f64>> {
     use ast::ExprKind as K;
     let finite = |v: Vec<f64>| v.iter().all(|x| x.is_finite()).then_some(v);
     match &e.kind {

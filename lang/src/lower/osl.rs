@@ -537,7 +537,7 @@ impl<'a> Lower<'a> {
                     .and_then(const_number)
                     == Some(0.0)
             }
-            Val::Str(_) => false,
+            _ => false,
         }
     }
 }
@@ -586,7 +586,7 @@ pub(crate) fn declare_outputs(b: &mut Builder, outputs: Vec<(String, Val)>) {
                 let low = LowVal::closure(b, *c);
                 shadenet_graph::lower::declare_output(b, &name, &low);
             }
-            Val::Str(_) => {}
+            _ => {}
         }
     }
 }

@@ -113,7 +113,9 @@ impl<'a> Lower<'a> {
         let uniform = matches!(d.ty.rate, Some((ast::Rate::Uniform, _)));
         for v in &d.vars {
             if let Some(a) = &v.array {
-                self.error("arrays are not built yet (issue 21)", a.span, "an array");
+                if let Some(len) = self.array_len(a, v.init.as_ref()) {
+                    self.declare_array(b, &v.name, (ty, len), v.init.as_ref(), uniform);
+                }
                 continue;
             }
             let val = match &v.init {
@@ -191,9 +193,15 @@ impl<'a> Lower<'a> {
                     ExprKind::Assign { target, .. } | ExprKind::IncDec { target, .. } => target,
                     _ => return,
                 };
-                if let ExprKind::Ident(id) = &target.kind
-                    && !names.iter().any(|n| n.name == id.name)
-                {
+                let id = match &target.kind {
+                    ExprKind::Ident(id) => id,
+                    ExprKind::Index { base, .. } => match &base.kind {
+                        ExprKind::Ident(id) => id,
+                        _ => return,
+                    },
+                    _ => return,
+                };
+                if !names.iter().any(|n| n.name == id.name) {
                     names.push(id.clone());
                 }
             });
@@ -208,8 +216,18 @@ impl<'a> Lower<'a> {
                 }
             }
         }
+        // An array stands for its elements.
         names
             .into_iter()
+            .flat_map(|n| match self.lookup(&n.name).map(|v| &v.val) {
+                Some(Val::ArrayVar { len, .. }) => (0..*len)
+                    .map(|k| ast::Ident {
+                        name: super::element(&n.name, k),
+                        span: n.span,
+                    })
+                    .collect(),
+                _ => vec![n],
+            })
             .filter_map(|n| match self.lookup(&n.name) {
                 Some(Var {
                     val: Val::V { ty, .. },
@@ -629,6 +647,16 @@ impl<'a> Lower<'a> {
             };
             let val = match (&var.val, val) {
                 (Val::V { ty, .. }, v @ Val::V { .. }) => self.coerce(b, v, *ty, e.span),
+                (Val::ArrayVar { len, .. }, Val::Array(elems)) if elems.len() == *len => {
+                    for (k, el) in elems.into_iter().enumerate() {
+                        let name = ast::Ident {
+                            name: super::element(&id.name, k),
+                            span: id.span,
+                        };
+                        self.rebind(&name, el, var.uniform, e.span);
+                    }
+                    continue;
+                }
                 (_, v) => v,
             };
             self.rebind(id, val, var.uniform, e.span);
@@ -689,7 +717,9 @@ impl<'a> Lower<'a> {
             if p.ty.output.is_some() && self.dialect == crate::Dialect::Rsl {
                 self.error("output parameters are not built yet", p.span, "`output`");
             }
-            if p.ty.closure.is_some() && self.dialect == crate::Dialect::Osl {
+            if p.array.is_some() {
+                self.bind_array_param(b, p, a, span);
+            } else if p.ty.closure.is_some() && self.dialect == crate::Dialect::Osl {
                 // `accepts` matched a closure to it.
                 self.declare(&p.name, a, false);
             } else if let Some(ty) = self.declared_type(&p.ty) {
@@ -730,7 +760,13 @@ impl<'a> Lower<'a> {
             .iter()
             .enumerate()
             .filter(|(_, p)| p.ty.output.is_some())
-            .filter_map(|(k, p)| Some((k, self.lookup(&p.name.name)?.val.clone())))
+            .filter_map(|(k, p)| {
+                let v = match self.lookup(&p.name.name)?.val.clone() {
+                    Val::ArrayVar { len, .. } => self.array_value(&p.name.name, len),
+                    v => v,
+                };
+                Some((k, v))
+            })
             .collect();
         self.inlining.pop();
         self.scopes = saved;

@@ -10,7 +10,7 @@ use super::stmt::has_jump;
 use super::{Lower, Ty};
 use crate::ast::{Expr, Stmt};
 use shadenet_graph::ConstValue;
-use shadenet_graph::ir::{Builder, Op, Program, Value};
+use shadenet_graph::ir::{Builder, Program, Value};
 use std::collections::HashMap;
 
 /// The most iterations a closure-assigning loop is unrolled to (the optimizer's unroll
@@ -77,30 +77,11 @@ impl<'a> Lower<'a> {
 
 /// The constant truth of condition `c`, where it reads no parameter (nor anything varying).
 fn known(p: &Program, c: Value) -> Option<bool> {
-    if reads_param(p, c) {
+    if super::reads_param(p, c) {
         return None;
     }
     match shadenet_graph::opt::fold::constant(p, c)? {
         ConstValue::Bool(t) => Some(t),
         _ => None,
     }
-}
-
-/// Whether `v` depends on a program parameter (through the operands of its ops).
-fn reads_param(p: &Program, v: Value) -> bool {
-    let mut seen = std::collections::HashSet::new();
-    let mut todo = vec![v];
-    while let Some(v) = todo.pop() {
-        if !seen.insert(v.index()) {
-            continue;
-        }
-        let Some(e) = p.exprs.get(v.index()) else {
-            continue;
-        };
-        if matches!(e.op, Op::Param(_)) {
-            return true;
-        }
-        e.op.for_each_operand(|a| todo.push(a));
-    }
-    false
 }

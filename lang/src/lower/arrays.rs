@@ -1,0 +1,493 @@
+//! Fixed-size arrays in the front end (RSL and OSL alike), without an IR array type: an
+//! array variable `a` of length n is n hidden element variables `a[0]` … `a[n-1]` (names no
+//! program can write), so `if` and loop regions carry the elements an assignment may change
+//! like any variable, and a function call copies them. A constant index reads or writes one
+//! element (out of range: an error naming the index and the length); an index computed at
+//! run time is clamped to the array, as OSL does, and reads through a chain of selects (the
+//! element whose position equals it) or writes every element, each keeping its value where
+//! the index is another. Clamped run-time indices are not counted yet (that needs an op
+//! with an effect). Owns the array rules; it must not hold op semantics.
+
+use super::{Lower, Ty, Val};
+use crate::ast::{self, AssignOp, Expr, ExprKind};
+use crate::source::Span;
+use shadenet_graph::Type;
+use shadenet_graph::ir::{BinOp, Builder, Value};
+
+/// The longest array (elements are separate values; a run-time index costs one select per
+/// element).
+pub(crate) const MAX_ARRAY_LEN: usize = 1024;
+
+use super::element;
+
+impl<'a> Lower<'a> {
+    /// The length of a declared array: its constant `[N]`, or the initialiser list's
+    /// length for `[]`; `None` after an error.
+    pub(crate) fn array_len(
+        &mut self,
+        a: &'a ast::ArrayLen,
+        init: Option<&'a Expr>,
+    ) -> Option<usize> {
+        let n = match (&a.len, init.map(|e| &e.kind)) {
+            (Some(len), _) => match super::eval(len).as_deref() {
+                Some([x]) if x.fract() == 0.0 && *x >= 1.0 => *x as usize,
+                _ => {
+                    self.error(
+                        "an array length must be a constant positive integer",
+                        len.span,
+                        "not a constant length",
+                    );
+                    return None;
+                }
+            },
+            (None, Some(ExprKind::InitList(items))) => items.len(),
+            (None, _) => {
+                self.error(
+                    "an array declared `[]` needs an initialiser list `{ … }`",
+                    a.span,
+                    "no length",
+                );
+                return None;
+            }
+        };
+        if n > MAX_ARRAY_LEN {
+            self.error(
+                format!("an array of {n} elements: the limit is {MAX_ARRAY_LEN}"),
+                a.span,
+                "too long",
+            );
+            return None;
+        }
+        Some(n)
+    }
+
+    /// Declares array `name` of `len` elements of `ty`, from `init` (a `{ … }` list of
+    /// exactly `len` values, or another array) or zero.
+    pub(crate) fn declare_array(
+        &mut self,
+        b: &mut Builder,
+        name: &ast::Ident,
+        (ty, len): (Ty, usize),
+        init: Option<&'a Expr>,
+        uniform: bool,
+    ) {
+        let values: Vec<Val> = match init.map(|e| (e, &e.kind)) {
+            None => (0..len).map(|_| Self::poison(b, ty)).collect(),
+            Some((e, ExprKind::InitList(items))) => {
+                if items.len() != len {
+                    self.error(
+                        format!(
+                            "`{}` has {len} elements; the list gives {}",
+                            name.name,
+                            items.len()
+                        ),
+                        e.span,
+                        "wrong number of values",
+                    );
+                }
+                (0..len)
+                    .map(|k| match items.get(k) {
+                        Some(x) => self.expr_as(b, x, ty),
+                        None => Self::poison(b, ty),
+                    })
+                    .collect()
+            }
+            Some((e, _)) => match self.expr(b, e) {
+                Val::Array(vs) if vs.len() == len => vs
+                    .into_iter()
+                    .map(|v| self.coerce(b, v, ty, e.span))
+                    .collect(),
+                other => {
+                    self.error(
+                        format!(
+                            "`{}` is an array of {len}: it takes a `{{ … }}` list or an array of {len}, not {}",
+                            name.name,
+                            super::expr::an(other.type_name())
+                        ),
+                        e.span,
+                        "not an array of that length",
+                    );
+                    (0..len).map(|_| Self::poison(b, ty)).collect()
+                }
+            },
+        };
+        self.bind_array(name, ty, values, uniform);
+    }
+
+    /// Binds array `name` with element values `values` in the innermost scope.
+    pub(crate) fn bind_array(
+        &mut self,
+        name: &ast::Ident,
+        ty: Ty,
+        values: Vec<Val>,
+        uniform: bool,
+    ) {
+        let len = values.len();
+        for (k, v) in values.into_iter().enumerate() {
+            let id = ast::Ident {
+                name: element(&name.name, k),
+                span: name.span,
+            };
+            self.declare(&id, v, uniform);
+        }
+        self.declare(name, Val::ArrayVar { len, ty }, uniform);
+    }
+
+    /// `a = x` for array variable `a`: `x` an array of the same length (or a `{ … }` list);
+    /// every element rebound.
+    pub(crate) fn assign_array(
+        &mut self,
+        b: &mut Builder,
+        id: &ast::Ident,
+        (len, ty): (usize, Ty),
+        value: &'a Expr,
+        uniform: bool,
+    ) -> Val {
+        let elems = match (&value.kind, self.expr(b, value)) {
+            (_, Val::Array(elems)) if elems.len() == len => elems,
+            (_, other) => {
+                self.error(
+                    format!(
+                        "`{}` is an array of {len}: it takes an array of {len}, not {}",
+                        id.name,
+                        super::expr::an(other.type_name())
+                    ),
+                    value.span,
+                    "not an array of that length",
+                );
+                return Self::poison(b, ty);
+            }
+        };
+        let elems: Vec<Val> = elems
+            .into_iter()
+            .map(|v| self.coerce(b, v, ty, value.span))
+            .collect();
+        for (k, e) in elems.iter().enumerate() {
+            let el = ast::Ident {
+                name: element(&id.name, k),
+                span: id.span,
+            };
+            self.rebind(&el, e.clone(), uniform, value.span);
+        }
+        Val::Array(elems)
+    }
+
+    /// The elements of array variable `name` (of `len`), as a value.
+    pub(crate) fn array_value(&self, name: &str, len: usize) -> Val {
+        let elems = (0..len)
+            .map(|k| {
+                self.lookup(&element(name, k))
+                    .map(|v| v.val.clone())
+                    .unwrap_or(Val::Str(String::new()))
+            })
+            .collect();
+        Val::Array(elems)
+    }
+
+    /// `base[index]`: an array element, or a component of a triple (the index constant or
+    /// computed, as for arrays).
+    pub(crate) fn index(&mut self, b: &mut Builder, base: &'a Expr, index: &'a Expr) -> Val {
+        let elems = match self.expr(b, base) {
+            Val::Array(elems) => elems,
+            Val::V { v, ty, varying } if ty.is_triple() => (0..3)
+                .map(|k| Val::V {
+                    v: b.extract(v, k),
+                    ty: Ty::Float,
+                    varying,
+                })
+                .collect(),
+            other => {
+                self.error(
+                    format!("{} cannot be indexed", super::expr::an(other.type_name())),
+                    base.span,
+                    "not an array or a triple",
+                );
+                return Self::poison(b, Ty::Float);
+            }
+        };
+        let pos = self.position(b, index, elems.len());
+        self.pick(b, &elems, &pos)
+    }
+
+    /// The element of `elems` at `pos` (a chain of selects for a run-time position).
+    fn pick(&mut self, b: &mut Builder, elems: &[Val], pos: &Position) -> Val {
+        match *pos {
+            Position::Known(k) => elems[k].clone(),
+            Position::Computed(i, vi) => {
+                let mut acc = elems[0].clone();
+                for (k, e) in elems.iter().enumerate().skip(1) {
+                    let kk = b.int(k as i32);
+                    let here = b.binary(BinOp::Eq, i, kk);
+                    acc = self.merge(b, here, vi, e.clone(), acc);
+                }
+                acc
+            }
+            Position::Bad => Self::poison(b, Ty::Float),
+        }
+    }
+
+    /// `a[index] op= value` for array variable `a` (or a component of a triple variable):
+    /// each element it may change rebound.
+    pub(crate) fn assign_index(
+        &mut self,
+        b: &mut Builder,
+        op: AssignOp,
+        (id, index): (&ast::Ident, &'a Expr),
+        value: &'a Expr,
+        span: Span,
+    ) -> Val {
+        let Some(var) = self.lookup(&id.name).cloned() else {
+            return self.unknown(b, id, "name");
+        };
+        let (len, ty) = match var.val {
+            Val::ArrayVar { len, ty } => (len, ty),
+            Val::V { ty, .. } if ty.is_triple() => (3, Ty::Float),
+            other => {
+                self.error(
+                    format!("{} cannot be indexed", super::expr::an(other.type_name())),
+                    id.span,
+                    "not an array or a triple",
+                );
+                return Self::poison(b, Ty::Float);
+            }
+        };
+        let pos = self.position(b, index, len);
+        if matches!(pos, Position::Bad) {
+            return Self::poison(b, ty);
+        }
+        let triple = matches!(var.val, Val::V { .. });
+        let mut elems: Vec<Val> = match &var.val {
+            Val::V { v, varying, .. } => (0..3)
+                .map(|k| Val::V {
+                    v: b.extract(*v, k),
+                    ty: Ty::Float,
+                    varying: *varying,
+                })
+                .collect(),
+            _ => match self.array_value(&id.name, len) {
+                Val::Array(elems) => elems,
+                _ => Vec::new(),
+            },
+        };
+        let rhs = match op {
+            AssignOp::Set => self.expr_as(b, value, ty),
+            _ => {
+                let Some(bin) = super::expr::arith_of(op) else {
+                    self.error("bitwise assignments are not built", span, "not built yet");
+                    return Self::poison(b, ty);
+                };
+                let old = self.pick(b, &elems, &pos);
+                let v = self.expr(b, value);
+                let v = self.binary_vals(b, bin, (old, span), (v, value.span), span);
+                self.coerce(b, v, ty, span)
+            }
+        };
+        match pos {
+            Position::Known(k) => elems[k] = rhs.clone(),
+            Position::Computed(i, vi) => {
+                for (k, e) in elems.iter_mut().enumerate() {
+                    let kk = b.int(k as i32);
+                    let here = b.binary(BinOp::Eq, i, kk);
+                    *e = self.merge(b, here, vi, rhs.clone(), e.clone());
+                }
+            }
+            Position::Bad => {}
+        }
+        if triple {
+            let mut comps = Vec::new();
+            let mut varying = false;
+            for e in &elems {
+                if let Val::V { v, varying: vy, .. } = e {
+                    comps.push(*v);
+                    varying |= vy;
+                }
+            }
+            let Val::V { ty: tt, .. } = var.val else {
+                return rhs;
+            };
+            let v = b.construct(tt.ir(), &comps);
+            self.rebind(id, Val::V { v, ty: tt, varying }, var.uniform, span);
+        } else {
+            for (k, e) in elems.into_iter().enumerate() {
+                let el = ast::Ident {
+                    name: element(&id.name, k),
+                    span: id.span,
+                };
+                self.rebind(&el, e, var.uniform, span);
+            }
+        }
+        rhs
+    }
+
+    /// Where `index` points in a sequence of `len`: a constant position (out of range: an
+    /// error), or a run-time one clamped to `[0, len − 1]` (an int).
+    fn position(&mut self, b: &mut Builder, index: &'a Expr, len: usize) -> Position {
+        let (v, ty, varying) = self.value(b, index);
+        if !matches!(ty, Ty::Int | Ty::Float) {
+            self.error(
+                format!("an index is a number, not {}", super::expr::an(ty.name())),
+                index.span,
+                "not a number",
+            );
+            return Position::Bad;
+        }
+        let i = b.convert(Type::Int, v);
+        if let Some(c) = shadenet_graph::opt::fold::constant(b.program(), i)
+            && !reads_param(b, i)
+        {
+            let k = match c {
+                shadenet_graph::ConstValue::Int(k) => k as i64,
+                _ => -1,
+            };
+            if !(0..len as i64).contains(&k) {
+                self.error(
+                    format!("index {k} is out of range: the length is {len}"),
+                    index.span,
+                    "out of range",
+                );
+                return Position::Bad;
+            }
+            return Position::Known(k as usize);
+        }
+        let zero = b.int(0);
+        let last = b.int(len as i32 - 1);
+        let lo = b.max(i, zero);
+        Position::Computed(b.min(lo, last), varying)
+    }
+}
+
+/// Where an index points.
+enum Position {
+    /// A constant element.
+    Known(usize),
+    /// A run-time element (an int in range) and whether it varies.
+    Computed(Value, bool),
+    /// An error was reported.
+    Bad,
+}
+
+/// Whether `v` depends on a program parameter (a scene may change it after compiling).
+fn reads_param(b: &Builder, v: Value) -> bool {
+    super::reads_param(b.program(), v)
+}
+
+impl<'a> Lower<'a> {
+    /// The array-valued parameter `p` of a function, bound to argument `arg` (an array of
+    /// the parameter's length, any length for `[]`).
+    pub(crate) fn bind_array_param(
+        &mut self,
+        b: &mut Builder,
+        p: &'a ast::Param,
+        arg: Val,
+        span: Span,
+    ) {
+        let Some(ty) = self.declared_type(&p.ty) else {
+            return;
+        };
+        let want = p.array.as_ref().and_then(|a| a.len.as_ref()).and_then(|l| {
+            match super::eval(l).as_deref() {
+                Some([x]) => Some(*x as usize),
+                _ => None,
+            }
+        });
+        match arg {
+            Val::Array(elems) if want.is_none_or(|n| n == elems.len()) => {
+                let elems = elems
+                    .into_iter()
+                    .map(|v| self.coerce(b, v, ty, span))
+                    .collect();
+                self.bind_array(&p.name, ty, elems, false);
+            }
+            other => {
+                self.error(
+                    format!(
+                        "parameter `{}` is an array{}: not {}",
+                        p.name.name,
+                        want.map(|n| format!(" of {n}")).unwrap_or_default(),
+                        super::expr::an(other.type_name())
+                    ),
+                    span,
+                    "not such an array",
+                );
+                self.bind_array(&p.name, ty, vec![Self::poison(b, ty)], false);
+            }
+        }
+    }
+}
+
+impl<'a> Lower<'a> {
+    /// A shader's array parameter `float w[3] = { … }`: each element a program parameter
+    /// named `w[k]` (a constant default), or its default expression.
+    pub(crate) fn array_param(&mut self, b: &mut Builder, p: &'a ast::Param, a: &'a ast::ArrayLen) {
+        let Some(ty) = self.declared_type(&p.ty) else {
+            return;
+        };
+        if p.ty.output.is_some() {
+            self.error(
+                "output array parameters are not built yet",
+                p.span,
+                "`output`",
+            );
+            return;
+        }
+        let Some(len) = self.array_len(a, p.default.as_ref()) else {
+            return;
+        };
+        let items = match p.default.as_ref().map(|d| &d.kind) {
+            Some(ExprKind::InitList(items)) if items.len() == len => items,
+            _ => {
+                self.error(
+                    format!(
+                        "array parameter `{}` needs a default list of {len} values `{{ … }}`",
+                        p.name.name
+                    ),
+                    p.span,
+                    "no default list",
+                );
+                return;
+            }
+        };
+        let uniform = !matches!(p.ty.rate, Some((ast::Rate::Varying, _)));
+        let values = items
+            .iter()
+            .enumerate()
+            .map(|(k, e)| match super::const_eval(e, ty) {
+                Some(c) => Val::V {
+                    v: b.param(&format!("{}{}", self.prefix, element(&p.name.name, k)), c),
+                    ty,
+                    varying: false,
+                },
+                None => self.expr_as(b, e, ty),
+            })
+            .collect();
+        self.bind_array(&p.name, ty, values, uniform);
+    }
+}
+
+impl<'a> Lower<'a> {
+    /// `arraylength(a)`: an int in OSL, a float in RSL (which has no ints); `None` for any
+    /// other call.
+    pub(crate) fn array_builtin(
+        &mut self,
+        b: &mut Builder,
+        name: &str,
+        args: &[(Val, Span)],
+    ) -> Option<Val> {
+        let ("arraylength", [(Val::Array(elems), _)]) = (name, args) else {
+            return None;
+        };
+        let n = elems.len() as i32;
+        Some(match self.dialect {
+            crate::Dialect::Osl => Val::V {
+                v: b.int(n),
+                ty: Ty::Int,
+                varying: false,
+            },
+            crate::Dialect::Rsl => Val::V {
+                v: b.float(n as f64),
+                ty: Ty::Float,
+                varying: false,
+            },
+        })
+    }
+}

@@ -1,0 +1,192 @@
+//! Fixed-size arrays in shading-language sources (issue 21, and OSL's of issue 22): declared
+//! with a length or an initialiser list, read and written at constant and run-time indices
+//! (run-time ones clamped to the array, as OSL does), carried through `if` and loops,
+//! passed to functions (output arrays written back), shader array parameters as program
+//! parameters `name[k]`, and errors that name the place.
+
+mod common;
+use common::*;
+use shadenet::graph::ir::Program;
+use shadenet::graph::opt::{self, Specialization};
+use shadenet::lang::{Dialect, Options, SourceMap, lower, parse_str};
+use shadenet::runtime::Backend;
+
+fn compile(src: &str, dialect: Dialect) -> Result<Program, String> {
+    let mut sources = SourceMap::new();
+    let name = if dialect == Dialect::Rsl {
+        "t.sl"
+    } else {
+        "t.osl"
+    };
+    let parsed = parse_str(&mut sources, name, src, &Options::new(dialect))
+        .map_err(|d| d.render(&sources))?;
+    lower::compile(&parsed, None).map_err(|d| d.render(&sources))
+}
+
+/// Output `name` at texture coordinate `u`, f64 and f32 equal (small integers).
+fn at(p: &Program, name: &str, u: f64) -> Vec<f64> {
+    let mut f = plane_fragment();
+    f.uv = [u as f32, 0.5];
+    let o = run_program(p, &f, &[], u32::MAX);
+    assert_eq!(o.get(name), o.get32(name), "f32 = f64");
+    o.get(name)
+}
+
+#[test]
+fn constant_and_run_time_indices_in_rsl() {
+    let src = r#"
+        surface s(float w[3] = { 10, 20, 30 }) {
+            float a[4] = { 1, 2, 3, 4 };
+            float b[] = { 5, 6 };
+            float i = floor(u * 8) - 2;     /* -2 … 5 across the plane */
+            a[1] = a[0] + a[3];             /* 5 */
+            a[i] = 100;                     /* clamped: i < 0 writes a[0], i > 3 writes a[3] */
+            Ci = color(a[i], a[1] + b[1] + arraylength(b), w[2] + w[i]);
+        }"#;
+    let p = compile(src, Dialect::Rsl).unwrap();
+    // u → i = floor(8u) − 2, clamped to 0…3.
+    for (u, i) in [
+        (0.01, 0usize),
+        (0.3, 0),
+        (0.4, 1),
+        (0.55, 2),
+        (0.7, 3),
+        (0.99, 3),
+    ] {
+        let w = [10.0, 20.0, 30.0][i.min(2)];
+        // a[i] reads back the 100 just written (a[1] = 5 unless i = 1).
+        assert_eq!(
+            at(&p, "Ci", u),
+            [
+                100.0,
+                if i == 1 { 100.0 } else { 5.0 } + 6.0 + 2.0,
+                30.0 + w
+            ],
+            "u = {u}"
+        );
+    }
+    // The elements are the program's parameters `w[k]`.
+    let names: Vec<&str> = p.params.iter().map(|q| q.name.as_str()).collect();
+    assert_eq!(names, ["w[0]", "w[1]", "w[2]"]);
+}
+
+#[test]
+fn arrays_through_ifs_loops_and_functions_in_osl() {
+    let src = r#"
+        void fill(float k, output float a[4]) {
+            for (int j = 0; j < 4; j++) a[j] = k * j;
+        }
+        float total(float a[]) {
+            float t = 0;
+            for (int j = 0; j < arraylength(a); j++) t += a[j];
+            return t;
+        }
+        shader s(output color o = 0, output float m = 0) {
+            float a[4];
+            fill(2, a);                       /* 0 2 4 6 */
+            int n = int(u * 4);               /* 0 … 3 */
+            if (u > 0.5) a[n] += 10;
+            color c[2] = { color(1, 2, 3), color(4, 5, 6) };
+            for (int j = 0; j < n; j++) c[j % 2] *= 2;
+            o = color(total(a), a[n], c[1][2]);
+            m = c[0].g;
+        }"#;
+    let p = compile(src, Dialect::Osl).unwrap();
+    for (u, n) in [(0.1, 0usize), (0.3, 1), (0.6, 2), (0.9, 3)] {
+        let mut a = [0.0, 2.0, 4.0, 6.0];
+        if u > 0.5 {
+            a[n] += 10.0;
+        }
+        let mut c = [[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]];
+        for j in 0..n {
+            for x in &mut c[j % 2] {
+                *x *= 2.0;
+            }
+        }
+        assert_eq!(at(&p, "o", u), [a.iter().sum(), a[n], c[1][2]], "u = {u}");
+        assert_eq!(at(&p, "m", u), [c[0][1]], "u = {u}");
+    }
+}
+
+/// The interpreter and the JIT's scalar and batch entries give the same bits on run-time
+/// indexing inside a loop with a varying trip count.
+#[test]
+fn the_jit_agrees_with_the_interpreter_on_arrays() {
+    let src = r#"
+        shader s(float k[5] = { 0.1, 0.7, 0.3, 0.9, 0.5 }, output color o = 0) {
+            float acc = 0;
+            int n = int(u * 9);
+            for (int j = 0; j < n; j++) acc += k[(j * 3 + int(v * 7)) % 5] * noise(P * j);
+            o = color(acc, k[int(v * 5)], n);
+        }"#;
+    let p = compile(src, Dialect::Osl).unwrap();
+    let env = shadenet::shade::grid_env(&[]);
+    let spec = Specialization::default();
+    let (o, _) = opt::run(&p, &spec);
+    let interp = shadenet::shade::shade_grid::<f32>(&o, &env, 16, 9, spec.components).unwrap();
+    let m = shadenet_jit::JitBackend::new().compile(&p, &spec).unwrap();
+    let bits = |v: Vec<f64>| v.iter().map(|x| (*x as f32).to_bits()).collect::<Vec<_>>();
+    for batch in [false, true] {
+        let g = shadenet::shade::shade_grid_with(&*m, &env, 16, 9, spec.components, batch);
+        assert_eq!(
+            bits(interp.pixel_values()),
+            bits(g.pixel_values()),
+            "batch {batch}"
+        );
+    }
+}
+
+#[test]
+fn array_errors_name_the_place() {
+    for (src, dialect, want) in [
+        (
+            "surface s() { float a[3]; Ci = a[3]; }",
+            Dialect::Rsl,
+            "index 3 is out of range: the length is 3",
+        ),
+        (
+            "surface s() { float a[3] = { 1, 2 }; }",
+            Dialect::Rsl,
+            "`a` has 3 elements; the list gives 2",
+        ),
+        (
+            "surface s() { float a[u]; }",
+            Dialect::Rsl,
+            "an array length must be a constant positive integer",
+        ),
+        (
+            "surface s() { float a[]; }",
+            Dialect::Rsl,
+            "needs an initialiser list",
+        ),
+        (
+            "surface s() { float a[5000]; }",
+            Dialect::Rsl,
+            "the limit is 1024",
+        ),
+        (
+            "surface s() { float a[2]; float x = a; }",
+            Dialect::Rsl,
+            "expected a float, found an array",
+        ),
+        (
+            "surface s() { float x = 1; Ci = x[0]; }",
+            Dialect::Rsl,
+            "a float cannot be indexed",
+        ),
+        (
+            "surface s() { float a[2], b[3]; a = b; }",
+            Dialect::Rsl,
+            "it takes an array of 2",
+        ),
+        (
+            "float f(float a[2]) { return a[0]; } surface s() { float b[3]; Ci = f(b); }",
+            Dialect::Rsl,
+            "parameter `a` is an array of 2",
+        ),
+    ] {
+        let err = compile(src, dialect).unwrap_err();
+        assert!(err.contains(want), "{src}\n→ {err}");
+        assert!(err.contains(":1:"), "{src}: the place\n{err}");
+    }
+}
