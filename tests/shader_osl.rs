@@ -622,3 +622,57 @@ fn the_cli_shades_a_group() {
     assert_ne!(code, 0, "a .txt file without --group is not a group");
     assert!(!err.is_empty());
 }
+
+/// OSL structs: declared, fields read and written (array fields by index), whole-struct
+/// copies, constructors, structs through `if` and loops, passed to and returned from
+/// functions, `output` structs written back.
+#[test]
+fn structs_hold_fields() {
+    let src = r#"
+        struct Layer { color tint; float weight; float w[2]; };
+        struct Pair { Layer a; Layer b; };
+        Layer scaled(Layer l, float k) { Layer r = l; r.weight *= k; return r; }
+        void bump(output Layer l) { l.w[1] += 1; }
+        shader s(output color o = 0, output color p = 0) {
+            Layer l;
+            l.tint = color(0.5, 0.25, 1);
+            l.weight = 2;
+            l.w[0] = 3;
+            Layer m = Layer(color(1), 0.5, l.w);
+            if (u > 0.5) { m.weight = 7; m.w[1] = 9; }
+            for (int i = 0; i < 3; i++) l.weight += 1;
+            Layer n = scaled(l, 10);
+            bump(n);
+            Pair pr;
+            pr.a = n;
+            pr.b.weight = pr.a.w[1];
+            o = color(n.weight, m.weight + m.w[1], n.w[1]);
+            p = color(pr.b.weight, pr.a.tint[2], m.w[0]);
+        }"#;
+    let p = compile(src).unwrap();
+    for (u, m_weight, m_w1) in [(0.25, 0.5, 0.0), (0.75, 7.0, 9.0)] {
+        let mut f = plane_fragment();
+        f.uv = [u, 0.5];
+        let o = run_program(&p, &f, &[], u32::MAX);
+        // l.weight = 2 + 3 = 5; scaled ×10 = 50; bump: n.w[1] = 0 + 1.
+        check(&o, "o", &[50.0, m_weight + m_w1, 1.0], 0.0);
+        check(&o, "p", &[1.0, 1.0, 3.0], 0.0);
+    }
+    for (src, want) in [
+        (
+            "struct S { float a; }; surface s() { S x; float y = x.b; }",
+            "struct `S` has no field `b` (its fields: a)",
+        ),
+        (
+            "struct S { float a; }; surface s() { S x = 1; }",
+            "`x` is a `S`: not an int",
+        ),
+        (
+            "struct S { float a, b; }; surface s() { S x = S(1); }",
+            "struct `S` is made of its 2 fields in order",
+        ),
+    ] {
+        let err = compile(src).unwrap_err();
+        assert!(err.contains(want), "{src}\n→ {err}");
+    }
+}

@@ -102,7 +102,7 @@ impl<'a> Lower<'a> {
                         format!(
                             "`{}` is an array of {len}: it takes a `{{ … }}` list or an array of {len}, not {}",
                             name.name,
-                            super::expr::an(other.type_name())
+                            super::an(other.type_name())
                         ),
                         e.span,
                         "not an array of that length",
@@ -150,7 +150,7 @@ impl<'a> Lower<'a> {
                     format!(
                         "`{}` is an array of {len}: it takes an array of {len}, not {}",
                         id.name,
-                        super::expr::an(other.type_name())
+                        super::an(other.type_name())
                     ),
                     value.span,
                     "not an array of that length",
@@ -172,18 +172,6 @@ impl<'a> Lower<'a> {
         Val::Array(elems)
     }
 
-    /// The elements of array variable `name` (of `len`), as a value.
-    pub(crate) fn array_value(&self, name: &str, len: usize) -> Val {
-        let elems = (0..len)
-            .map(|k| {
-                self.lookup(&element(name, k))
-                    .map(|v| v.val.clone())
-                    .unwrap_or(Val::Str(String::new()))
-            })
-            .collect();
-        Val::Array(elems)
-    }
-
     /// `base[index]`: an array element, or a component of a triple (the index constant or
     /// computed, as for arrays).
     pub(crate) fn index(&mut self, b: &mut Builder, base: &'a Expr, index: &'a Expr) -> Val {
@@ -198,7 +186,7 @@ impl<'a> Lower<'a> {
                 .collect(),
             other => {
                 self.error(
-                    format!("{} cannot be indexed", super::expr::an(other.type_name())),
+                    format!("{} cannot be indexed", super::an(other.type_name())),
                     base.span,
                     "not an array or a triple",
                 );
@@ -244,7 +232,7 @@ impl<'a> Lower<'a> {
             Val::V { ty, .. } if ty.is_triple() => (3, Ty::Float),
             other => {
                 self.error(
-                    format!("{} cannot be indexed", super::expr::an(other.type_name())),
+                    format!("{} cannot be indexed", super::an(other.type_name())),
                     id.span,
                     "not an array or a triple",
                 );
@@ -264,15 +252,15 @@ impl<'a> Lower<'a> {
                     varying: *varying,
                 })
                 .collect(),
-            _ => match self.array_value(&id.name, len) {
-                Val::Array(elems) => elems,
+            _ => match self.read_var(&id.name) {
+                Some(Val::Array(elems)) => elems,
                 _ => Vec::new(),
             },
         };
         let rhs = match op {
             AssignOp::Set => self.expr_as(b, value, ty),
             _ => {
-                let Some(bin) = super::expr::arith_of(op) else {
+                let Some(bin) = super::arith_of(op) else {
                     self.error("bitwise assignments are not built", span, "not built yet");
                     return Self::poison(b, ty);
                 };
@@ -325,7 +313,7 @@ impl<'a> Lower<'a> {
         let (v, ty, varying) = self.value(b, index);
         if !matches!(ty, Ty::Int | Ty::Float) {
             self.error(
-                format!("an index is a number, not {}", super::expr::an(ty.name())),
+                format!("an index is a number, not {}", super::an(ty.name())),
                 index.span,
                 "not a number",
             );
@@ -404,7 +392,7 @@ impl<'a> Lower<'a> {
                         "parameter `{}` is an array{}: not {}",
                         p.name.name,
                         want.map(|n| format!(" of {n}")).unwrap_or_default(),
-                        super::expr::an(other.type_name())
+                        super::an(other.type_name())
                     ),
                     span,
                     "not such an array",

@@ -144,6 +144,18 @@ impl<'a> Lower<'a> {
             };
         }
         let name = callee.name.as_str();
+        if let Some(def) = self.struct_def(name) {
+            if let Some(v) = self.construct_struct(b, def, &vals) {
+                return v;
+            }
+            let n: usize = def.fields.iter().map(|d| d.vars.len()).sum();
+            self.error(
+                format!("struct `{name}` is made of its {n} fields in order"),
+                span,
+                "wrong number of fields",
+            );
+            return Self::poison(b, Ty::Float);
+        }
         if self.dialect == Dialect::Osl {
             if let Some(v) = self.closure_call(b, name, &vals, span) {
                 return v;
@@ -496,7 +508,8 @@ fn accepts(param: &ast::Param, v: &Val, exact: bool) -> bool {
     let ty = match v {
         Val::Closure(_) => return p.closure.is_some(),
         Val::Str(_) => return matches!(p.base, ast::BaseType::String),
-        Val::Array(..) | Val::ArrayVar { .. } => return false,
+        Val::Struct(s, _) => return matches!(&p.base, ast::BaseType::Struct(n) if n.name == *s),
+        Val::Array(..) | Val::ArrayVar { .. } | Val::StructVar(_) => return false,
         Val::V { ty, .. } => *ty,
     };
     if p.closure.is_some() {

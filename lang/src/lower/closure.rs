@@ -477,6 +477,19 @@ impl<'a> Lower<'a> {
                 let k = b.select(c, one, zero);
                 Val::Closure(Box::new(Closure::mix(b, &e, &t, k)))
             }
+            (Val::Array(t), Val::Array(e)) if t.len() == e.len() => Val::Array(
+                t.into_iter()
+                    .zip(e)
+                    .map(|(t, e)| self.merge(b, c, vc, t, e))
+                    .collect(),
+            ),
+            (Val::Struct(n, t), Val::Struct(_, e)) if t.len() == e.len() => Val::Struct(
+                n,
+                t.into_iter()
+                    .zip(e)
+                    .map(|((f, t), (_, e))| (f, self.merge(b, c, vc, t, e)))
+                    .collect(),
+            ),
             (t, _) => t,
         }
     }

@@ -2,7 +2,7 @@
 //! normals mix, a point minus a point is a vector; colors mix only with colors and
 //! floats), operators, constructors, assignments as expressions, calls.
 
-use super::{Lower, Ty, Val, closest};
+use super::{Lower, Ty, Val, an, arith_of, closest};
 use crate::ast::{self, AssignOp, BinaryOp, Expr, ExprKind, UnaryOp};
 use crate::source::Span;
 use shadenet_graph::ir::{BinOp, Builder, Intrinsic, UnOp, Value};
@@ -121,7 +121,9 @@ impl<'a> Lower<'a> {
             ExprKind::Int(i) => self.number(b, *i as f64, e.span),
             ExprKind::Str(s) => Val::Str(s.clone()),
             ExprKind::Ident(id) => match self.lookup(&id.name).map(|v| v.val.clone()) {
-                Some(Val::ArrayVar { len, .. }) => self.array_value(&id.name, len),
+                Some(Val::ArrayVar { .. } | Val::StructVar(_)) => self
+                    .read_var(&id.name)
+                    .unwrap_or_else(|| Self::poison(b, Ty::Float)),
                 Some(v) => v,
                 None => self.unknown(b, id, "name"),
             },
@@ -213,7 +215,11 @@ impl<'a> Lower<'a> {
 
     /// OSL's `p.x`, `c.r`…: a component of a triple.
     fn member(&mut self, b: &mut Builder, base: &'a Expr, field: &ast::Ident) -> Val {
-        let (v, ty, varying) = self.value(b, base);
+        let v = self.expr(b, base);
+        if let Val::Struct(..) = v {
+            return self.field_of(b, v, field);
+        }
+        let (v, ty, varying) = self.plain(b, v, base.span);
         let k = match (field.name.as_str(), ty) {
             ("x", t) | ("r", t) if t.is_triple() => 0,
             ("y", t) | ("g", t) if t.is_triple() => 1,
@@ -515,11 +521,11 @@ impl<'a> Lower<'a> {
             }
             _ => {
                 self.error(
-                    "bitwise operators are OSL's integer operators (issue 22)",
+                    "bitwise operators (`&`, `|`, `^`, `<<`, `>>`) are not built yet (the IR has no integer bit operations)",
                     span,
                     "not built yet",
                 );
-                Self::poison(b, Ty::Float)
+                Self::poison(b, ta)
             }
         }
     }
@@ -580,10 +586,17 @@ impl<'a> Lower<'a> {
         value: &'a Expr,
         span: Span,
     ) -> Val {
+        // `a[i]`, `s.a[i]` (the field's hidden array variable), `s.f`, `s.f.g`.
         if let ExprKind::Index { base, index } = &target.kind
-            && let ExprKind::Ident(id) = &base.kind
+            && let Some(id) = super::structs::place(base)
         {
-            return self.assign_index(b, op, (id, index), value, span);
+            return self.assign_index(b, op, (&id, index), value, span);
+        }
+        if let ExprKind::Member { .. } = &target.kind
+            && let Some(id) = super::structs::place(target)
+            && self.lookup(&id.name).is_some()
+        {
+            return self.assign_field(b, op, (&id, target), value, span);
         }
         let ExprKind::Ident(id) = &target.kind else {
             self.error(
@@ -602,10 +615,23 @@ impl<'a> Lower<'a> {
             Val::ArrayVar { len, ty } if op == AssignOp::Set => {
                 return self.assign_array(b, id, (len, ty), value, var.uniform);
             }
-            Val::Array(..) | Val::ArrayVar { .. } => {
+            Val::StructVar(s) if op == AssignOp::Set => {
+                let v = self.expr(b, value);
+                if !matches!(&v, Val::Struct(t, _) if *t == s) {
+                    self.error(
+                        format!("`{}` is a `{s}`: not {}", id.name, an(v.type_name())),
+                        value.span,
+                        "wrong type",
+                    );
+                    return Self::poison(b, Ty::Float);
+                }
+                self.store(id, v.clone(), span);
+                return v;
+            }
+            Val::Array(..) | Val::ArrayVar { .. } | Val::Struct(..) | Val::StructVar(_) => {
                 self.error(
                     format!(
-                        "`{}` is an array: assign its elements, or a whole array with `=`",
+                        "`{}` is an array or a struct: assign its parts, or all of it with `=`",
                         id.name
                     ),
                     span,
@@ -851,24 +877,4 @@ fn rem(b: &mut Builder, a: Value, c: Value, ty: Ty) -> Value {
         return b.select(c0, zero, r);
     }
     super::osl::componentwise2(b, a, c, ty, super::osl::fmod)
-}
-
-/// `name` with its indefinite article ("a float", "an int").
-pub(crate) fn an(name: &str) -> String {
-    match name.chars().next() {
-        Some('a' | 'e' | 'i' | 'o' | 'u') => format!("an {name}"),
-        _ => format!("a {name}"),
-    }
-}
-
-/// The arithmetic operator of a compound assignment (`None` for `=` and the bitwise ones).
-pub(crate) fn arith_of(op: AssignOp) -> Option<BinaryOp> {
-    match op {
-        AssignOp::Add => Some(BinaryOp::Add),
-        AssignOp::Sub => Some(BinaryOp::Sub),
-        AssignOp::Mul => Some(BinaryOp::Mul),
-        AssignOp::Div => Some(BinaryOp::Div),
-        AssignOp::Rem => Some(BinaryOp::Rem),
-        _ => None,
-    }
 }

@@ -239,7 +239,7 @@ impl<'a> Lower<'a> {
                             "`param {}`: ({}) is not {} value",
                             p.name.name,
                             show(&values),
-                            super::expr::an(ty.name())
+                            super::an(ty.name())
                         ),
                         at,
                         "wrong value",

@@ -24,6 +24,7 @@ mod group;
 mod loops;
 mod osl;
 mod stmt;
+mod structs;
 mod unroll;
 
 use crate::ast::{self, Item, ShaderKind};
@@ -125,6 +126,11 @@ pub(crate) enum Val {
         /// The element type.
         ty: Ty,
     },
+    /// An OSL struct's fields by name, of the struct type named, as an expression's value.
+    Struct(String, Vec<(String, Val)>),
+    /// In a scope: a struct variable of the type named, held in hidden field variables
+    /// ([`structs::field`]).
+    StructVar(String),
 }
 
 impl Val {
@@ -135,6 +141,7 @@ impl Val {
             Val::Str(_) => "string",
             Val::Closure(_) => "closure color",
             Val::Array(..) | Val::ArrayVar { .. } => "array",
+            Val::Struct(..) | Val::StructVar(_) => "struct",
         }
     }
 }
@@ -167,6 +174,26 @@ pub(crate) fn same(
         (Ty::Float, t) => Some((b.splat(t.ir(), x), y, t)),
         (t, Ty::Float) => Some((x, b.splat(t.ir(), y), t)),
         (a, c) if a.is_geometric() && c.is_geometric() => Some((x, y, a)),
+        _ => None,
+    }
+}
+
+/// `name` with its indefinite article ("a float", "an int").
+pub(crate) fn an(name: &str) -> String {
+    match name.chars().next() {
+        Some('a' | 'e' | 'i' | 'o' | 'u') => format!("an {name}"),
+        _ => format!("a {name}"),
+    }
+}
+
+/// The arithmetic operator of a compound assignment (`None` for `=` and the bitwise ones).
+pub(crate) fn arith_of(op: ast::AssignOp) -> Option<ast::BinaryOp> {
+    match op {
+        ast::AssignOp::Add => Some(ast::BinaryOp::Add),
+        ast::AssignOp::Sub => Some(ast::BinaryOp::Sub),
+        ast::AssignOp::Mul => Some(ast::BinaryOp::Mul),
+        ast::AssignOp::Div => Some(ast::BinaryOp::Div),
+        ast::AssignOp::Rem => Some(ast::BinaryOp::Rem),
         _ => None,
     }
 }
@@ -225,6 +252,8 @@ pub(crate) struct Lower<'a> {
     pub(crate) prefix: String,
     /// A shader group layer's instance values and connections, by parameter name.
     pub(crate) inputs: HashMap<String, group::LayerInput>,
+    /// The file's OSL struct types by name.
+    pub(crate) structs: HashMap<&'a str, &'a ast::StructDef>,
 }
 
 /// Compiles shader `name` (the file's only or first shader when `None`) of a parsed file to
@@ -309,9 +338,14 @@ impl<'a> Lower<'a> {
     /// A lowering of a shader of `parsed`: its user functions known, nothing else bound.
     pub(crate) fn new(parsed: &'a Parsed) -> Lower<'a> {
         let mut functions: HashMap<&str, Vec<&ast::FunctionDef>> = HashMap::new();
+        let mut structs = HashMap::new();
         for item in &parsed.file.items {
-            if let Item::Function(f) = item {
-                functions.entry(f.name.name.as_str()).or_default().push(f);
+            match item {
+                Item::Function(f) => functions.entry(f.name.name.as_str()).or_default().push(f),
+                Item::Struct(d) => {
+                    structs.insert(d.name.name.as_str(), d);
+                }
+                Item::Shader(_) => {}
             }
         }
         Lower {
@@ -325,6 +359,7 @@ impl<'a> Lower<'a> {
             want: None,
             prefix: String::new(),
             inputs: HashMap::new(),
+            structs,
         }
     }
 

@@ -107,6 +107,14 @@ impl<'a> Lower<'a> {
             self.closure_decl(b, d);
             return;
         }
+        if let ast::BaseType::Struct(name) = &d.ty.base
+            && let Some(def) = self.struct_def(&name.name)
+        {
+            for v in &d.vars {
+                self.struct_decl(b, def, v);
+            }
+            return;
+        }
         let Some(ty) = self.declared_type(&d.ty) else {
             return;
         };
@@ -193,16 +201,20 @@ impl<'a> Lower<'a> {
                     ExprKind::Assign { target, .. } | ExprKind::IncDec { target, .. } => target,
                     _ => return,
                 };
-                let id = match &target.kind {
-                    ExprKind::Ident(id) => id,
-                    ExprKind::Index { base, .. } => match &base.kind {
-                        ExprKind::Ident(id) => id,
-                        _ => return,
-                    },
-                    _ => return,
+                // The variable an assignment changes: `x`, `a[i]`, `s.f`, `s.f[i]`.
+                let mut t = &target.kind;
+                if let ExprKind::Index { base, .. } = t {
+                    t = &base.kind;
+                }
+                let place = Expr {
+                    kind: t.clone(),
+                    span: target.span,
+                };
+                let Some(id) = super::structs::place(&place) else {
+                    return;
                 };
                 if !names.iter().any(|n| n.name == id.name) {
-                    names.push(id.clone());
+                    names.push(id);
                 }
             });
         }
@@ -216,18 +228,10 @@ impl<'a> Lower<'a> {
                 }
             }
         }
-        // An array stands for its elements.
+        // An array or a struct stands for its hidden variables.
         names
             .into_iter()
-            .flat_map(|n| match self.lookup(&n.name).map(|v| &v.val) {
-                Some(Val::ArrayVar { len, .. }) => (0..*len)
-                    .map(|k| ast::Ident {
-                        name: super::element(&n.name, k),
-                        span: n.span,
-                    })
-                    .collect(),
-                _ => vec![n],
-            })
+            .flat_map(|n| self.expand(n))
             .filter_map(|n| match self.lookup(&n.name) {
                 Some(Var {
                     val: Val::V { ty, .. },
@@ -235,6 +239,30 @@ impl<'a> Lower<'a> {
                 }) => Some((n, *ty)),
                 _ => None,
             })
+            .collect()
+    }
+
+    /// The plain variables that variable `n` is: itself, or an array's elements and a
+    /// struct's fields, expanded in turn.
+    pub(crate) fn expand(&self, n: ast::Ident) -> Vec<ast::Ident> {
+        let parts: Vec<String> = match self.lookup(&n.name).map(|v| &v.val) {
+            Some(Val::ArrayVar { len, .. }) => {
+                (0..*len).map(|k| super::element(&n.name, k)).collect()
+            }
+            Some(Val::StructVar(s)) => match self.struct_def(s) {
+                Some(def) => def
+                    .fields
+                    .iter()
+                    .flat_map(|d| d.vars.iter())
+                    .map(|v| super::structs::field(&n.name, &v.name.name))
+                    .collect(),
+                None => Vec::new(),
+            },
+            _ => return vec![n],
+        };
+        parts
+            .into_iter()
+            .flat_map(|name| self.expand(ast::Ident { name, span: n.span }))
             .collect()
     }
 
@@ -647,19 +675,9 @@ impl<'a> Lower<'a> {
             };
             let val = match (&var.val, val) {
                 (Val::V { ty, .. }, v @ Val::V { .. }) => self.coerce(b, v, *ty, e.span),
-                (Val::ArrayVar { len, .. }, Val::Array(elems)) if elems.len() == *len => {
-                    for (k, el) in elems.into_iter().enumerate() {
-                        let name = ast::Ident {
-                            name: super::element(&id.name, k),
-                            span: id.span,
-                        };
-                        self.rebind(&name, el, var.uniform, e.span);
-                    }
-                    continue;
-                }
                 (_, v) => v,
             };
-            self.rebind(id, val, var.uniform, e.span);
+            self.store(id, val, e.span);
         }
         v
     }
@@ -696,8 +714,9 @@ impl<'a> Lower<'a> {
             return (Self::poison(b, Ty::Float), Vec::new());
         }
         let closure_ret = f.ret.closure.is_some() && self.dialect == crate::Dialect::Osl;
+        let struct_ret = matches!(f.ret.base, ast::BaseType::Struct(_));
         let ret = match &f.ret.base {
-            _ if closure_ret => None,
+            _ if closure_ret || struct_ret => None,
             ast::BaseType::Void => None,
             _ => self.declared_type(&f.ret),
         };
@@ -719,6 +738,9 @@ impl<'a> Lower<'a> {
             }
             if p.array.is_some() {
                 self.bind_array_param(b, p, a, span);
+            } else if let (ast::BaseType::Struct(_), Val::Struct(..)) = (&p.ty.base, &a) {
+                // `accepts` matched the struct type.
+                self.bind_value(&p.name, a, false);
             } else if p.ty.closure.is_some() && self.dialect == crate::Dialect::Osl {
                 // `accepts` matched a closure to it.
                 self.declare(&p.name, a, false);
@@ -732,6 +754,17 @@ impl<'a> Lower<'a> {
             self.stmt(b, s);
         }
         let out = match (ret, last) {
+            _ if struct_ret => match last.map(|e| self.expr(b, e)) {
+                Some(v @ Val::Struct(..)) => v,
+                _ => {
+                    self.error(
+                        format!("function `{}` must return a struct", f.name.name),
+                        f.name.span,
+                        "returns a struct",
+                    );
+                    Self::poison(b, Ty::Float)
+                }
+            },
             _ if closure_ret => match last.map(|e| self.expr(b, e)) {
                 Some(v @ Val::Closure(_)) => v,
                 Some(v) if Self::closure_or_zero(b, &v) => Val::Closure(Box::default()),
@@ -760,13 +793,7 @@ impl<'a> Lower<'a> {
             .iter()
             .enumerate()
             .filter(|(_, p)| p.ty.output.is_some())
-            .filter_map(|(k, p)| {
-                let v = match self.lookup(&p.name.name)?.val.clone() {
-                    Val::ArrayVar { len, .. } => self.array_value(&p.name.name, len),
-                    v => v,
-                };
-                Some((k, v))
-            })
+            .filter_map(|(k, p)| Some((k, self.read_var(&p.name.name)?)))
             .collect();
         self.inlining.pop();
         self.scopes = saved;
