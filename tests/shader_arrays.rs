@@ -190,3 +190,126 @@ fn array_errors_name_the_place() {
         assert!(err.contains(":1:"), "{src}: the place\n{err}");
     }
 }
+
+/// OSL's `spline_evaluate` in f32, for the tests: the same operations in the same order.
+fn spline_ref(basis: &str, x: f32, knots: &[f32]) -> f32 {
+    let (step, m): (usize, [[f32; 4]; 4]) = match basis {
+        "catmull-rom" => (
+            1,
+            [
+                [-0.5, 1.5, -1.5, 0.5],
+                [1.0, -2.5, 2.0, -0.5],
+                [-0.5, 0.0, 0.5, 0.0],
+                [0.0, 1.0, 0.0, 0.0],
+            ],
+        ),
+        "bezier" => (
+            3,
+            [
+                [-1.0, 3.0, -3.0, 1.0],
+                [3.0, -6.0, 3.0, 0.0],
+                [-3.0, 3.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0, 0.0],
+            ],
+        ),
+        "bspline" => (
+            1,
+            [
+                [-1.0 / 6.0, 3.0 / 6.0, -3.0 / 6.0, 1.0 / 6.0],
+                [3.0 / 6.0, -6.0 / 6.0, 3.0 / 6.0, 0.0],
+                [-3.0 / 6.0, 0.0, 3.0 / 6.0, 0.0],
+                [1.0 / 6.0, 4.0 / 6.0, 1.0 / 6.0, 0.0],
+            ],
+        ),
+        "hermite" => (
+            2,
+            [
+                [2.0, 1.0, -2.0, 1.0],
+                [-3.0, -2.0, 3.0, -1.0],
+                [0.0, 1.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0, 0.0],
+            ],
+        ),
+        "linear" => (
+            1,
+            [
+                [0.0; 4],
+                [0.0; 4],
+                [0.0, -1.0, 1.0, 0.0],
+                [0.0, 1.0, 0.0, 0.0],
+            ],
+        ),
+        _ => (1, [[0.0; 4]; 4]),
+    };
+    let nsegs = (knots.len() - 4) / step + 1;
+    let x = x.clamp(0.0, 1.0) * nsegs as f32;
+    let seg = (x as usize).min(nsegs - 1);
+    if basis == "constant" {
+        return knots[seg + 1];
+    }
+    let x = x - seg as f32;
+    let p = &knots[seg * step..seg * step + 4];
+    let tk: Vec<f32> = m
+        .iter()
+        .map(|r| r[0] * p[0] + r[1] * p[1] + r[2] * p[2] + r[3] * p[3])
+        .collect();
+    ((tk[0] * x + tk[1]) * x + tk[2]) * x + tk[3]
+}
+
+/// `spline` is OSL's: every basis on knots given as arguments and as an array, at points
+/// inside, between and outside the segments, bit for bit in f32; RSL's `spline` without a
+/// basis is Catmull-Rom.
+#[test]
+fn splines_are_osls() {
+    let knots = [0.0f32, 0.3, 1.2, 0.7, -0.4, 0.9, 2.0];
+    for basis in [
+        "catmull-rom",
+        "bezier",
+        "bspline",
+        "hermite",
+        "linear",
+        "constant",
+    ] {
+        let src = format!(
+            r#"shader s(output float a = 0, output float b = 0, output color c = 0) {{
+                float k[7] = {{ 0, 0.3, 1.2, 0.7, -0.4, 0.9, 2 }};
+                float x = u * 1.4 - 0.2;
+                a = spline("{basis}", x, k);
+                b = spline("{basis}", x, 0, 0.3, 1.2, 0.7, -0.4, 0.9, 2);
+                c = spline("{basis}", x, color(0), color(0.3), color(1.2), color(0.7), color(-0.4), color(0.9), color(2));
+            }}"#
+        );
+        let p = compile(&src, Dialect::Osl).unwrap();
+        for u in [0.0, 0.1, 0.25, 0.5, 0.61, 0.75, 0.9, 1.0] {
+            let mut f = plane_fragment();
+            f.uv = [u, 0.5];
+            let o = run_program(&p, &f, &[], u32::MAX);
+            let want = spline_ref(basis, u * 1.4 - 0.2, &knots) as f64;
+            assert_eq!(o.get32("a"), [want], "{basis} at u = {u} (array)");
+            assert_eq!(o.get32("b"), [want], "{basis} at u = {u} (arguments)");
+            assert_eq!(o.get32("c"), [want; 3], "{basis} at u = {u} (colors)");
+        }
+    }
+    let p = compile(
+        "surface s() { Ci = spline(u, 0, 1, 0.5, 1, 0); }",
+        Dialect::Rsl,
+    )
+    .unwrap();
+    let mut f = plane_fragment();
+    f.uv = [0.4, 0.5];
+    let want = spline_ref("catmull-rom", 0.4, &[0.0, 1.0, 0.5, 1.0, 0.0]) as f64;
+    assert_eq!(run_program(&p, &f, &[], u32::MAX).get32("Ci"), [want; 3]);
+    for (src, want) in [
+        (
+            "shader s(output float a = 0) { a = spline(\"cubic\", u, 0, 1, 2, 3); }",
+            "unknown spline basis \"cubic\"",
+        ),
+        (
+            "shader s(output float a = 0) { a = spline(\"linear\", u, 0, 1, 2); }",
+            "a spline needs at least 4 knots; it has 3",
+        ),
+    ] {
+        let err = compile(src, Dialect::Osl).unwrap_err();
+        assert!(err.contains(want), "{src}\n→ {err}");
+    }
+}

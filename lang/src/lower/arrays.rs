@@ -453,14 +453,18 @@ impl<'a> Lower<'a> {
 }
 
 impl<'a> Lower<'a> {
-    /// `arraylength(a)`: an int in OSL, a float in RSL (which has no ints); `None` for any
-    /// other call.
+    /// The builtins that take arrays: `arraylength(a)` (an int in OSL, a float in RSL,
+    /// which has no ints) and `spline` (`spline.rs`); `None` for any other call.
     pub(crate) fn array_builtin(
         &mut self,
         b: &mut Builder,
         name: &str,
         args: &[(Val, Span)],
+        span: Span,
     ) -> Option<Val> {
+        if let Some(v) = self.spline(b, name, args, span) {
+            return Some(v);
+        }
         let ("arraylength", [(Val::Array(elems), _)]) = (name, args) else {
             return None;
         };

@@ -53,6 +53,7 @@ pub(crate) const NAMES: &[&str] = &[
     "noise",
     "texture",
     "arraylength",
+    "spline",
 ];
 
 /// The signatures, for errors: `name(args) -> result`.
@@ -83,6 +84,7 @@ fn signature(name: &str) -> &'static str {
         "noise" => "(float or point) -> float",
         "texture" => "(string file[, float s, float t]) -> color",
         "arraylength" => "(array) -> its length",
+        "spline" => "([string basis,] float x, knots… or an array of knots) -> the knots' type",
         _ => "",
     }
 }
@@ -203,7 +205,7 @@ impl<'a> Lower<'a> {
         if name == "texture" {
             return self.texture(b, args);
         }
-        if let Some(v) = self.array_builtin(b, name, args) {
+        if let Some(v) = self.array_builtin(b, name, args, span) {
             return Some(v);
         }
         let vs = super::numbers(b, args)?;

@@ -23,6 +23,7 @@ mod expr;
 mod group;
 mod loops;
 mod osl;
+mod spline;
 mod stmt;
 mod structs;
 mod unroll;

@@ -71,10 +71,9 @@ const UNBUILT: &[(&str, &str)] = &[
     ),
     ("getattribute", "attributes are not built yet"),
     ("raytype", "ray types are not readable by shaders yet"),
-    ("spline", "splines need arrays, which are not built yet"),
     (
         "splineinverse",
-        "splines need arrays, which are not built yet",
+        "splineinverse is not built yet (spline is)",
     ),
     (
         "environment",
