@@ -1,12 +1,15 @@
 //! The JIT batch entry's noise helpers (issue 23): `fbm3` of B7's network (6 octaves,
 //! lacunarity 2.1, gain 0.55) over 640×480 points, four lanes at a time — per lane through the
 //! scalar function (what the batch entry did before `ops::noise_x4`), and through
-//! `fbm3_x4` on each SIMD path the CPU has. One thread. `cargo bench --bench noise`;
-//! `cargo test --benches` runs a quick check that the paths agree instead.
+//! `fbm3_x4` on each SIMD path the CPU has; then the same for OSL's generators that the
+//! MaterialX noise nodes call (`ops::osl_noise` per lane against `ops::osl_noise_x4`):
+//! `perlin3`, `fractal3` (the same 6 octaves, 2.1, 0.55), `cell3` and `worley3` (jitter 1,
+//! Euclidean distance). One thread. `cargo bench --bench noise`; `cargo test --benches` runs
+//! a quick check that the paths agree instead.
 
 use criterion::{Criterion, criterion_group};
-use shadenet::graph::ops::noise;
 use shadenet::graph::ops::noise_x4::{self, Path};
+use shadenet::graph::ops::{noise, osl_noise, osl_noise_x4};
 use std::hint::black_box;
 
 const W: usize = 640;
@@ -46,6 +49,75 @@ fn four_lanes(path: Path, ps: &[[[f32; 4]; 3]]) -> f32 {
     acc
 }
 
+/// An OSL generator's benchmark: the scalar function per lane and the four-lane form on a
+/// path, each summed over the packets.
+struct Osl {
+    name: &'static str,
+    scalar: fn([f32; 3]) -> f32,
+    x4: fn(Path, [[f32; 4]; 3]) -> [f32; 4],
+}
+
+const OSL: [Osl; 4] = [
+    Osl {
+        name: "osl_perlin3_640x480",
+        scalar: osl_noise::perlin3::<f32>,
+        x4: osl_noise_x4::perlin3_x4_on,
+    },
+    Osl {
+        name: "osl_fractal3_640x480",
+        scalar: |p| osl_noise::fractal3::<f32>(p, 6, 2.1, 0.55),
+        x4: |path, p| osl_noise_x4::fractal3_x4_on(path, p, [6; 4], [2.1; 4], [0.55; 4]),
+    },
+    Osl {
+        name: "osl_cell3_640x480",
+        scalar: osl_noise::cell3::<f32>,
+        x4: osl_noise_x4::cell3_x4_on,
+    },
+    Osl {
+        name: "osl_worley3_640x480",
+        scalar: |p| osl_noise::worley3::<f32>(p, 1.0, 0, 0),
+        x4: |path, p| osl_noise_x4::worley3_x4_on(path, p, [1.0; 4], [0; 4], [0; 4]),
+    },
+];
+
+impl Osl {
+    fn per_lane(&self, ps: &[[[f32; 4]; 3]]) -> f32 {
+        let mut acc = 0.0;
+        for [x, y, z] in ps {
+            for ((x, y), z) in x.iter().zip(y).zip(z) {
+                acc += (self.scalar)([*x, *y, *z]);
+            }
+        }
+        acc
+    }
+
+    fn four_lanes(&self, path: Path, ps: &[[[f32; 4]; 3]]) -> f32 {
+        let mut acc = 0.0;
+        for p in ps {
+            for x in (self.x4)(path, *p) {
+                acc += x;
+            }
+        }
+        acc
+    }
+}
+
+fn bench_osl(c: &mut Criterion, ps: &[[[f32; 4]; 3]]) {
+    for o in &OSL {
+        let mut g = c.benchmark_group(o.name);
+        g.sample_size(10);
+        g.bench_function("per_lane_scalar", |b| b.iter(|| black_box(o.per_lane(ps))));
+        for path in [Path::Lanes, Path::Base, Path::Sse41, Path::Avx2] {
+            if path.available() {
+                g.bench_function(format!("x4_{path:?}"), |b| {
+                    b.iter(|| black_box(o.four_lanes(path, ps)))
+                });
+            }
+        }
+        g.finish();
+    }
+}
+
 fn bench(c: &mut Criterion) {
     let ps = packets();
     let mut g = c.benchmark_group("fbm3_640x480");
@@ -59,6 +131,7 @@ fn bench(c: &mut Criterion) {
         }
     }
     g.finish();
+    bench_osl(c, &ps);
 }
 
 criterion_group!(benches, bench);
@@ -70,6 +143,15 @@ fn main() {
         for path in [Path::Base, Path::Sse41, Path::Avx2] {
             if path.available() {
                 assert_eq!(four_lanes(path, &ps).to_bits(), want.to_bits(), "{path:?}");
+            }
+        }
+        for o in &OSL {
+            let want = o.per_lane(&ps);
+            for path in [Path::Base, Path::Sse41, Path::Avx2] {
+                if path.available() {
+                    let got = o.four_lanes(path, &ps);
+                    assert_eq!(got.to_bits(), want.to_bits(), "{} {path:?}", o.name);
+                }
             }
         }
         println!("noise bench smoke check: ok (run `cargo bench --bench noise`)");

@@ -22,11 +22,13 @@
 //!   slots, four lanes per component, and loop over the lanes in Rust — or, where a helper
 //!   has a four-lane form, call that once per packet (`=> name` in the table below:
 //!   `noise3`, `fbm3`: `ops::noise_x4`, SIMD with the scalar bits; `cellnoise3`,
-//!   `rgb_to_hsv`, `hsv_to_rgb`: `ops::cell_hsv_x4`, the same; `=> ctx name` where the
+//!   `rgb_to_hsv`, `hsv_to_rgb`: `ops::cell_hsv_x4`, the same; the OSL/MaterialX noises
+//!   (`osl_*`, `mx_*`): `ops::osl_noise_x4`, the same; `=> ctx name` where the
 //!   form needs the context: `light` and `texture` find their light or texture once for the
 //!   four lanes, `visible` answers four lanes at once without a scene).
 
 use shadenet_graph::ir::Sampling;
+use shadenet_graph::ops::osl_noise_x4 as x4;
 use shadenet_graph::ops::{self, cell_hsv_x4, math_x4, noise, noise_x4, osl_noise};
 use shadenet_runtime::ctx::{Fragment, SceneServices, ShadeEnv};
 use shadenet_runtime::interp;
@@ -416,6 +418,47 @@ fn mx_worley3_v3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
     let p = [a[0], a[1], a[2]];
     o.copy_from_slice(&osl_noise::worley3_v3(p, a[3], int(a[4]), int(a[5])));
 }
+/// Batch forms of the OSL/MaterialX noises: four lanes at once (`ops::osl_noise_x4`, the
+/// scalar bits); `name(args: A) -> O expr` writes `expr`, the `O` results' lanes.
+macro_rules! osl_x4 {
+    ($($name:ident($a:ident: $args:literal) -> $outs:literal $e:expr;)*) => {$(
+        fn $name($a: &[[f32; LANES]; $args], o: &mut [[f32; LANES]; $outs]) {
+            *o = $e;
+        }
+    )*};
+}
+osl_x4! {
+    osl_perlin2_x4(a: 2) -> 1 [x4::perlin2_x4(*a)];
+    osl_perlin3_x4(a: 3) -> 1 [x4::perlin3_x4(*a)];
+    osl_vperlin2_x4(a: 2) -> 3 x4::vperlin2_x4(*a);
+    osl_vperlin3_x4(a: 3) -> 3 x4::vperlin3_x4(*a);
+    osl_cell2_x4(a: 2) -> 1 [x4::cell2_x4(*a)];
+    osl_cell3_x4(a: 3) -> 1 [x4::cell3_x4(*a)];
+    osl_vcell2_x4(a: 2) -> 3 x4::vcell2_x4(*a);
+    osl_vcell3_x4(a: 3) -> 3 x4::vcell3_x4(*a);
+    mx_fractal2_x4(a: 5) -> 1 [x4::fractal2_x4(p2(a), ints(a[2]), a[3], a[4])];
+    mx_fractal3_x4(a: 6) -> 1 [x4::fractal3_x4(p3(a), ints(a[3]), a[4], a[5])];
+    mx_vfractal2_x4(a: 5) -> 3 x4::vfractal2_x4(p2(a), ints(a[2]), a[3], a[4]);
+    mx_vfractal3_x4(a: 6) -> 3 x4::vfractal3_x4(p3(a), ints(a[3]), a[4], a[5]);
+    mx_worley2_x4(a: 5) -> 1 [x4::worley2_x4(p2(a), a[2], ints(a[3]), ints(a[4]))];
+    mx_worley2_v2_x4(a: 5) -> 2 x4::worley2_v2_x4(p2(a), a[2], ints(a[3]), ints(a[4]));
+    mx_worley2_v3_x4(a: 5) -> 3 x4::worley2_v3_x4(p2(a), a[2], ints(a[3]), ints(a[4]));
+    mx_worley3_x4(a: 6) -> 1 [x4::worley3_x4(p3(a), a[3], ints(a[4]), ints(a[5]))];
+    mx_worley3_v2_x4(a: 6) -> 2 x4::worley3_v2_x4(p3(a), a[3], ints(a[4]), ints(a[5]));
+    mx_worley3_v3_x4(a: 6) -> 3 x4::worley3_v3_x4(p3(a), a[3], ints(a[4]), ints(a[5]));
+}
+/// The first two argument slots of a batch call (a 2D point's lanes).
+fn p2<const N: usize>(a: &[[f32; LANES]; N]) -> [[f32; LANES]; 2] {
+    [a[0], a[1]]
+}
+/// The first three argument slots of a batch call (a 3D point's lanes).
+fn p3<const N: usize>(a: &[[f32; LANES]; N]) -> [[f32; LANES]; 3] {
+    [a[0], a[1], a[2]]
+}
+/// An int argument's lanes (ints arrive as their bits).
+fn ints(x: [f32; LANES]) -> [i32; LANES] {
+    x.map(int)
+}
 fn rgb_to_hsv(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
     o.copy_from_slice(&ops::rgb_to_hsv([a[0], a[1], a[2]]));
 }
@@ -766,24 +809,24 @@ mem_helpers! {
     cellnoise3: 3 -> 1 => cellnoise3_x4,
     rgb_to_hsv: 3 -> 3 => rgb_to_hsv_x4,
     hsv_to_rgb: 3 -> 3 => hsv_to_rgb_x4,
-    osl_perlin2: 2 -> 1,
-    osl_perlin3: 3 -> 1,
-    osl_vperlin2: 2 -> 3,
-    osl_vperlin3: 3 -> 3,
-    osl_cell2: 2 -> 1,
-    osl_cell3: 3 -> 1,
-    osl_vcell2: 2 -> 3,
-    osl_vcell3: 3 -> 3,
-    mx_fractal2: 5 -> 1,
-    mx_fractal3: 6 -> 1,
-    mx_vfractal2: 5 -> 3,
-    mx_vfractal3: 6 -> 3,
-    mx_worley2: 5 -> 1,
-    mx_worley2_v2: 5 -> 2,
-    mx_worley2_v3: 5 -> 3,
-    mx_worley3: 6 -> 1,
-    mx_worley3_v2: 6 -> 2,
-    mx_worley3_v3: 6 -> 3,
+    osl_perlin2: 2 -> 1 => osl_perlin2_x4,
+    osl_perlin3: 3 -> 1 => osl_perlin3_x4,
+    osl_vperlin2: 2 -> 3 => osl_vperlin2_x4,
+    osl_vperlin3: 3 -> 3 => osl_vperlin3_x4,
+    osl_cell2: 2 -> 1 => osl_cell2_x4,
+    osl_cell3: 3 -> 1 => osl_cell3_x4,
+    osl_vcell2: 2 -> 3 => osl_vcell2_x4,
+    osl_vcell3: 3 -> 3 => osl_vcell3_x4,
+    mx_fractal2: 5 -> 1 => mx_fractal2_x4,
+    mx_fractal3: 6 -> 1 => mx_fractal3_x4,
+    mx_vfractal2: 5 -> 3 => mx_vfractal2_x4,
+    mx_vfractal3: 6 -> 3 => mx_vfractal3_x4,
+    mx_worley2: 5 -> 1 => mx_worley2_x4,
+    mx_worley2_v2: 5 -> 2 => mx_worley2_v2_x4,
+    mx_worley2_v3: 5 -> 3 => mx_worley2_v3_x4,
+    mx_worley3: 6 -> 1 => mx_worley3_x4,
+    mx_worley3_v2: 6 -> 2 => mx_worley3_v2_x4,
+    mx_worley3_v3: 6 -> 3 => mx_worley3_v3_x4,
     texture: 6 -> 4 => ctx texture_x4,
     light: 4 -> 11 => ctx light_x4,
     trace: 8 -> 3 => ctx trace_x4,

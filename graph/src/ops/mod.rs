@@ -20,6 +20,7 @@ pub mod math_x4;
 pub mod noise;
 pub mod noise_x4;
 pub mod osl_noise;
+pub mod osl_noise_x4;
 pub mod simd;
 
 use crate::ir::{BinOp, Intrinsic, UnOp, XformKind};

@@ -70,7 +70,7 @@ pub fn bjfinal(a: u32, b: u32, c: u32) -> u32 {
 }
 
 /// The start value of lookup3's `hashword` for `len` keys with OSL's initval 13.
-const fn start(len: u32) -> u32 {
+pub(crate) const fn start(len: u32) -> u32 {
     0xdead_beef_u32.wrapping_add(len << 2).wrapping_add(13)
 }
 

@@ -1,4 +1,5 @@
-//! Which SIMD copy the four-lane helpers ([`super::noise_x4`], [`super::math_x4`]) run, chosen
+//! Which SIMD copy the four-lane helpers ([`super::noise_x4`], [`super::math_x4`],
+//! [`super::cell_hsv_x4`], [`super::osl_noise_x4`]) run, chosen
 //! once per process (issue 23): owns [`Path`] — the copies there are, whether the CPU can run
 //! each, and the `SHADENET_SIMD` switch that forces one. Owns no arithmetic.
 
