@@ -676,3 +676,34 @@ fn structs_hold_fields() {
         assert!(err.contains(want), "{src}\n→ {err}");
     }
 }
+
+/// Operators on structs are OSL's overloads `__operator__add__` and kin, chosen by the
+/// operand types as any overload is (MaterialX's OSL library defines `vector2` this way).
+#[test]
+fn operators_on_structs_call_their_overloads() {
+    let src = r#"
+        struct v2 { float x; float y; };
+        v2 __operator__add__(v2 a, v2 b) { return v2(a.x + b.x, a.y + b.y); }
+        v2 __operator__add__(v2 a, float b) { return a + v2(b, b); }
+        v2 __operator__mul__(v2 a, float b) { return v2(a.x * b, a.y * b); }
+        v2 __operator__neg__(v2 a) { return v2(-a.x, -a.y); }
+        int __operator__eq__(v2 a, v2 b) { return a.x == b.x && a.y == b.y; }
+        shader s(output color o = 0) {
+            v2 p = v2(u, 2);
+            v2 q = -(p + 1) * 3 + p;
+            o = color(q.x, q.y, p == v2(u, 2));
+        }"#;
+    let p = compile(src).unwrap();
+    let mut f = plane_fragment();
+    f.uv = [0.25, 0.5];
+    let o = run_program(&p, &f, &[], u32::MAX);
+    check(&o, "o", &[-(1.25 * 3.0) + 0.25, -9.0 + 2.0, 1.0], 0.0);
+    let err = compile(
+        "struct v2 { float x; float y; }; shader s(output float o = 0) { v2 a; v2 b = a - a; }",
+    )
+    .unwrap_err();
+    assert!(
+        err.contains("`-` on (struct, struct): define `__operator__sub__`"),
+        "{err}"
+    );
+}

@@ -100,50 +100,8 @@ impl<'a> Lower<'a> {
     ) -> Val {
         let want = self.want.take();
         let vals: Vec<(Val, Span)> = args.iter().map(|a| (self.expr(b, a), a.span)).collect();
-        if let Some(defs) = self.functions.get(callee.name.as_str()).cloned() {
-            // An exact match of the argument types first, then one by widening.
-            let fits = |f: &&&ast::FunctionDef, exact: bool| {
-                f.params.len() == vals.len()
-                    && f.params
-                        .iter()
-                        .zip(&vals)
-                        .all(|(p, (v, _))| accepts(p, v, exact))
-            };
-            let found = defs
-                .iter()
-                .find(|f| fits(f, true))
-                .or_else(|| defs.iter().find(|f| fits(f, false)));
-            return match found {
-                Some(f) => {
-                    let vals = vals.into_iter().map(|v| v.0).collect();
-                    self.inline(b, f, vals, args, span)
-                }
-                None => {
-                    let got: Vec<&str> = vals.iter().map(|(v, _)| v.type_name()).collect();
-                    let cands: Vec<String> = defs
-                        .iter()
-                        .map(|f| {
-                            let ps: Vec<String> = f
-                                .params
-                                .iter()
-                                .map(|p| format!("{:?}", p.ty.base).to_lowercase())
-                                .collect();
-                            format!("{}({})", f.name.name, ps.join(", "))
-                        })
-                        .collect();
-                    self.error(
-                        format!(
-                            "no `{}` takes ({}); candidates: {}",
-                            callee.name,
-                            got.join(", "),
-                            cands.join("; ")
-                        ),
-                        span,
-                        "no matching overload",
-                    );
-                    Self::poison(b, Ty::Float)
-                }
-            };
+        if self.functions.contains_key(callee.name.as_str()) {
+            return self.user_call(b, &callee.name, vals, args, span);
         }
         let name = callee.name.as_str();
         if let Some(def) = self.struct_def(name) {
@@ -192,6 +150,60 @@ impl<'a> Lower<'a> {
                 Self::poison(b, Ty::Float)
             }
         }
+    }
+
+    /// A call of user function `name` (overloads chosen by argument types, an exact match
+    /// first, then one by widening), inlined; an error listing the candidates when none fits.
+    /// `args` are the argument expressions (for `output` parameters; empty for operators).
+    pub(crate) fn user_call(
+        &mut self,
+        b: &mut Builder,
+        name: &str,
+        vals: Vec<(Val, Span)>,
+        args: &'a [Expr],
+        span: Span,
+    ) -> Val {
+        let defs = self.functions.get(name).cloned().unwrap_or_default();
+        let fits = |f: &&&ast::FunctionDef, exact: bool| {
+            f.params.len() == vals.len()
+                && f.params
+                    .iter()
+                    .zip(&vals)
+                    .all(|(p, (v, _))| accepts(p, v, exact))
+        };
+        let found = defs
+            .iter()
+            .find(|f| fits(f, true))
+            .or_else(|| defs.iter().find(|f| fits(f, false)));
+        if let Some(f) = found {
+            let vals = vals.into_iter().map(|v| v.0).collect();
+            return self.inline(b, f, vals, args, span);
+        }
+        let got: Vec<&str> = vals.iter().map(|(v, _)| v.type_name()).collect();
+        let cands: Vec<String> = defs
+            .iter()
+            .map(|f| {
+                let ps: Vec<String> = f
+                    .params
+                    .iter()
+                    .map(|p| match &p.ty.base {
+                        ast::BaseType::Struct(n) => n.name.clone(),
+                        other => format!("{other:?}").to_lowercase(),
+                    })
+                    .collect();
+                format!("{}({})", f.name.name, ps.join(", "))
+            })
+            .collect();
+        self.error(
+            format!(
+                "no `{name}` takes ({}); candidates: {}",
+                got.join(", "),
+                cands.join("; ")
+            ),
+            span,
+            "no matching overload",
+        );
+        Self::poison(b, Ty::Float)
     }
 
     /// A builtin call, or `None` when the name or the arguments do not fit one.

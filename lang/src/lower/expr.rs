@@ -308,9 +308,20 @@ impl<'a> Lower<'a> {
     }
 
     fn unary(&mut self, b: &mut Builder, op: UnaryOp, operand: &'a Expr, span: Span) -> Val {
+        let v = self.expr(b, operand);
+        if let Val::Struct(..) = v {
+            let name = match op {
+                UnaryOp::Neg => "-",
+                UnaryOp::Not => "!",
+                UnaryOp::BitNot => "~",
+                UnaryOp::Plus => return v,
+            };
+            return self.operator(b, name, vec![(v, operand.span)], span);
+        }
+        let v = self.plain(b, v, operand.span);
         let (v, ty, varying) = match op {
-            UnaryOp::Not => self.condition(b, operand),
-            _ => self.value(b, operand),
+            UnaryOp::Not => self.truth(b, v),
+            _ => v,
         };
         let v = match (op, ty) {
             (UnaryOp::Plus, _) if ty != Ty::Bool => v,
@@ -420,6 +431,9 @@ impl<'a> Lower<'a> {
     ) -> Val {
         if matches!(l, Val::Closure(_)) || matches!(r, Val::Closure(_)) {
             return self.closure_binary(b, op, &l, &r, span);
+        }
+        if matches!(l, Val::Struct(..)) || matches!(r, Val::Struct(..)) {
+            return self.operator(b, op.as_str(), vec![(l, lspan), (r, rspan)], span);
         }
         let (a, ta, va) = self.plain(b, l, lspan);
         let (c, tc, vc) = self.plain(b, r, rspan);
@@ -877,4 +891,49 @@ fn rem(b: &mut Builder, a: Value, c: Value, ty: Ty) -> Value {
         return b.select(c0, zero, r);
     }
     super::osl::componentwise2(b, a, c, ty, super::osl::fmod)
+}
+
+impl<'a> Lower<'a> {
+    /// An operator on a struct: OSL's overload `__operator__NAME__` (`add`, `sub`, `mul`,
+    /// `div`, `mod`, `neg`, `eq`, `ne`, `lt`, `le`, `gt`, `ge`, `not`…) inlined, or an error.
+    fn operator(&mut self, b: &mut Builder, op: &str, vals: Vec<(Val, Span)>, span: Span) -> Val {
+        let name = match (op, vals.len()) {
+            ("+", 2) => "add",
+            ("-", 2) => "sub",
+            ("*", 2) => "mul",
+            ("/", 2) => "div",
+            ("%", 2) => "mod",
+            ("-", 1) => "neg",
+            ("!", 1) => "not",
+            ("~", 1) => "compl",
+            ("==", _) => "eq",
+            ("!=", _) => "ne",
+            ("<", _) => "lt",
+            ("<=", _) => "le",
+            (">", _) => "gt",
+            (">=", _) => "ge",
+            ("&&", _) => "and",
+            ("||", _) => "or",
+            ("&", _) => "bitand",
+            ("|", _) => "bitor",
+            ("^", _) => "xor",
+            ("<<", _) => "shl",
+            (">>", _) => "shr",
+            _ => "",
+        };
+        let f = format!("__operator__{name}__");
+        if name.is_empty() || !self.functions.contains_key(f.as_str()) {
+            let types: Vec<&str> = vals.iter().map(|(v, _)| v.type_name()).collect();
+            self.error(
+                format!(
+                    "`{op}` on ({}): define `{f}` for these types",
+                    types.join(", ")
+                ),
+                span,
+                "no operator",
+            );
+            return Self::poison(b, Ty::Float);
+        }
+        self.user_call(b, &f, vals, &[], span)
+    }
 }

@@ -236,8 +236,9 @@ pub(crate) struct Var {
 pub(crate) struct Lower<'a> {
     pub(crate) scopes: Vec<HashMap<String, Var>>,
     pub(crate) functions: HashMap<&'a str, Vec<&'a ast::FunctionDef>>,
-    /// The user functions being inlined, innermost last (recursion check).
-    pub(crate) inlining: Vec<(&'a str, Span)>,
+    /// The user functions being inlined, innermost last (recursion check): name, call,
+    /// definition (overloads share a name).
+    pub(crate) inlining: Vec<(&'a str, Span, Span)>,
     pub(crate) diags: Diagnostics,
     /// Inside an `illuminance` body: `L` and `Cl` are bound.
     pub(crate) in_illuminance: bool,

@@ -691,11 +691,11 @@ impl<'a> Lower<'a> {
         args: Vec<Val>,
         span: Span,
     ) -> (Val, Vec<(usize, Val)>) {
-        if let Some((_, at)) = self.inlining.iter().find(|(n, _)| *n == f.name.name) {
+        if let Some((_, at, _)) = self.inlining.iter().find(|(_, _, d)| *d == f.span) {
             let chain: Vec<&str> = self
                 .inlining
                 .iter()
-                .map(|(n, _)| *n)
+                .map(|(n, _, _)| *n)
                 .chain([f.name.name.as_str()])
                 .collect();
             let d = crate::diag::Diagnostic::error(
@@ -749,7 +749,7 @@ impl<'a> Lower<'a> {
                 self.declare(&p.name, v, false);
             }
         }
-        self.inlining.push((f.name.name.as_str(), span));
+        self.inlining.push((f.name.name.as_str(), span, f.span));
         for s in body {
             self.stmt(b, s);
         }
