@@ -707,3 +707,63 @@ fn operators_on_structs_call_their_overloads() {
         "{err}"
     );
 }
+
+/// `return` before a function's end (the rest runs where it did not return), `return;` in
+/// a shader, `output` arguments that are array elements and components, user overloads
+/// beside a builtin of the same name (MaterialX's OSL library defines `abs(color4)`).
+#[test]
+fn early_returns_and_output_elements() {
+    let src = r#"
+        struct c4 { color rgb; float a; };
+        c4 abs(c4 x) { return c4(abs(x.rgb), abs(x.a)); }
+        void burn(float fg, float bg, output float result) {
+            if (abs(fg) < 1e-8) { result = 0; return; }
+            result = 1 - (1 - bg) / fg;
+        }
+        float sgn(float x) { if (x < 0) return -1; if (x > 0) return 1; return 0; }
+        shader s(output color o = 0, output float k[2] = { 0, 0 }, output float m = 0) {
+            color r;
+            burn(u, 0.2, r[0]);
+            burn(0, 0.4, r[1]);
+            burn(0.5, v, r[2]);
+            o = r;
+            m = sgn(u - 0.5) + abs(c4(color(-2), -3)).a * 10;
+            if (v > 0.5) return;
+            m += 100;
+        }"#;
+    let p = compile(src);
+    let p = match p {
+        Ok(p) => p,
+        Err(e) if e.contains("output array parameters") => {
+            // Output arrays are not built: the same without `k`.
+            compile(&src.replace(", output float k[2] = { 0, 0 }", "")).unwrap()
+        }
+        Err(e) => panic!("{e}"),
+    };
+    for (u, v) in [(0.25f32, 0.25f32), (0.75, 0.75), (0.5, 0.1)] {
+        let mut f = plane_fragment();
+        f.uv = [u, v];
+        let o = run_program(&p, &f, &[], u32::MAX);
+        let burn = |fg: f64, bg: f64| {
+            if fg.abs() < 1e-8 {
+                0.0
+            } else {
+                1.0 - (1.0 - bg) / fg
+            }
+        };
+        let (u, v) = (u as f64, v as f64);
+        assert_close(&o.get("o"), &[burn(u, 0.2), 0.0, burn(0.5, v)], 1e-12, "o");
+        let sgn = (u - 0.5).signum() * ((u - 0.5) != 0.0) as i32 as f64;
+        let m = sgn + 30.0 + if v > 0.5 { 0.0 } else { 100.0 };
+        check(&o, "m", &[m], 0.0);
+    }
+    let err = compile(
+        "float f(float x) { for (int i = 0; i < 3; i++) { if (x > i) return i; } return 0; } \
+         shader s(output float o = 0) { o = f(u); }",
+    )
+    .unwrap_err();
+    assert!(
+        err.contains("`return` inside a loop is not built yet"),
+        "{err}"
+    );
+}

@@ -214,14 +214,13 @@ impl<'a> Lower<'a> {
         }
     }
 
-    /// `a[index] op= value` for array variable `a` (or a component of a triple variable):
+    /// `a[index] op= value` (or `= v`) for array variable `a` (or a component of a triple variable):
     /// each element it may change rebound.
     pub(crate) fn assign_index(
         &mut self,
         b: &mut Builder,
-        op: AssignOp,
         (id, index): (&ast::Ident, &'a Expr),
-        value: &'a Expr,
+        rhs: Rhs<'a>,
         span: Span,
     ) -> Val {
         let Some(var) = self.lookup(&id.name).cloned() else {
@@ -257,9 +256,10 @@ impl<'a> Lower<'a> {
                 _ => Vec::new(),
             },
         };
-        let rhs = match op {
-            AssignOp::Set => self.expr_as(b, value, ty),
-            _ => {
+        let rhs = match rhs {
+            Rhs::Val(v) => self.coerce(b, v, ty, span),
+            Rhs::Expr(AssignOp::Set, value) => self.expr_as(b, value, ty),
+            Rhs::Expr(op, value) => {
                 let Some(bin) = super::arith_of(op) else {
                     self.error("bitwise assignments are not built", span, "not built yet");
                     return Self::poison(b, ty);
@@ -342,6 +342,14 @@ impl<'a> Lower<'a> {
         let lo = b.max(i, zero);
         Position::Computed(b.min(lo, last), varying)
     }
+}
+
+/// What an indexed assignment stores: `op= expr`, or a value (an `output` argument).
+pub(crate) enum Rhs<'a> {
+    /// `a[i] op= expr`.
+    Expr(AssignOp, &'a Expr),
+    /// A value computed elsewhere.
+    Val(Val),
 }
 
 /// Where an index points.

@@ -100,7 +100,11 @@ impl<'a> Lower<'a> {
     ) -> Val {
         let want = self.want.take();
         let vals: Vec<(Val, Span)> = args.iter().map(|a| (self.expr(b, a), a.span)).collect();
-        if self.functions.contains_key(callee.name.as_str()) {
+        // User overloads come first; a name that is also a builtin's falls back to it
+        // (OSL's user functions add overloads, as MaterialX's `abs(color4)`).
+        if self.functions.contains_key(callee.name.as_str())
+            && (self.overload(&callee.name, &vals).is_some() || !self.is_builtin(&callee.name))
+        {
             return self.user_call(b, &callee.name, vals, args, span);
         }
         let name = callee.name.as_str();
@@ -163,22 +167,11 @@ impl<'a> Lower<'a> {
         args: &'a [Expr],
         span: Span,
     ) -> Val {
-        let defs = self.functions.get(name).cloned().unwrap_or_default();
-        let fits = |f: &&&ast::FunctionDef, exact: bool| {
-            f.params.len() == vals.len()
-                && f.params
-                    .iter()
-                    .zip(&vals)
-                    .all(|(p, (v, _))| accepts(p, v, exact))
-        };
-        let found = defs
-            .iter()
-            .find(|f| fits(f, true))
-            .or_else(|| defs.iter().find(|f| fits(f, false)));
-        if let Some(f) = found {
+        if let Some(f) = self.overload(name, &vals) {
             let vals = vals.into_iter().map(|v| v.0).collect();
             return self.inline(b, f, vals, args, span);
         }
+        let defs = self.functions.get(name).cloned().unwrap_or_default();
         let got: Vec<&str> = vals.iter().map(|(v, _)| v.type_name()).collect();
         let cands: Vec<String> = defs
             .iter()
@@ -204,6 +197,39 @@ impl<'a> Lower<'a> {
             "no matching overload",
         );
         Self::poison(b, Ty::Float)
+    }
+
+    /// The overload of user function `name` that takes `vals`: an exact match of the
+    /// argument types first, then one by widening.
+    pub(crate) fn overload(
+        &self,
+        name: &str,
+        vals: &[(Val, Span)],
+    ) -> Option<&'a ast::FunctionDef> {
+        let defs = self.functions.get(name)?;
+        let fits = |f: &&&ast::FunctionDef, exact: bool| {
+            f.params.len() == vals.len()
+                && f.params
+                    .iter()
+                    .zip(vals)
+                    .all(|(p, (v, _))| accepts(p, v, exact))
+        };
+        defs.iter()
+            .find(|f| fits(f, true))
+            .or_else(|| defs.iter().find(|f| fits(f, false)))
+            .copied()
+    }
+
+    /// Whether `name` is a builtin of the dialect (or an OSL closure).
+    fn is_builtin(&self, name: &str) -> bool {
+        match self.dialect {
+            Dialect::Rsl => NAMES.contains(&name),
+            Dialect::Osl => {
+                (NAMES.contains(&name) && !osl::RSL_ONLY.contains(&name))
+                    || osl::NAMES.contains(&name)
+                    || super::closure::names().any(|n| n == name)
+            }
+        }
     }
 
     /// A builtin call, or `None` when the name or the arguments do not fit one.

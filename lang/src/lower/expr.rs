@@ -604,7 +604,7 @@ impl<'a> Lower<'a> {
         if let ExprKind::Index { base, index } = &target.kind
             && let Some(id) = super::structs::place(base)
         {
-            return self.assign_index(b, op, (&id, index), value, span);
+            return self.assign_index(b, (&id, index), super::arrays::Rhs::Expr(op, value), span);
         }
         if let ExprKind::Member { .. } = &target.kind
             && let Some(id) = super::structs::place(target)

@@ -23,6 +23,7 @@ mod expr;
 mod group;
 mod loops;
 mod osl;
+mod returns;
 mod spline;
 mod stmt;
 mod structs;
@@ -256,6 +257,8 @@ pub(crate) struct Lower<'a> {
     pub(crate) inputs: HashMap<String, group::LayerInput>,
     /// The file's OSL struct types by name.
     pub(crate) structs: HashMap<&'a str, &'a ast::StructDef>,
+    /// Inside an inlined function that returns before its end ([`returns`]).
+    pub(crate) returns: Option<returns::Returns>,
 }
 
 /// Compiles shader `name` (the file's only or first shader when `None`) of a parsed file to
@@ -362,6 +365,7 @@ impl<'a> Lower<'a> {
             prefix: String::new(),
             inputs: HashMap::new(),
             structs,
+            returns: None,
         }
     }
 
@@ -458,6 +462,28 @@ impl<'a> Lower<'a> {
         }
         if let Some(input) = self.inputs.remove(&p.name.name) {
             self.layer_input(b, p, input);
+            return;
+        }
+        if let ast::BaseType::Struct(n) = &p.ty.base
+            && let Some(def) = self.struct_def(&n.name)
+        {
+            // A struct parameter holds its default (its fields are not program parameters).
+            let v = match &p.default {
+                Some(d) => self.expr(b, d),
+                None => self.struct_zero(b, def, 0),
+            };
+            if !matches!(&v, Val::Struct(s, _) if *s == def.name.name) {
+                self.error(
+                    format!(
+                        "parameter `{}` is a `{}`: its default is not one",
+                        p.name.name, n.name
+                    ),
+                    p.span,
+                    "wrong default",
+                );
+                return;
+            }
+            self.bind_struct(&p.name, def, v, false);
             return;
         }
         let Some(ty) = self.declared_type(&p.ty) else {

@@ -122,7 +122,12 @@ impl<'a> Lower<'a> {
             self.param(b, p);
         }
         self.scopes.push(HashMap::new());
+        if shader.body.stmts.iter().any(super::returns::has_return) {
+            // `return;` ends the shader: what follows runs where it did not.
+            self.begin_returns(b, None);
+        }
         self.block(b, &shader.body);
+        self.returns = None;
         self.scopes.pop();
         let outputs: Vec<&str> = shader
             .params

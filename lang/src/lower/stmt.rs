@@ -27,6 +27,15 @@ impl<'a> Lower<'a> {
             }
             self.stmt(b, s);
             let rest = &stmts[i + 1..];
+            if !rest.is_empty()
+                && self.returns.is_some()
+                && super::returns::has_return(s)
+                && let Some((go, varying)) = self.not_returned(b)
+            {
+                let names = self.assigned_outer(rest);
+                self.guarded(b, go, varying, &names, &mut |me, b| me.stmts(b, rest));
+                break;
+            }
             if rest.is_empty() || self.loops.is_empty() || !self.may_jump(s) {
                 continue;
             }
@@ -77,11 +86,7 @@ impl<'a> Lower<'a> {
             }
             StmtKind::Break { levels } => self.jump(b, true, *levels, s.span),
             StmtKind::Continue { levels } => self.jump(b, false, *levels, s.span),
-            StmtKind::Return(_) => self.error(
-                "`return` is built only as the last statement of a function",
-                s.span,
-                "here",
-            ),
+            StmtKind::Return(e) => self.return_stmt(b, e.as_ref(), s.span),
             StmtKind::Illuminate { .. } | StmtKind::Solar { .. } => self.error(
                 "`illuminate` and `solar` belong to light shaders, which are not compiled yet (issue 21)",
                 s.span,
@@ -217,6 +222,11 @@ impl<'a> Lower<'a> {
                     names.push(id);
                 }
             });
+        }
+        if self.returns.is_some()
+            && let Some(first) = stmts.iter().find(|s| super::returns::has_return(s))
+        {
+            names.extend(self.return_names(first.span));
         }
         if let Some(first) = stmts.iter().find(|s| has_jump(s)) {
             for f in &self.loops {
@@ -658,7 +668,15 @@ impl<'a> Lower<'a> {
         self.loops = outer;
         for (k, val) in outs {
             let Some(e) = arg_exprs.get(k) else { continue };
-            let ExprKind::Ident(id) = &e.kind else {
+            // `f(…, a[i], …)`, `f(…, s.a[i], …)`: the element takes the value.
+            if let ExprKind::Index { base, index } = &e.kind
+                && let Some(id) = super::structs::place(base)
+            {
+                let rhs = super::arrays::Rhs::Val(val);
+                self.assign_index(b, (&id, index), rhs, e.span);
+                continue;
+            }
+            let Some(id) = super::structs::place(e) else {
                 self.error(
                     format!(
                         "argument {} of `{}` is an `output` parameter: pass a variable",
@@ -677,7 +695,7 @@ impl<'a> Lower<'a> {
                 (Val::V { ty, .. }, v @ Val::V { .. }) => self.coerce(b, v, *ty, e.span),
                 (_, v) => v,
             };
-            self.store(id, val, e.span);
+            self.store(&id, val, e.span);
         }
         v
     }
@@ -750,10 +768,38 @@ impl<'a> Lower<'a> {
             }
         }
         self.inlining.push((f.name.name.as_str(), span, f.span));
-        for s in body {
-            self.stmt(b, s);
+        let outer_returns = self.returns.take();
+        let early = body.iter().any(super::returns::has_return);
+        let early_value = early && !(closure_ret || struct_ret);
+        if early_value {
+            // Returns before the end: every `return` (the last one too) sets the hidden
+            // result, and what follows one runs where it did not.
+            self.begin_returns(b, ret);
+            let all: Vec<&Stmt> = f.body.stmts.iter().collect();
+            self.stmts(b, &all);
+        } else {
+            if early {
+                self.error(
+                    format!(
+                        "`{}` returns a closure or a struct before its end: only a last `return` is built for those",
+                        f.name.name
+                    ),
+                    f.name.span,
+                    "early return",
+                );
+            }
+            for s in body {
+                self.stmt(b, s);
+            }
         }
         let out = match (ret, last) {
+            _ if early_value => match ret {
+                Some(_) => self
+                    .lookup(super::returns::RETVAL)
+                    .map(|v| v.val.clone())
+                    .unwrap_or_else(|| Self::poison(b, Ty::Float)),
+                None => Self::poison(b, Ty::Float),
+            },
             _ if struct_ret => match last.map(|e| self.expr(b, e)) {
                 Some(v @ Val::Struct(..)) => v,
                 _ => {
@@ -796,6 +842,7 @@ impl<'a> Lower<'a> {
             .filter_map(|(k, p)| Some((k, self.read_var(&p.name.name)?)))
             .collect();
         self.inlining.pop();
+        self.returns = outer_returns;
         self.scopes = saved;
         (out, outs)
     }
