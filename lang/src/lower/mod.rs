@@ -5,16 +5,17 @@
 //! are collected as [`Diagnostic`]s on the source spans (both types of a mismatch, the
 //! closest name of an unknown one, the candidate signatures of a call).
 //!
-//! What is built: RSL `surface` shaders with `float`, `point`/`vector`/`normal`, `color` and
+//! What is built: RSL `surface` and `light` shaders ([`light`]) with `float`, `point`/`vector`/`normal`, `color` and
 //! `string` values; declarations, assignments (all compound forms), `if`/`else`, blocks,
 //! `illuminance`; the operators (`.` dot, `^` cross); constructors in `"rgb"`,
 //! `"current"` and `"world"`; user functions (inlined); the builtins of [`builtins`]. What
-//! is not yet — loops, arrays, matrices, other spaces, light/volume/displacement shaders,
-//! OSL — is an error that says so, naming the construct. It owns the rules of the language;
+//! is not yet — arrays, matrices, other spaces, volume/displacement shaders, OSL — is an
+//! error that says so, naming the construct. It owns the rules of the language;
 //! it must not hold op semantics (the IR's) nor touch the renderer.
 
 mod builtins;
 mod expr;
+pub mod light;
 mod loops;
 mod stmt;
 
@@ -124,7 +125,8 @@ pub(crate) struct Lower<'a> {
 }
 
 /// Compiles shader `name` (the file's only or first shader when `None`) of a parsed file to
-/// an IR program named after it: its parameters the program's, `Ci` and `Oi` its outputs.
+/// an IR program named after it: its parameters the program's, `Ci` and `Oi` its outputs
+/// (a light shader's: [`light`]).
 /// Runs on the front end's own thread ([`crate::STACK_BYTES`]): the lowering recurses over
 /// the tree as the parser does.
 pub fn compile(parsed: &Parsed, name: Option<&str>) -> Result<Program, Diagnostics> {
@@ -164,10 +166,10 @@ fn compile_here(parsed: &Parsed, name: Option<&str>) -> Result<Program, Diagnost
         )
         .into());
     }
-    if shader.kind != ShaderKind::Surface {
+    if !matches!(shader.kind, ShaderKind::Surface | ShaderKind::Light) {
         return Err(Diagnostic::error(
             format!(
-                "{} shaders are not compiled yet: only surface shaders are built (issue 21)",
+                "{} shaders are not compiled yet: surface and light shaders are built (issue 21)",
                 kind_name(shader.kind)
             ),
             shader.kind_span,
@@ -190,7 +192,10 @@ fn compile_here(parsed: &Parsed, name: Option<&str>) -> Result<Program, Diagnost
         loops: Vec::new(),
     };
     let mut b = Builder::new(&shader.name.name);
-    lower.surface(&mut b, shader);
+    match shader.kind {
+        ShaderKind::Light => lower.light(&mut b, shader),
+        _ => lower.surface(&mut b, shader),
+    }
     if lower.diags.has_errors() {
         return Err(lower.diags);
     }

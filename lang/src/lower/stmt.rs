@@ -83,9 +83,9 @@ impl<'a> Lower<'a> {
                 "here",
             ),
             StmtKind::Illuminate { .. } | StmtKind::Solar { .. } => self.error(
-                "`illuminate` and `solar` belong to light shaders, which are not compiled yet (issue 21)",
+                "`illuminate` and `solar` belong at the top level of a light shader's body",
                 s.span,
-                "not built yet",
+                "not here",
             ),
         }
     }
