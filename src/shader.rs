@@ -40,21 +40,33 @@ pub enum ShaderError {
 /// The material is named after the shader; relative texture names are relative to the
 /// file's folder. A light shader is refused, naming where it goes ([`load_light`]).
 pub fn load(path: &Path, include: &[PathBuf], defines: &[String]) -> Result<Compiled, ShaderError> {
-    let (mut program, kind) = compile_file(path, include, defines)?;
+    let (compiled, kind) = load_any(path, include, defines)?;
     if kind == ShaderKind::Light {
         return Err(ShaderError::Kind {
             path: path.to_path_buf(),
-            shader: program.name,
+            shader: compiled.program.name,
             found: "light",
             wanted: "a material needs a surface shader (a light shader is a scene light: [[lights]] type = \"shader\")",
         });
     }
+    Ok(compiled)
+}
+
+/// [`load`] of a shader of any kind that compiles (surface or light), and its kind: what
+/// `shadenet check` and `compile` show.
+pub fn load_any(
+    path: &Path,
+    include: &[PathBuf],
+    defines: &[String],
+) -> Result<(Compiled, ShaderKind), ShaderError> {
+    let (mut program, kind) = compile_file(path, include, defines)?;
     let dir = path.parent().unwrap_or(Path::new(""));
     program.resolve_textures(dir);
-    Ok(Compiled {
+    let compiled = Compiled {
         program,
         lights: Vec::new(),
-    })
+    };
+    Ok((compiled, kind))
 }
 
 /// Reads and compiles the light shader file at `path` (its first shader) into its light

@@ -348,3 +348,38 @@ fn light_shader_errors_name_the_file() {
 fn matte_program_for(_: &shadenet::tracer::scene::Scene) -> shadenet::graph::ir::Program {
     matte()
 }
+
+/// `shadenet check` and `compile` take a light shader and show its light program; `shade`
+/// refuses it, naming the file and where a light shader goes.
+#[test]
+fn the_cli_checks_and_compiles_light_shaders() {
+    let (code, out, err) = shadenet(&["check", "examples/shaders/pointlight.sl"]);
+    assert_eq!(code, 0, "{out}\n{err}");
+    assert!(out.contains("outputs: Cl, from"), "{out}");
+    let (code, out, err) = shadenet(&["check", "examples/shaders/distantlight.sl"]);
+    assert_eq!(code, 0, "{out}\n{err}");
+    assert!(out.contains("outputs: Cl, axis"), "{out}");
+    let (code, out, err) = shadenet(&[
+        "compile",
+        "examples/shaders/spotlight.sl",
+        "--param",
+        "intensity=2",
+        "--emit",
+        "ir",
+    ]);
+    assert_eq!(code, 0, "{out}\n{err}");
+    assert!(out.contains("Cl") && out.contains("from"), "{out}");
+    let png = tmp("shader-lights", "light.png");
+    let (code, out, err) = shadenet(&[
+        "shade",
+        "examples/shaders/pointlight.sl",
+        "-o",
+        png.to_str().unwrap(),
+        "-q",
+    ]);
+    assert_ne!(code, 0, "{out}");
+    assert!(
+        err.contains("pointlight.sl") && err.contains("`pointlight` is a light shader"),
+        "{err}"
+    );
+}

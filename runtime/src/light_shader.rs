@@ -10,11 +10,19 @@
 //! [`crate::lights`]'.
 
 use crate::ctx::{Fragment, ShadeCtx, ShadeEnv};
-use crate::interp::{Interpreter, output_layout};
+use crate::interp::{Interpreter, Scratch, ShadeOut, output_layout};
 use shadenet_graph::ir::Program;
 use shadenet_graph::nodes::shader_light::{
     self, LightProgram, OUT_AXIS, OUT_CL, OUT_FROM, ShaderLightForm,
 };
+use std::cell::RefCell;
+
+thread_local! {
+    /// Each thread's storage for evaluating light programs, so a sample allocates nothing
+    /// (a light program samples no light, so no evaluation runs inside another).
+    static STORAGE: RefCell<(Scratch<f32>, ShadeOut<f32>)> =
+        RefCell::new((Scratch::default(), ShadeOut::default()));
+}
 
 /// A light shader's program, prepared for evaluation.
 #[derive(Debug)]
@@ -73,8 +81,18 @@ impl LightProgram for ShaderLight {
             p,
             ..Fragment::default()
         };
-        let out = self.interp.shade(&ShadeCtx::new(frag, &self.env));
-        let three = |o: usize| [out.values[o], out.values[o + 1], out.values[o + 2]];
-        (three(self.cl), three(self.at))
+        let ctx = ShadeCtx::new(frag, &self.env);
+        let read = |out: &ShadeOut<f32>| {
+            let three = |o: usize| [out.values[o], out.values[o + 1], out.values[o + 2]];
+            (three(self.cl), three(self.at))
+        };
+        STORAGE.with(|s| match s.try_borrow_mut() {
+            Ok(mut s) => {
+                let (scratch, out) = &mut *s;
+                self.interp.shade_with(&ctx, scratch, out);
+                read(out)
+            }
+            Err(_) => read(&self.interp.shade(&ctx)),
+        })
     }
 }

@@ -288,8 +288,18 @@ fn set_params(program: &mut shadenet::graph::ir::Program, params: &[String]) -> 
 }
 
 /// Reads, links and lowers a network file (`.json`, or `.mtlx` with `mtlx`'s options) and
-/// validates its IR.
+/// validates its IR; a shader source must be a surface shader.
 pub(crate) fn load(path: &Path, mtlx: &SourceArgs) -> Result<shadenet::Compiled> {
+    load_source(path, mtlx, false)
+}
+
+/// [`load`], also taking a light shader when `lights_too` (`check` and `compile` show its
+/// light program).
+pub(crate) fn load_source(
+    path: &Path,
+    mtlx: &SourceArgs,
+    lights_too: bool,
+) -> Result<shadenet::Compiled> {
     let is_mtlx = path.extension().is_some_and(|e| e == "mtlx");
     let is_shader = path.extension().is_some_and(|e| e == "sl" || e == "osl");
     let preprocessor = !(mtlx.include.is_empty() && mtlx.define.is_empty());
@@ -297,7 +307,11 @@ pub(crate) fn load(path: &Path, mtlx: &SourceArgs) -> Result<shadenet::Compiled>
         bail!("-I and -D apply to shader sources (.sl, .osl) only");
     }
     if is_shader {
-        let mut compiled = shadenet::shader::load(path, &mtlx.include, &mtlx.define)?;
+        let mut compiled = if lights_too {
+            shadenet::shader::load_any(path, &mtlx.include, &mtlx.define)?.0
+        } else {
+            shadenet::shader::load(path, &mtlx.include, &mtlx.define)?
+        };
         set_params(&mut compiled.program, &mtlx.param)?;
         shadenet::graph::ir::validate(&compiled.program)
             .with_context(|| format!("{}: internal error: invalid IR", path.display()))?;
