@@ -383,3 +383,52 @@ fn the_cli_checks_and_compiles_light_shaders() {
         "{err}"
     );
 }
+
+/// `examples/scenes/rsl.toml`, lit by `pointlight`, `distantlight`, `spotlight` and
+/// `ambientlight`, renders as the same scene with our point, distant, spot (a 60° cone, -5°
+/// penumbra, dropoff 2: the same smoothstep edge and cos² beam) and ambient lights of the
+/// same numbers: every surface sees the same light, whatever its shader (RSL's `diffuse` and
+/// `specular` read `Cl` as it arrives in both). Measured at 640×360, 4 spp: max abs 6.6e-7,
+/// RMSE 1.3e-8 (f32 rounding of the light programs, magnified at the spot's edge).
+#[test]
+fn the_rsl_scene_renders_as_with_our_lights() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("examples/scenes/rsl.toml")).unwrap();
+    let shaders = root.join("examples/shaders");
+    let text = text.replace("\"../shaders/", &format!("\"{}/", shaders.display()));
+    let cut = text.find("[[lights]]").unwrap();
+    let ours = format!(
+        "{}{}",
+        &text[..cut],
+        "[[lights]]\ntype = \"point\"\nposition = [3.0, 5.0, 4.0]\nintensity = 6\n\
+         [[lights]]\ntype = \"distant\"\ndirection = [4.0, -3.0, -2.0]\nintensity = 0.07\n\
+         [[lights]]\ntype = \"spot\"\nposition = [1.8, 3.0, 1.0]\ndirection = [0.0, -2.5, -1.6]\n\
+         cone_angle = 60\npenumbra_angle = -5\ndropoff = 2\nintensity = 3\ncolor = [1.0, 0.9, 0.7]\n\
+         [[lights]]\ntype = \"ambient\"\nintensity = 0.05\n"
+    );
+    let dir = tmp("shader-lights", "rsl");
+    std::fs::create_dir_all(&dir).unwrap();
+    let (a, b) = (dir.join("rsl.toml"), dir.join("ours.toml"));
+    std::fs::write(&a, &text).unwrap();
+    std::fs::write(&b, ours).unwrap();
+    let opts = RenderOptions {
+        spp: Some(1),
+        res: Some((96, 54)),
+        ..RenderOptions::default()
+    };
+    let film = |p: &Path| {
+        let backend = r::backend(BackendKind::Jit).unwrap();
+        let renderer = r::setup_with(Some(p), &opts, backend.as_ref()).unwrap();
+        renderer.render(&|_, _| {}).0.layers[0].clone()
+    };
+    let (got, want) = (film(&a), film(&b));
+    let wide = |v: &[f32]| v.iter().map(|x| *x as f64).collect::<Vec<f64>>();
+    assert_close(
+        &wide(&got.data),
+        &wide(&want.data),
+        5e-6,
+        "rsl.toml = our lights",
+    );
+    let lit = got.data.iter().filter(|x| **x > 0.05).count();
+    assert!(lit > 1000, "lit values: {lit}");
+}
