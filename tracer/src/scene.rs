@@ -1509,6 +1509,30 @@ mod tests {
             .to_string()
     }
 
+    /// `[[lights]] type = "shader"`: kept for the caller to compile, after the built-in
+    /// lights, with its file relative to the scene and its overrides split at the last dot.
+    #[test]
+    fn light_shaders_are_kept_for_the_caller() {
+        let text = format!(
+            "{HEAD}[[lights]]\ntype = \"shader\"\nshader = \"../l/spot.sl\"\nset = {{ \"spot.from\" = [0, 1, 2] }}\n\
+             [[lights]]\ntype = \"point\"\nposition = [0, 0, 1]\n"
+        );
+        let s = parse(&text, Path::new("dir/s.toml")).unwrap();
+        assert_eq!(s.lights.len(), 1);
+        assert_eq!(s.shader_lights.len(), 1);
+        let l = &s.shader_lights[0];
+        assert_eq!(l.key, "lights[0]");
+        assert_eq!(l.file, Path::new("dir/../l/spot.sl"));
+        assert_eq!(
+            l.overrides,
+            vec![(
+                "spot".to_string(),
+                "from".to_string(),
+                serde_json::json!([0, 1, 2])
+            )]
+        );
+    }
+
     #[test]
     fn errors_name_the_key() {
         let inst = "[[instances]]\nmesh = \"q\"\nmaterial = \"m\"\n";
@@ -1534,6 +1558,12 @@ mod tests {
             ("[meshes.s]\ntype = \"sphere\"\nsegments = 2\n".to_string(), "meshes.s.segments"),
             ("[materials.n]\nnetwork = \"a.json\"\njson = '{}'\n".to_string(), "exactly one"),
             ("[materials.n]\nnetwork = \"a.json\"\nset = { \"color\" = 1 }\n".to_string(), "node.input"),
+            // Light shaders: the file is required, `set` keys are "shader.parameter" with
+            // finite values, the built-in lights' keys do not apply.
+            ("[[lights]]\ntype = \"shader\"\n".to_string(), "shader"),
+            ("[[lights]]\ntype = \"shader\"\nshader = \"l.sl\"\nset = { \"intensity\" = 1 }\n".to_string(), "`lights[0].set.\"intensity\"`: expected \"shader.parameter\""),
+            ("[[lights]]\ntype = \"shader\"\nshader = \"l.sl\"\nset = { \"l.intensity\" = nan }\n".to_string(), "lights[0].set.\"l.intensity\""),
+            ("[[lights]]\ntype = \"shader\"\nshader = \"l.sl\"\nintensity = 2\n".to_string(), "intensity"),
         ] {
             let e = err(&extra);
             assert!(e.contains(want), "{extra}: `{want}` not in {e}");
