@@ -430,7 +430,10 @@ pub fn prepare(
         .collect::<Result<Vec<_>, _>>()?;
     let programs = compiled.iter().map(|c| c.program.clone()).collect();
     let mut scene = scene;
-    crate::scene_lights::compile(&mut scene, files == Files::Disk)?;
+    // Light programs run on the interpreter for renders on the interpreter, else compiled by
+    // the JIT (the GPU back end's host steps sample lights on the CPU).
+    let jit = backend.name() != "interp";
+    crate::scene_lights::compile(&mut scene, files == Files::Disk, jit)?;
     let renderer = Renderer::new(scene, programs, backend)?;
     Ok((renderer, compiled))
 }

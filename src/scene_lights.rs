@@ -1,6 +1,7 @@
 //! A scene's light shaders (`[[lights]] type = "shader"`) made lights: each compiled once by
 //! [`crate::shader::load_light`], its `set` overrides applied, optimized with its parameters
-//! baked in, and appended to the scene's lights as a `LightKind::Shader` (positional or
+//! baked in, compiled by the JIT (or the interpreter, for renders on the interpreter), and
+//! appended to the scene's lights as a `LightKind::Shader` (positional or
 //! directional: the runtime evaluates it per light sample on every back end) or, for an
 //! ambient light shader, as an ambient light whose power is its `Cl`, evaluated once.
 //!
@@ -12,7 +13,7 @@ use shadenet_graph::nodes::shader_light::{self, ShaderLightForm, SharedLightProg
 use shadenet_graph::nodes::{LightDesc, LightKind};
 use shadenet_graph::opt::{self, Specialization};
 use shadenet_runtime::light_shader::ShaderLight;
-use shadenet_runtime::{Fragment, Interpreter, ShadeCtx, ShadeEnv};
+use shadenet_runtime::{Fragment, InterpBackend, Interpreter, ShadeCtx, ShadeEnv};
 use shadenet_tracer::scene::Scene;
 use std::path::Path;
 use std::sync::Arc;
@@ -31,8 +32,10 @@ pub struct ShaderLightError {
 
 /// Compiles every light shader of `scene` and appends the lights to `scene.lights` (in the
 /// order the file gives them, after its built-in lights), emptying `scene.shader_lights`.
-/// `from_disk`: false for a scene embedded in the binary, whose shader files cannot be read.
-pub fn compile(scene: &mut Scene, from_disk: bool) -> Result<(), ShaderLightError> {
+/// `from_disk`: false for a scene embedded in the binary, whose shader files cannot be read;
+/// `jit`: compile the light programs with the JIT (else they run on the interpreter; the two
+/// agree bit for bit).
+pub fn compile(scene: &mut Scene, from_disk: bool, jit: bool) -> Result<(), ShaderLightError> {
     for r in std::mem::take(&mut scene.shader_lights) {
         let fail = |message: String| ShaderLightError {
             light: r.key.clone(),
@@ -43,18 +46,20 @@ pub fn compile(scene: &mut Scene, from_disk: bool) -> Result<(), ShaderLightErro
             return Err(fail("shader sources are read from disk only".into()));
         }
         let name = format!("light{}", scene.lights.len());
-        let desc = light(&r.file, &r.overrides, name).map_err(fail)?;
+        let desc = light(&r.file, &r.overrides, name, jit).map_err(fail)?;
         scene.lights.push(desc);
     }
     Ok(())
 }
 
 /// The light shader in `file`, its parameters set by `overrides` (`(shader, parameter,
-/// value)`, as a scene's `set` gives them), as a light named `name`.
+/// value)`, as a scene's `set` gives them), as a light named `name`, its program compiled
+/// by the JIT (`jit`) or the interpreter.
 pub fn light(
     file: &Path,
     overrides: &[(String, String, serde_json::Value)],
     name: String,
+    jit: bool,
 ) -> Result<LightDesc, String> {
     let mut program = crate::shader::load_light(file).map_err(|e| e.to_string())?;
     crate::shader::set_overrides(&mut program, overrides)?;
@@ -94,7 +99,11 @@ pub fn light(
             (LightKind::Ambient, ambient_cl(&program)?)
         }
         _ => {
-            let eval = ShaderLight::new(&program)?;
+            let eval = if jit {
+                ShaderLight::new(&program, &shadenet_jit::JitBackend::new())?
+            } else {
+                ShaderLight::new(&program, &InterpBackend)?
+            };
             (
                 LightKind::Shader {
                     program: SharedLightProgram::new(Arc::new(eval))?,

@@ -29,7 +29,7 @@ fn shader_light(file: &str, shader: &str, set: &[(&str, serde_json::Value)]) -> 
         .iter()
         .map(|(k, v)| (shader.to_string(), k.to_string(), v.clone()))
         .collect();
-    shadenet::scene_lights::light(&example(file), &overrides, "l".into()).unwrap()
+    shadenet::scene_lights::light(&example(file), &overrides, "l".into(), false).unwrap()
 }
 
 fn lambert() -> shadenet::graph::ir::Program {
@@ -51,21 +51,26 @@ fn matte() -> shadenet::graph::ir::Program {
 
 /// The acceptance test: `matte` under `pointlight` (intensity I/π, a color, a position)
 /// equals `lambert` under our point light (intensity I, the same color and position) to
-/// 1e-6, at points lit from several angles and distances, in f32 and f64.
+/// 1e-6, at points lit from several angles and distances, in f32 and f64, with the light
+/// program on the interpreter and on the JIT (which give the same bits).
 #[test]
 fn matte_under_pointlight_is_lambert_under_our_point_light() {
     let pi = std::f64::consts::PI;
     let (i, color, from) = (7.0, [1.0, 0.8, 0.5], [0.6, -0.3, 1.5]);
-    let rsl = shader_light(
-        "pointlight.sl",
-        "pointlight",
-        &[
-            ("intensity", json!(i / pi)),
-            ("lightcolor", json!(color)),
-            ("from", json!(from)),
-        ],
-    );
-    assert!(matches!(rsl.kind, LightKind::Shader { .. }));
+    let overrides: Vec<(String, String, serde_json::Value)> = [
+        ("intensity", json!(i / pi)),
+        ("lightcolor", json!(color)),
+        ("from", json!(from)),
+    ]
+    .into_iter()
+    .map(|(k, v)| ("pointlight".to_string(), k.to_string(), v))
+    .collect();
+    let rsl = |jit: bool| {
+        let file = example("pointlight.sl");
+        shadenet::scene_lights::light(&file, &overrides, "l".into(), jit).unwrap()
+    };
+    let (interp, jit) = (rsl(false), rsl(true));
+    assert!(matches!(interp.kind, LightKind::Shader { .. }));
     let ours = LightDesc::new(
         "l",
         LightKind::Point { position: from },
@@ -82,7 +87,8 @@ fn matte_under_pointlight_is_lambert_under_our_point_light() {
         let mut f = plane_fragment();
         f.p = p;
         f.i = [p[0], p[1], -1.0];
-        let got = run_program(&matte, &f, std::slice::from_ref(&rsl), u32::MAX);
+        let got = run_program(&matte, &f, std::slice::from_ref(&interp), u32::MAX);
+        let got_jit = run_program(&matte, &f, std::slice::from_ref(&jit), u32::MAX);
         let want = run_program(&lambert, &f, std::slice::from_ref(&ours), u32::MAX);
         let want = want.get("color");
         assert!(want.iter().all(|x| *x > 1e-3), "{p:?}: lit {want:?}");
@@ -97,6 +103,12 @@ fn matte_under_pointlight_is_lambert_under_our_point_light() {
             &want,
             1e-6,
             "matte·pointlight = lambert (f32)",
+        );
+        let bits = |v: Vec<f64>| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(
+            bits(got.get32("Ci")),
+            bits(got_jit.get32("Ci")),
+            "JIT light"
         );
     }
 }
@@ -318,7 +330,7 @@ fn light_shader_errors_name_the_file() {
     ] {
         let f = dir.join("l.sl");
         std::fs::write(&f, src).unwrap();
-        let e = shadenet::scene_lights::light(&f, &[], "l".into()).unwrap_err();
+        let e = shadenet::scene_lights::light(&f, &[], "l".into(), true).unwrap_err();
         assert!(e.contains(want) && e.contains("`l`"), "{src}: {e}");
     }
     // The renderer refuses a scene whose light shaders its caller did not compile.

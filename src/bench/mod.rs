@@ -743,7 +743,7 @@ fn example_scenes(opts: &BenchOptions) -> Vec<(String, Scene, Vec<Program>)> {
         let Ok(mut s) = scene::load(&path) else {
             continue;
         };
-        if crate::scene_lights::compile(&mut s, true).is_err() {
+        if crate::scene_lights::compile(&mut s, true, true).is_err() {
             continue;
         }
         s.camera.width = w;
