@@ -7,7 +7,9 @@
 //! [`jit`] (the Cranelift back end) and [`tracer`] (scenes, BVH, passes, film); [`shade`]
 //! shades a network over a grid (or any fragments) without a renderer, [`lights`] parses
 //! the one-line light strings of `shade --light`, [`render`] links a scene's materials and
-//! hands them to the tracer, [`output`] writes PNG and EXR images, [`mtlx`] reads MaterialX documents, [`shader`] compiles shader sources (`.sl`, `.osl`) and
+//! hands them to the tracer ([`scene_lights`] compiles its light shaders into lights),
+//! [`output`] writes PNG and EXR images, [`mtlx`] reads MaterialX documents, [`shader`]
+//! compiles shader sources (`.sl`, `.osl`, `.oslgroup`) and
 //! finds the MaterialX libraries, [`generate`] builds
 //! networks for benchmarks (the multiplication tree) and [`bench`] is `shadenet bench`. It owns the `shadenet` CLI and must not
 //! add shading semantics of its own.
@@ -18,6 +20,7 @@ pub mod lights;
 pub mod mtlx;
 pub mod output;
 pub mod render;
+pub mod scene_lights;
 pub mod shade;
 pub mod shader;
 

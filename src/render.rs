@@ -113,6 +113,9 @@ pub enum SetupError {
     /// The back end is not available.
     #[error("{0}")]
     Backend(String),
+    /// A light shader of the scene could not be compiled or used as a light.
+    #[error(transparent)]
+    Light(#[from] crate::scene_lights::ShaderLightError),
     /// The tracer refused the scene.
     #[error(transparent)]
     Render(#[from] RenderError),
@@ -305,19 +308,7 @@ fn shader_material(m: &MaterialRef, path: &Path, files: Files) -> Result<Compile
     }
     let compiled = crate::shader::load(path, &[], &[]).map_err(|e| e.to_string())?;
     let mut program = compiled.program;
-    for (node, input, value) in &m.overrides {
-        if node != &program.name {
-            return Err(format!(
-                "set \"{node}.{input}\": the shader is `{}` (write \"{}.{input}\")",
-                program.name, program.name
-            ));
-        }
-        let values = json_numbers(value).ok_or_else(|| {
-            format!("set \"{node}.{input}\": {value} is not a number or a list of numbers")
-        })?;
-        crate::shader::set_param(&mut program, input, &values)
-            .map_err(|e| format!("set \"{node}.{input}\": {e}"))?;
-    }
+    crate::shader::set_overrides(&mut program, &m.overrides)?;
     shadenet_graph::ir::validate(&program)
         .map_err(|e| format!("internal error: invalid IR: {e}"))?;
     program.name = m.name.clone();
@@ -325,14 +316,6 @@ fn shader_material(m: &MaterialRef, path: &Path, files: Files) -> Result<Compile
         program,
         ignored_lights: 0,
     })
-}
-
-/// A JSON number or array of numbers as floats.
-fn json_numbers(value: &serde_json::Value) -> Option<Vec<f64>> {
-    match value {
-        serde_json::Value::Array(a) => a.iter().map(|v| v.as_f64()).collect(),
-        v => v.as_f64().map(|x| vec![x]),
-    }
 }
 
 /// Applies one `set` override: `node.input` on a node of the network, or
@@ -448,6 +431,11 @@ pub fn prepare(
         })
         .collect::<Result<Vec<_>, _>>()?;
     let programs = compiled.iter().map(|c| c.program.clone()).collect();
+    let mut scene = scene;
+    // Light programs run on the interpreter for renders on the interpreter, else compiled by
+    // the JIT (the GPU back end's host steps sample lights on the CPU).
+    let jit = backend.name() != "interp";
+    crate::scene_lights::compile(&mut scene, files == Files::Disk, jit)?;
     let renderer = Renderer::new(scene, programs, backend)?;
     Ok((renderer, compiled))
 }

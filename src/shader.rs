@@ -1,26 +1,95 @@
 //! Shader sources (`.sl` RSL, `.osl` OSL, `.oslgroup` OSL shader groups): read, preprocessed,
 //! parsed, checked and lowered by `shadenet-lang` into a material program, as a network file
-//! is by [`crate::load_network`]. Errors come back rendered as the front end prints them
+//! is by [`crate::load_network`] ([`load`]), or into a light shader's program
+//! ([`load_light`]; the scene lights it becomes are [`crate::render`]'s). Errors come back rendered as the front end prints them
 //! (file:line:column, the source line, a caret, what was expected).
 
 use crate::Compiled;
+use shadenet_graph::ir::Program;
+use shadenet_lang::ast::{Item, ShaderKind};
 use shadenet_lang::{Options, SourceMap};
 use std::path::{Path, PathBuf};
 
-/// A shader source that could not be compiled: every diagnostic, rendered.
+/// A shader source that could not be compiled, or is not the kind of shader asked for.
 #[derive(Debug, thiserror::Error)]
-#[error("{}: the shader does not compile\n{rendered}", path.display())]
-pub struct ShaderError {
-    /// The shader file.
-    pub path: PathBuf,
-    /// The diagnostics as the front end renders them.
-    pub rendered: String,
+pub enum ShaderError {
+    /// The front end's diagnostics, rendered.
+    #[error("{}: the shader does not compile\n{rendered}", path.display())]
+    Compile {
+        /// The shader file.
+        path: PathBuf,
+        /// The diagnostics as the front end renders them.
+        rendered: String,
+    },
+    /// The shader compiles but is of another kind than its use needs.
+    #[error("{}: `{shader}` is a {found} shader: {wanted}", path.display())]
+    Kind {
+        /// The shader file.
+        path: PathBuf,
+        /// The shader's name.
+        shader: String,
+        /// Its kind (`surface`, `light`, …).
+        found: &'static str,
+        /// What the use needs, and where the shader would go.
+        wanted: &'static str,
+    },
 }
 
-/// Reads and compiles the shader file at `path` (its first shader) with `#include` search
-/// folders `include` and macros `defines` (`NAME` or `NAME=VALUE`). The material is named
-/// after the shader; relative texture names are relative to the file's folder.
+/// Reads and compiles the surface shader file at `path` (its first shader) with `#include`
+/// search folders `include` and macros `defines` (`NAME` or `NAME=VALUE`) into a material.
+/// The material is named after the shader; relative texture names are relative to the
+/// file's folder. A light shader is refused, naming where it goes ([`load_light`]).
 pub fn load(path: &Path, include: &[PathBuf], defines: &[String]) -> Result<Compiled, ShaderError> {
+    let (compiled, kind) = load_any(path, include, defines)?;
+    if kind == ShaderKind::Light {
+        return Err(ShaderError::Kind {
+            path: path.to_path_buf(),
+            shader: compiled.program.name,
+            found: "light",
+            wanted: "a material needs a surface shader (a light shader is a scene light: [[lights]] type = \"shader\")",
+        });
+    }
+    Ok(compiled)
+}
+
+/// [`load`] of a shader of any kind that compiles (surface or light), and its kind: what
+/// `shadenet check` and `compile` show.
+pub fn load_any(
+    path: &Path,
+    include: &[PathBuf],
+    defines: &[String],
+) -> Result<(Compiled, ShaderKind), ShaderError> {
+    let (mut program, kind) = compile_file(path, include, defines)?;
+    let dir = path.parent().unwrap_or(Path::new(""));
+    program.resolve_textures(dir);
+    let compiled = Compiled {
+        program,
+        lights: Vec::new(),
+    };
+    Ok((compiled, kind))
+}
+
+/// Reads and compiles the light shader file at `path` (its first shader) into its light
+/// program (`shadenet_graph::nodes::shader_light`); any other kind is refused.
+pub fn load_light(path: &Path) -> Result<Program, ShaderError> {
+    let (program, kind) = compile_file(path, &[], &[])?;
+    if kind != ShaderKind::Light {
+        return Err(ShaderError::Kind {
+            path: path.to_path_buf(),
+            shader: program.name,
+            found: kind_name(kind),
+            wanted: "a scene light needs a light shader (a surface shader is a material: [materials.NAME] network = …)",
+        });
+    }
+    Ok(program)
+}
+
+/// The file's first shader compiled, and its kind.
+fn compile_file(
+    path: &Path,
+    include: &[PathBuf],
+    defines: &[String],
+) -> Result<(Program, ShaderKind), ShaderError> {
     let mut options = Options {
         include_dirs: include.to_vec(),
         ..Options::default()
@@ -29,23 +98,68 @@ pub fn load(path: &Path, include: &[PathBuf], defines: &[String]) -> Result<Comp
         options = options.define(d);
     }
     let mut sources = SourceMap::new();
-    let fail = |sources: &SourceMap, d: shadenet_lang::Diagnostics| ShaderError {
+    let fail = |sources: &SourceMap, d: shadenet_lang::Diagnostics| ShaderError::Compile {
         path: path.to_path_buf(),
         rendered: d.render(sources).trim_end().to_string(),
     };
     if path.extension().is_some_and(|e| e == GROUP_EXTENSION) {
-        return load_group(path, include, defines);
+        // A group's program is a material (its layers are surfaces and patterns).
+        return load_group(path, include, defines).map(|c| (c.program, ShaderKind::Surface));
     }
     let parsed =
         shadenet_lang::parse_file(&mut sources, path, &options).map_err(|d| fail(&sources, d))?;
-    let mut program =
-        shadenet_lang::lower::compile(&parsed, None).map_err(|d| fail(&sources, d))?;
-    let dir = path.parent().unwrap_or(Path::new(""));
-    program.resolve_textures(dir);
-    Ok(Compiled {
-        program,
-        lights: Vec::new(),
-    })
+    let program = shadenet_lang::lower::compile(&parsed, None).map_err(|d| fail(&sources, d))?;
+    let kind = parsed
+        .file
+        .items
+        .iter()
+        .find_map(|i| match i {
+            Item::Shader(s) => Some(s.kind),
+            _ => None,
+        })
+        .unwrap_or(ShaderKind::Surface);
+    Ok((program, kind))
+}
+
+fn kind_name(k: ShaderKind) -> &'static str {
+    match k {
+        ShaderKind::Surface => "surface",
+        ShaderKind::Light => "light",
+        ShaderKind::Volume => "volume",
+        ShaderKind::Displacement => "displacement",
+        ShaderKind::Imager => "imager",
+        ShaderKind::Shader => "generic",
+    }
+}
+
+/// Applies `set` overrides `(shader, parameter, value)` to a shader's program, as scenes give
+/// them (`"shader.param" = value`, the shader named as in its file; a value is a number or a
+/// list of numbers). The error names the override.
+pub fn set_overrides(
+    program: &mut Program,
+    overrides: &[(String, String, serde_json::Value)],
+) -> Result<(), String> {
+    for (node, input, value) in overrides {
+        if node != &program.name {
+            return Err(format!(
+                "set \"{node}.{input}\": the shader is `{}` (write \"{}.{input}\")",
+                program.name, program.name
+            ));
+        }
+        let values = json_numbers(value).ok_or_else(|| {
+            format!("set \"{node}.{input}\": {value} is not a number or a list of numbers")
+        })?;
+        set_param(program, input, &values).map_err(|e| format!("set \"{node}.{input}\": {e}"))?;
+    }
+    Ok(())
+}
+
+/// A JSON number or array of numbers as floats.
+fn json_numbers(value: &serde_json::Value) -> Option<Vec<f64>> {
+    match value {
+        serde_json::Value::Array(a) => a.iter().map(|v| v.as_f64()).collect(),
+        v => v.as_f64().map(|x| vec![x]),
+    }
 }
 
 /// The extension of OSL shader-group files (`shade --group` reads any name).
@@ -68,7 +182,7 @@ pub fn load_group(
         options = options.define(d);
     }
     let mut sources = SourceMap::new();
-    let fail = |sources: &SourceMap, d: shadenet_lang::Diagnostics| ShaderError {
+    let fail = |sources: &SourceMap, d: shadenet_lang::Diagnostics| ShaderError::Compile {
         path: path.to_path_buf(),
         rendered: d.render(sources).trim_end().to_string(),
     };

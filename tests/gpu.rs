@@ -474,3 +474,43 @@ fn rsl_shaders_shade_on_the_gpu_within_the_bounds() {
     let (code, out, err) = shadenet(&["diff", a, b, "--max-abs", "1e-4", "--rmse", "1e-6"]);
     assert_eq!(code, 0, "{out}\n{err}");
 }
+
+/// `examples/scenes/rsl.toml` — RSL surface shaders lit only by RSL light shaders, whose
+/// programs the GPU back end's host step of light samples evaluates per sample as the CPU
+/// back ends do (`shadenet_runtime::lights::sample`) — renders on the GPU as on the JIT,
+/// within the Cornell box's bounds (or the hardware contract).
+#[test]
+fn the_rsl_scene_lit_by_light_shaders_renders_on_the_gpu_as_on_the_jit() {
+    if !gpu_or_skip("the_rsl_scene_lit_by_light_shaders_renders_on_the_gpu_as_on_the_jit") {
+        return;
+    }
+    let opts = RenderOptions {
+        spp: Some(1),
+        res: Some((64, 36)),
+        passes: None,
+        light_strategy: None,
+    };
+    let path = example("rsl.toml");
+    let (jit, _, _) = render(&path, &opts, BackendKind::Jit);
+    let (gpu, stats, _) = render(&path, &opts, BackendKind::Gpu);
+    assert!(stats.batches > 0, "{stats:?}");
+    let hw = common::gpu_accuracy() == Some(Accuracy::Hardware);
+    for (lj, lg) in jit.layers.iter().zip(&gpu.layers) {
+        let (max, rmse) = error(&lj.data, &lg.data);
+        eprintln!(
+            "GPU vs JIT, rsl.toml, layer {:<8}: max abs {max:.3e}, RMSE {rmse:.3e}",
+            lj.name
+        );
+        if hw {
+            if let Err(e) = hardware::check_image(&lg.data, &lj.data) {
+                panic!("layer {}: hardware contract: {e}", lj.name);
+            }
+            continue;
+        }
+        assert!(
+            max <= CORNELL_MAX_ABS && rmse <= CORNELL_RMSE,
+            "layer {}: max abs {max:e}, RMSE {rmse:e}",
+            lj.name
+        );
+    }
+}

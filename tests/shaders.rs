@@ -1,8 +1,9 @@
 //! RenderMan Shading Language surface shaders compiled by `shadenet-lang` into the IR:
 //! values against the RenderMan Interface's formulas and our built-in `lambert`, the
 //! optimizer seeing through the language, every back end agreeing, and errors that name
-//! the place. (Loops: `tests/shader_loops.rs`; arrays: `tests/shader_arrays.rs`; light and
-//! volume shaders: issue 21, not built yet.)
+//! the place. (Loops: `tests/shader_loops.rs`; light shaders: `tests/shader_lights.rs`;
+//! arrays: `tests/shader_arrays.rs`; OSL: `tests/shader_osl.rs`; volume shaders: issue 21,
+//! not built yet.)
 
 mod common;
 use common::*;
@@ -279,7 +280,32 @@ fn errors_name_the_place_and_the_problem() {
             "surface s() { color c = 0; illuminance(P) { c = Cl; } Ci = c; }",
             "may only be accumulated with += or -=",
         ),
-        ("light l() { }", "light shaders are not compiled yet"),
+        ("volume v() { }", "volume shaders are not compiled yet"),
+        (
+            "light l() { illuminate(Ps, Ps) Cl = 1; }",
+            "'illuminate' takes (P) or (P, axis, angle); found 2 arguments",
+        ),
+        (
+            "surface s() { illuminate(P) Ci = 1; }",
+            "`illuminate` and `solar` belong at the top level of a light shader's body",
+        ),
+        (
+            "light l() { if (1 > 0) { solar(vector(0, 0, 1), 0) Cl = 1; } }",
+            "belong at the top level of a light shader's body",
+        ),
+        (
+            "light l() { solar(vector(0, 0, 1), 0.5) Cl = 1; }",
+            "solar with a spread angle is not built",
+        ),
+        (
+            "light l() { solar() Cl = 1; }",
+            "solar() without an axis (light from every direction) is not built",
+        ),
+        (
+            "light l() { illuminate(Ps) Cl = 1; solar(vector(0, 0, 1), 0) Cl = 1; }",
+            "more than one `illuminate` or `solar`",
+        ),
+        ("light l() { Cl = N; }", "unknown name `N`"),
         (
             "surface s() { Ci = point \"object\" (1, 2, 3); }",
             "the space \"object\" is not built yet",

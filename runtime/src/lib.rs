@@ -1,7 +1,8 @@
 //! shadenet-runtime: what runs a compiled material.
 //!
 //! This crate owns the shading context ABI ([`ctx`]), the intrinsics that need the scene
-//! (light samples: [`lights`] with image environments prepared by [`envmap`], textures:
+//! (light samples: [`lights`] with image environments prepared by [`envmap`] and light
+//! shaders evaluated by [`light_shader`], textures:
 //! [`texture`]), the interpreter ([`interp`]), the
 //! reference every other back end is tested against, and the back-end traits with the
 //! material cache ([`backend`]), the four-lane fragment packets batches are made of
@@ -15,6 +16,7 @@ pub mod ctx;
 pub mod envmap;
 pub mod input;
 pub mod interp;
+pub mod light_shader;
 pub mod lights;
 pub mod packets;
 pub mod rgbe;

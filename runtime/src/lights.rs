@@ -8,8 +8,14 @@
 //! An environment light with an image map is importance-sampled by the map's luminance
 //! ([`crate::envmap`]); its distribution is built once, in [`Light::from_desc`], and shared
 //! by every clone of the light.
+//!
+//! A light shader's light ([`LightKind::Shader`]) is evaluated per sample by the evaluator
+//! it carries (`crate::light_shader`'s, prepared once when the light is made and shared by
+//! every clone): its `Cl` arrives as the program computed it (no `1/r²` is added: the shader
+//! divides, as RSL's `pointlight` does).
 
 use crate::envmap::EnvMap;
+use shadenet_graph::nodes::shader_light::ShaderLightForm;
 use shadenet_graph::nodes::{LightDesc, LightKind};
 use shadenet_graph::ops::math;
 use shadenet_graph::ops::{self, Real};
@@ -218,6 +224,30 @@ pub fn sample<F: Real>(
                 to: along(l),
                 pdf: ops::div(F::ONE, w),
             })
+        }
+        LightKind::Shader { program } => {
+            let pf = p.map(|x| x.to_f64() as f32);
+            let (cl, at) = program.eval().eval(pf);
+            let wide = |v: [f32; 3]| v.map(|x| F::from_f64(x as f64));
+            let (cl, at) = (wide(cl), wide(at));
+            match program.form() {
+                ShaderLightForm::Positional => Some(Sample {
+                    l: towards(at, p).0,
+                    cl,
+                    to: at,
+                    pdf: F::ZERO,
+                }),
+                ShaderLightForm::Directional => {
+                    let l = ops::normalize(at.map(|x| -x));
+                    Some(Sample {
+                        l,
+                        cl,
+                        to: along(l),
+                        pdf: F::ZERO,
+                    })
+                }
+                ShaderLightForm::Ambient => None,
+            }
         }
         LightKind::Spot {
             position,

@@ -743,6 +743,9 @@ fn example_scenes(opts: &BenchOptions) -> Vec<(String, Scene, Vec<Program>)> {
         let Ok(mut s) = scene::load(&path) else {
             continue;
         };
+        if crate::scene_lights::compile(&mut s, true, true).is_err() {
+            continue;
+        }
         s.camera.width = w;
         s.camera.height = h;
         s.settings.spp = 1;

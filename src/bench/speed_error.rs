@@ -73,6 +73,8 @@ pub(crate) fn prepare(
     s.camera.width = size.0;
     s.camera.height = size.1;
     edit(&mut s);
+    crate::scene_lights::compile(&mut s, true, true)
+        .map_err(|e| shadenet_graph::error_chain(&e))?;
     let strategy = s.settings.light_strategy;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let programs = s

@@ -1,12 +1,12 @@
 //! `shadenet check`: link a network and report every error, or `ok` with a summary.
 
-use super::{SourceArgs, load, print_out};
+use super::{SourceArgs, load_source, print_out};
 use anyhow::Result;
 use std::path::Path;
 
 /// Runs `shadenet check`.
 pub(crate) fn run(path: &Path, mtlx: &SourceArgs) -> Result<()> {
-    let c = load(path, mtlx)?;
+    let c = load_source(path, mtlx, true)?;
     say!(
         "ok: {} ops, outputs: {}, components: [{}], lights: {}",
         c.program.op_count(),

@@ -1,7 +1,7 @@
 //! `shadenet compile`: link, lower and optimize a network; print its IR, the Cranelift IR,
 //! the GPU kernels and what each pass did.
 
-use super::{GpuPassesArg, OptArgs, load, print_out};
+use super::{GpuPassesArg, OptArgs, load_source, print_out};
 use anyhow::{Context, Result, bail};
 use shadenet::graph::opt;
 use shadenet::runtime::Backend;
@@ -35,7 +35,7 @@ pub(crate) struct CompileArgs {
 
 /// Runs `shadenet compile`.
 pub(crate) fn run(args: &CompileArgs) -> Result<()> {
-    let c = load(&args.network, &args.mtlx)?;
+    let c = load_source(&args.network, &args.mtlx, true)?;
     let emit = args.emit.clone().unwrap_or_else(|| {
         if args.stats {
             "none".into()

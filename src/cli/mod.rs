@@ -293,8 +293,18 @@ fn set_params(program: &mut shadenet::graph::ir::Program, params: &[String]) -> 
 }
 
 /// Reads, links and lowers a network file (`.json`, or `.mtlx` with `mtlx`'s options) and
-/// validates its IR.
+/// validates its IR; a shader source must be a surface shader.
 pub(crate) fn load(path: &Path, mtlx: &SourceArgs) -> Result<shadenet::Compiled> {
+    load_source(path, mtlx, false)
+}
+
+/// [`load`], also taking a light shader when `lights_too` (`check` and `compile` show its
+/// light program).
+pub(crate) fn load_source(
+    path: &Path,
+    mtlx: &SourceArgs,
+    lights_too: bool,
+) -> Result<shadenet::Compiled> {
     let is_mtlx = path.extension().is_some_and(|e| e == "mtlx");
     let is_shader = mtlx.group
         || path
@@ -307,6 +317,8 @@ pub(crate) fn load(path: &Path, mtlx: &SourceArgs) -> Result<shadenet::Compiled>
     if is_shader {
         let mut compiled = if mtlx.group {
             shadenet::shader::load_group(path, &mtlx.include, &mtlx.define)?
+        } else if lights_too {
+            shadenet::shader::load_any(path, &mtlx.include, &mtlx.define)?.0
         } else {
             shadenet::shader::load(path, &mtlx.include, &mtlx.define)?
         };

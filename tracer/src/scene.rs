@@ -474,6 +474,15 @@ pub enum LightSpec {
         #[serde(default)]
         rotation: f64,
     },
+    /// A light shader (RSL `light`, `.sl`), compiled by the caller (the scene's
+    /// [`Scene::shader_lights`]).
+    Shader {
+        /// The shader file, relative to the scene file.
+        shader: String,
+        /// Parameter overrides `"shader.param" = value`, as a shader material's.
+        #[serde(default)]
+        set: BTreeMap<String, toml::Value>,
+    },
 }
 
 fn unit() -> f64 {
@@ -509,6 +518,18 @@ pub enum MaterialSource {
         /// `output = "…"`: an output of the document.
         output: Option<String>,
     },
+}
+
+/// A light shader as the scene names it (`[[lights]] type = "shader"`); the caller compiles
+/// it to a light and adds it to [`Scene::lights`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShaderLightRef {
+    /// Its key, `lights[i]`, for messages.
+    pub key: String,
+    /// The shader file (already made absolute or relative to the working directory).
+    pub file: PathBuf,
+    /// `(shader, parameter, value)` overrides.
+    pub overrides: Vec<(String, String, serde_json::Value)>,
 }
 
 /// A material as the scene names it; the caller compiles it to a program.
@@ -674,6 +695,9 @@ pub struct Scene {
     pub lights: Vec<LightDesc>,
     /// Quad lights whose face rays can see.
     pub emitters: Vec<Emitter>,
+    /// Light shaders still to compile: the caller compiles each to a light, appends it to
+    /// `lights` and empties this (the renderer refuses a scene where it is not empty).
+    pub shader_lights: Vec<ShaderLightRef>,
 }
 
 /// Loads a scene file from disk, through the bounded input gate (a regular file within the
@@ -767,7 +791,11 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
     let materials = resolve_materials(&cx, &file.materials)?;
     let (meshes, mesh_names) = resolve_meshes(&cx, &file.meshes)?;
     let instances = resolve_instances(&cx, &file.instances, &meshes, &mesh_names, &file.materials)?;
-    let Lights { lights, emitters } = resolve_lights(&cx, &file.lights)?;
+    let Lights {
+        lights,
+        emitters,
+        shader_lights,
+    } = resolve_lights(&cx, &file.lights)?;
     let settings = resolve_settings(&cx, &file.render)?;
     Ok(Scene {
         camera,
@@ -778,6 +806,7 @@ fn resolve(file: SceneFile, path: &Path) -> Result<Scene, SceneError> {
         instances,
         lights,
         emitters,
+        shader_lights,
     })
 }
 
@@ -986,15 +1015,20 @@ fn resolve_instances(
 struct Lights {
     lights: Vec<LightDesc>,
     emitters: Vec<Emitter>,
+    shader_lights: Vec<ShaderLightRef>,
 }
 
 /// `[[lights]]`.
 fn resolve_lights(cx: &Ctx, specs: &[LightSpec]) -> Result<Lights, SceneError> {
     let mut lights = Vec::new();
-    let mut emitters = Vec::new();
     let mut quads = Vec::new();
+    let mut shader_lights = Vec::new();
     for (i, l) in specs.iter().enumerate() {
         let key = format!("lights[{i}]");
+        if let LightSpec::Shader { shader, set } = l {
+            shader_lights.push(shader_light(cx, &key, shader, set)?);
+            continue;
+        }
         let power = |intensity: f64, color: [f64; 3]| -> Result<[f64; 3], SceneError> {
             cx.finite(&format!("{key}.intensity"), &[intensity])?;
             cx.finite(&format!("{key}.color"), &color)?;
@@ -1090,6 +1124,7 @@ fn resolve_lights(cx: &Ctx, specs: &[LightSpec]) -> Result<Lights, SceneError> {
             LightSpec::Ambient { intensity, color } => {
                 (LightKind::Ambient, power(*intensity, *color)?)
             }
+            LightSpec::Shader { .. } => continue,
             LightSpec::Environment {
                 intensity,
                 color,
@@ -1117,9 +1152,18 @@ fn resolve_lights(cx: &Ctx, specs: &[LightSpec]) -> Result<Lights, SceneError> {
         })?;
         lights.push(light);
     }
-    // Visible quad lights are also emitters (what camera and traced rays see), with the
-    // checked corner, edges and radiance.
-    for i in quads {
+    Ok(Lights {
+        emitters: emitters(&lights, &quads),
+        lights,
+        shader_lights,
+    })
+}
+
+/// The faces of the visible quad lights `quads` (indices into `lights`): what camera and
+/// traced rays see, with the checked corner, edges and radiance.
+fn emitters(lights: &[LightDesc], quads: &[usize]) -> Vec<Emitter> {
+    let mut emitters = Vec::new();
+    for &i in quads {
         if let LightKind::Quad {
             corner,
             edge_u,
@@ -1136,7 +1180,31 @@ fn resolve_lights(cx: &Ctx, specs: &[LightSpec]) -> Result<Lights, SceneError> {
             });
         }
     }
-    Ok(Lights { lights, emitters })
+    emitters
+}
+
+/// `[[lights]] type = "shader"`: the file and its `set` overrides (`"shader.param"`).
+fn shader_light(
+    cx: &Ctx,
+    key: &str,
+    shader: &str,
+    set: &BTreeMap<String, toml::Value>,
+) -> Result<ShaderLightRef, SceneError> {
+    let mut overrides = Vec::new();
+    for (target, value) in set {
+        let k = format!("{key}.set.\"{target}\"");
+        let Some((node, input)) = target.rsplit_once('.') else {
+            return Err(cx.invalid(k, "expected \"shader.parameter\""));
+        };
+        check_toml_finite(cx, &k, value)?;
+        let v = serde_json::to_value(value).map_err(|e| cx.invalid(&k, e.to_string()))?;
+        overrides.push((node.to_string(), input.to_string(), v));
+    }
+    Ok(ShaderLightRef {
+        key: key.to_string(),
+        file: cx.file(shader),
+        overrides,
+    })
 }
 
 /// An environment light's `map` (read and size-checked; its texels are checked by
@@ -1441,6 +1509,30 @@ mod tests {
             .to_string()
     }
 
+    /// `[[lights]] type = "shader"`: kept for the caller to compile, after the built-in
+    /// lights, with its file relative to the scene and its overrides split at the last dot.
+    #[test]
+    fn light_shaders_are_kept_for_the_caller() {
+        let text = format!(
+            "{HEAD}[[lights]]\ntype = \"shader\"\nshader = \"../l/spot.sl\"\nset = {{ \"spot.from\" = [0, 1, 2] }}\n\
+             [[lights]]\ntype = \"point\"\nposition = [0, 0, 1]\n"
+        );
+        let s = parse(&text, Path::new("dir/s.toml")).unwrap();
+        assert_eq!(s.lights.len(), 1);
+        assert_eq!(s.shader_lights.len(), 1);
+        let l = &s.shader_lights[0];
+        assert_eq!(l.key, "lights[0]");
+        assert_eq!(l.file, Path::new("dir/../l/spot.sl"));
+        assert_eq!(
+            l.overrides,
+            vec![(
+                "spot".to_string(),
+                "from".to_string(),
+                serde_json::json!([0, 1, 2])
+            )]
+        );
+    }
+
     #[test]
     fn errors_name_the_key() {
         let inst = "[[instances]]\nmesh = \"q\"\nmaterial = \"m\"\n";
@@ -1466,6 +1558,12 @@ mod tests {
             ("[meshes.s]\ntype = \"sphere\"\nsegments = 2\n".to_string(), "meshes.s.segments"),
             ("[materials.n]\nnetwork = \"a.json\"\njson = '{}'\n".to_string(), "exactly one"),
             ("[materials.n]\nnetwork = \"a.json\"\nset = { \"color\" = 1 }\n".to_string(), "node.input"),
+            // Light shaders: the file is required, `set` keys are "shader.parameter" with
+            // finite values, the built-in lights' keys do not apply.
+            ("[[lights]]\ntype = \"shader\"\n".to_string(), "shader"),
+            ("[[lights]]\ntype = \"shader\"\nshader = \"l.sl\"\nset = { \"intensity\" = 1 }\n".to_string(), "`lights[0].set.\"intensity\"`: expected \"shader.parameter\""),
+            ("[[lights]]\ntype = \"shader\"\nshader = \"l.sl\"\nset = { \"l.intensity\" = nan }\n".to_string(), "lights[0].set.\"l.intensity\""),
+            ("[[lights]]\ntype = \"shader\"\nshader = \"l.sl\"\nintensity = 2\n".to_string(), "intensity"),
         ] {
             let e = err(&extra);
             assert!(e.contains(want), "{extra}: `{want}` not in {e}");

@@ -24,6 +24,7 @@ pub mod filtered;
 pub mod geometry;
 pub mod math;
 pub mod pattern;
+pub mod shader_light;
 pub mod structure;
 pub mod surface;
 pub mod utility;
@@ -335,6 +336,13 @@ pub enum LightKind {
         /// environment.
         map: Option<std::sync::Arc<env_image::EnvImage>>,
     },
+    /// A light shader's program ([`shader_light`]: its outputs, how it is sampled): a
+    /// positional or directional light whose color the program computes per sample; the
+    /// light's `power` is unused.
+    Shader {
+        /// The program, its parameters set, with its evaluator (shared, never copied).
+        program: shader_light::SharedLightProgram,
+    },
 }
 
 /// What is wrong with a light's parameters ([`LightDesc::new`]): the field, named as
@@ -471,6 +479,7 @@ impl LightDesc {
                     map,
                 }
             }
+            LightKind::Shader { program } => LightKind::Shader { program },
         };
         Ok(LightDesc {
             name: name.into(),

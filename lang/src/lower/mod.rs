@@ -5,14 +5,14 @@
 //! are collected as [`Diagnostic`]s on the source spans (both types of a mismatch, the
 //! closest name of an unknown one, the candidate signatures of a call).
 //!
-//! What is built: RSL `surface` shaders with `float`, `point`/`vector`/`normal`, `color` and
+//! What is built: RSL `surface` and `light` shaders ([`light`]) with `float`, `point`/`vector`/`normal`, `color` and
 //! `string` values; declarations, assignments (all compound forms), `if`/`else`, blocks,
 //! loops, `illuminance`; the operators (`.` dot, `^` cross); constructors in `"rgb"`,
 //! `"current"` and `"world"`; user functions (inlined); the builtins of `builtins`. OSL
 //! `surface` and `shader` shaders add `int`, closures (`closure`: lobe lists), output
 //! parameters and OSL's builtins and noise (`osl`); both have fixed-size arrays (`arrays`)
-//! and OSL shader groups lower through `group`. What is not yet — matrices,
-//! structs, other spaces, light/volume/displacement shaders — is an error that says so,
+//! and OSL shader groups lower through `group`. What is not yet — matrices, other
+//! spaces, volume/displacement shaders, OSL light shaders — is an error that says so,
 //! naming the construct. It owns the rules of the language;
 //! it must not hold op semantics (the IR's) nor touch the renderer.
 
@@ -21,6 +21,7 @@ mod builtins;
 mod closure;
 mod expr;
 mod group;
+pub mod light;
 mod loops;
 mod osl;
 mod returns;
@@ -262,7 +263,8 @@ pub(crate) struct Lower<'a> {
 }
 
 /// Compiles shader `name` (the file's only or first shader when `None`) of a parsed file to
-/// an IR program named after it: its parameters the program's, `Ci` and `Oi` its outputs.
+/// an IR program named after it: its parameters the program's, `Ci` and `Oi` its outputs
+/// (a light shader's: [`light`]).
 /// Runs on the front end's own thread ([`crate::STACK_BYTES`]): the lowering recurses over
 /// the tree as the parser does.
 pub fn compile(parsed: &Parsed, name: Option<&str>) -> Result<Program, Diagnostics> {
@@ -295,13 +297,13 @@ fn compile_here(parsed: &Parsed, name: Option<&str>) -> Result<Program, Diagnost
         .into());
     };
     let built = match parsed.dialect {
-        Dialect::Rsl => shader.kind == ShaderKind::Surface,
+        Dialect::Rsl => matches!(shader.kind, ShaderKind::Surface | ShaderKind::Light),
         Dialect::Osl => matches!(shader.kind, ShaderKind::Surface | ShaderKind::Shader),
     };
     if !built {
         return Err(Diagnostic::error(
             format!(
-                "{} shaders are not compiled yet: built are RSL `surface` shaders and OSL `surface` and `shader` shaders (issues 21, 22)",
+                "{} shaders are not compiled yet: built are RSL `surface` and `light` shaders and OSL `surface` and `shader` shaders (issues 21, 22)",
                 kind_name(shader.kind)
             ),
             shader.kind_span,
@@ -311,9 +313,10 @@ fn compile_here(parsed: &Parsed, name: Option<&str>) -> Result<Program, Diagnost
     }
     let mut lower = Lower::new(parsed);
     let mut b = Builder::new(&shader.name.name);
-    match parsed.dialect {
-        Dialect::Rsl => lower.surface(&mut b, shader),
-        Dialect::Osl => lower.osl_shader(&mut b, shader),
+    match (parsed.dialect, shader.kind) {
+        (Dialect::Osl, _) => lower.osl_shader(&mut b, shader),
+        (Dialect::Rsl, ShaderKind::Light) => lower.light(&mut b, shader),
+        (Dialect::Rsl, _) => lower.surface(&mut b, shader),
     }
     if lower.diags.has_errors() {
         return Err(lower.diags);

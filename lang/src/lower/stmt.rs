@@ -88,9 +88,9 @@ impl<'a> Lower<'a> {
             StmtKind::Continue { levels } => self.jump(b, false, *levels, s.span),
             StmtKind::Return(e) => self.return_stmt(b, e.as_ref(), s.span),
             StmtKind::Illuminate { .. } | StmtKind::Solar { .. } => self.error(
-                "`illuminate` and `solar` belong to light shaders, which are not compiled yet (issue 21)",
+                "`illuminate` and `solar` belong at the top level of a light shader's body",
                 s.span,
-                "not built yet",
+                "not here",
             ),
         }
     }

@@ -19,6 +19,18 @@ pub enum RenderError {
         /// Why.
         message: String,
     },
+    /// A light shader of the scene was not compiled (the caller compiles
+    /// [`crate::scene::Scene::shader_lights`] into lights first).
+    #[error(
+        "{light}: the light shader {} was not compiled: a scene's light shaders are compiled by the caller (shadenet's render set-up) before the renderer starts",
+        file.display()
+    )]
+    ShaderLight {
+        /// The light's key, `lights[i]`.
+        light: String,
+        /// Its shader file.
+        file: std::path::PathBuf,
+    },
     /// A pass or rule names an unknown component.
     #[error("{0}")]
     Pass(String),

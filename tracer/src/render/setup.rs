@@ -110,6 +110,12 @@ impl Renderer {
                 given: programs.len(),
             });
         }
+        if let Some(l) = scene.shader_lights.first() {
+            return Err(RenderError::ShaderLight {
+                light: l.key.clone(),
+                file: l.file.clone(),
+            });
+        }
         let mut stats = RenderStats::default();
         let t = Instant::now();
         let accel = Accel::build(&scene.meshes, &scene.instances);
