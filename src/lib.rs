@@ -10,12 +10,14 @@
 //! hands them to the tracer ([`scene_lights`] compiles its light shaders into lights),
 //! [`output`] writes PNG and EXR images, [`mtlx`] reads MaterialX documents, [`shader`]
 //! compiles shader sources (`.sl`, `.osl`, `.oslgroup`) and
-//! finds the MaterialX libraries, [`generate`] builds
+//! finds the MaterialX libraries, [`genosl`] compiles MaterialX's own OSL implementations,
+//! [`generate`] builds
 //! networks for benchmarks (the multiplication tree) and [`bench`] is `shadenet bench`. It owns the `shadenet` CLI and must not
 //! add shading semantics of its own.
 
 pub mod bench;
 pub mod generate;
+pub mod genosl;
 pub mod lights;
 pub mod mtlx;
 pub mod output;

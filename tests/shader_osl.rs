@@ -383,10 +383,6 @@ fn errors_name_the_place_and_the_problem() {
             "unknown function `ambient`",
         ),
         (
-            "surface s(closure color c = 0) { Ci = c; }",
-            "closure inputs are not built",
-        ),
-        (
             "surface s() { vector v = P; float x = v.w; }",
             "has no field `w`",
         ),
@@ -766,4 +762,40 @@ fn early_returns_and_output_elements() {
         err.contains("`return` inside a loop is not built yet"),
         "{err}"
     );
+}
+
+/// A closure output connected to a later layer's closure input: the lobes flow through the
+/// group (an unconnected closure input is the empty closure).
+#[test]
+fn closures_connect_between_layers() {
+    let dir = folder(
+        "group_closure",
+        &[
+            (
+                "bsdf.osl",
+                "shader bsdf(output closure color c = 0) { c = diffuse(N); }",
+            ),
+            (
+                "half.osl",
+                "surface half(closure color base = 0) { Ci = base * 0.5; }",
+            ),
+            (
+                "g.oslgroup",
+                "shader bsdf a ;\nshader half b ;\nconnect a.c b.base ;\n",
+            ),
+            ("alone.oslgroup", "shader half b ;\n"),
+        ],
+    );
+    let lights = [point([0.6, -0.3, 1.5], 3.0)];
+    let mut f = plane_fragment();
+    f.p = [0.2, 0.1, 0.0];
+    f.i = [0.2, 0.1, -1.0];
+    let lambert = lambert_value(&lights, &f);
+    let g = shadenet::shader::load(&dir.join("g.oslgroup"), &[], &[]).unwrap();
+    let o = run_program(&g.program, &f, &lights, u32::MAX);
+    let half: Vec<f64> = lambert.iter().map(|x| x * 0.5).collect();
+    check(&o, "Ci", &half, 1e-9);
+    let alone = shadenet::shader::load(&dir.join("alone.oslgroup"), &[], &[]).unwrap();
+    let o = run_program(&alone.program, &f, &lights, u32::MAX);
+    check(&o, "Ci", &[0.0; 3], 0.0);
 }

@@ -122,6 +122,28 @@ pub struct Document {
     /// `<implementation nodedef=… nodegraph=…>`: nodedefs implemented by a nodegraph named
     /// elsewhere (nodedef, nodegraph).
     pub implementations: Vec<(String, String)>,
+    /// `<implementation … target=…>` in a shading language: a function in a file or an
+    /// inline source template (what MaterialX's code generators use).
+    pub code: Vec<CodeImpl>,
+}
+
+/// An implementation of a nodedef in a shading language (`target`, e.g. `genosl`): the
+/// function `function` of source file `file` (relative to the document's folder), or the
+/// inline template `sourcecode` (`{{input}}` naming the nodedef's inputs).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CodeImpl {
+    /// The nodedef implemented.
+    pub nodedef: String,
+    /// The code generator it is for.
+    pub target: String,
+    /// Source file, where the implementation is a function.
+    pub file: Option<String>,
+    /// The function's name in `file`.
+    pub function: Option<String>,
+    /// The inline template, where it is one.
+    pub sourcecode: Option<String>,
+    /// Position.
+    pub pos: Pos,
 }
 
 impl Document {
@@ -384,6 +406,7 @@ pub fn parse(file: &str, text: &str) -> Result<Document, MtlxError> {
         outputs: Vec::new(),
         looks: Vec::new(),
         implementations: Vec::new(),
+        code: Vec::new(),
     };
     for c in root.children().filter(Node::is_element) {
         match c.tag_name().name() {
@@ -406,6 +429,18 @@ pub fn parse(file: &str, text: &str) -> Result<Document, MtlxError> {
             "implementation" => {
                 if let (Some(nd), Some(ng)) = (c.attribute("nodedef"), c.attribute("nodegraph")) {
                     d.implementations.push((nd.to_string(), ng.to_string()));
+                } else if let (Some(nd), Some(target)) =
+                    (c.attribute("nodedef"), c.attribute("target"))
+                {
+                    let attr = |a: &str| c.attribute(a).map(str::to_string);
+                    d.code.push(CodeImpl {
+                        nodedef: nd.to_string(),
+                        target: target.to_string(),
+                        file: attr("file"),
+                        function: attr("function"),
+                        sourcecode: attr("sourcecode"),
+                        pos: ctx.pos(c),
+                    });
                 }
             }
             t if NOT_NODES.contains(&t) => {}

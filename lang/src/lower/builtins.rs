@@ -199,25 +199,38 @@ impl<'a> Lower<'a> {
         Self::poison(b, Ty::Float)
     }
 
-    /// The overload of user function `name` that takes `vals`: an exact match of the
-    /// argument types first, then one by widening.
+    /// The overload of user function `name` that takes `vals` (by widening where needed),
+    /// the closest: the most arguments of exactly the parameter's type.
     pub(crate) fn overload(
         &self,
         name: &str,
         vals: &[(Val, Span)],
     ) -> Option<&'a ast::FunctionDef> {
         let defs = self.functions.get(name)?;
-        let fits = |f: &&&ast::FunctionDef, exact: bool| {
-            f.params.len() == vals.len()
-                && f.params
+        // Among the overloads that take the arguments (by widening where needed), the one
+        // with the most arguments of exactly its parameters' types; the first of equals.
+        let mut best: Option<(usize, &'a ast::FunctionDef)> = None;
+        for f in defs {
+            if f.params.len() != vals.len()
+                || !f
+                    .params
                     .iter()
                     .zip(vals)
-                    .all(|(p, (v, _))| accepts(p, v, exact))
-        };
-        defs.iter()
-            .find(|f| fits(f, true))
-            .or_else(|| defs.iter().find(|f| fits(f, false)))
-            .copied()
+                    .all(|(p, (v, _))| accepts(p, v, false))
+            {
+                continue;
+            }
+            let exact = f
+                .params
+                .iter()
+                .zip(vals)
+                .filter(|(p, (v, _))| accepts(p, v, true))
+                .count();
+            if best.is_none_or(|(e, _)| exact > e) {
+                best = Some((exact, f));
+            }
+        }
+        best.map(|(_, f)| f)
     }
 
     /// Whether `name` is a builtin of the dialect (or an OSL closure).
@@ -567,11 +580,15 @@ fn accepts(param: &ast::Param, v: &Val, exact: bool) -> bool {
     if same || exact {
         return same;
     }
-    let number = matches!(ty, Ty::Float | Ty::Int);
+    // A comparison's truth passes as an int or a float (OSL's conditions are ints), and the
+    // triples convert to one another (MaterialX's OSL passes colors to vector parameters).
+    let number = matches!(ty, Ty::Float | Ty::Int | Ty::Bool);
     match p.base {
-        ast::BaseType::Float | ast::BaseType::Color => number,
+        ast::BaseType::Float | ast::BaseType::Int if ty == Ty::Bool => true,
+        ast::BaseType::Float => number,
+        ast::BaseType::Color => number || ty.is_geometric(),
         ast::BaseType::Point | ast::BaseType::Vector | ast::BaseType::Normal => {
-            ty.is_geometric() || number
+            ty.is_triple() || number
         }
         _ => false,
     }

@@ -44,8 +44,16 @@ impl<'a> Lower<'a> {
         if ty == to || (ty.is_geometric() && to.is_geometric()) {
             return Val::V { v, ty: to, varying };
         }
-        // OSL: an int (or a comparison's truth, an int there) widens to a float.
+        // OSL: an int (or a comparison's truth, an int there) widens to a float; the
+        // triples (point, vector, normal, color) convert to one another.
         let osl = self.dialect == crate::Dialect::Osl;
+        if osl && ty.is_triple() && to.is_triple() {
+            return Val::V {
+                v: b.retype(to.ir(), v),
+                ty: to,
+                varying,
+            };
+        }
         if osl && ty == Ty::Bool && matches!(to, Ty::Int | Ty::Float) {
             return Val::V {
                 v: b.convert(to.ir(), v),
@@ -629,8 +637,20 @@ impl<'a> Lower<'a> {
             Val::ArrayVar { len, ty } if op == AssignOp::Set => {
                 return self.assign_array(b, id, (len, ty), value, var.uniform);
             }
-            Val::StructVar(s) if op == AssignOp::Set => {
-                let v = self.expr(b, value);
+            Val::StructVar(s) => {
+                let v = match arith_of(op) {
+                    _ if op == AssignOp::Set => self.expr(b, value),
+                    // `s op= x`: the struct's overloaded operator, then stored.
+                    Some(bin) => {
+                        let old = self.read_var(&id.name).unwrap_or(Val::Str(String::new()));
+                        let x = self.expr(b, value);
+                        self.binary_vals(b, bin, (old, target.span), (x, value.span), span)
+                    }
+                    None => {
+                        self.error("bitwise assignments are not built", span, "not built yet");
+                        return Self::poison(b, Ty::Float);
+                    }
+                };
                 if !matches!(&v, Val::Struct(t, _) if *t == s) {
                     self.error(
                         format!("`{}` is a `{s}`: not {}", id.name, an(v.type_name())),
@@ -642,7 +662,7 @@ impl<'a> Lower<'a> {
                 self.store(id, v.clone(), span);
                 return v;
             }
-            Val::Array(..) | Val::ArrayVar { .. } | Val::Struct(..) | Val::StructVar(_) => {
+            Val::Array(..) | Val::ArrayVar { .. } | Val::Struct(..) => {
                 self.error(
                     format!(
                         "`{}` is an array or a struct: assign its parts, or all of it with `=`",

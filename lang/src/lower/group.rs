@@ -6,22 +6,13 @@
 //! output reads. It owns how a group binds its layers; the layers' lowering is the
 //! shaders'.
 
-use super::{Lower, Ty, Val, osl};
+use super::{LayerInput, Lower, Ty, Val, osl};
 use crate::ast::{self, Item, ShaderKind};
 use crate::diag::{Diagnostic, Diagnostics};
 use crate::group::{Group, LoadedGroup, ParamValue};
 use shadenet_graph::ConstValue;
 use shadenet_graph::ir::{Builder, Program};
 use std::collections::HashMap;
-
-/// What a group gives a layer's parameter.
-#[derive(Clone, Debug)]
-pub(crate) enum LayerInput {
-    /// A `param` statement's values.
-    Values(Vec<ParamValue>, crate::source::Span),
-    /// The output of an earlier layer.
-    Connected(Val, crate::source::Span),
-}
 
 /// Lowers the shader group `loaded` (its shaders parsed) into one program named after its
 /// last layer. Errors name the group statement or the shader source at fault.

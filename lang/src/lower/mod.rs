@@ -201,6 +201,15 @@ pub(crate) fn arith_of(op: ast::AssignOp) -> Option<ast::BinaryOp> {
     }
 }
 
+/// What a group gives a layer's parameter.
+#[derive(Clone, Debug)]
+pub(crate) enum LayerInput {
+    /// A `param` statement's values.
+    Values(Vec<crate::group::ParamValue>, Span),
+    /// The output of an earlier layer.
+    Connected(Val, Span),
+}
+
 /// The hidden variable holding element `k` of array `name` ([`arrays`]).
 pub(crate) fn element(name: &str, k: usize) -> String {
     format!("{name}[{k}]")
@@ -255,11 +264,11 @@ pub(crate) struct Lower<'a> {
     /// Prefixed to the program parameters' names (`layer.` in a shader group).
     pub(crate) prefix: String,
     /// A shader group layer's instance values and connections, by parameter name.
-    pub(crate) inputs: HashMap<String, group::LayerInput>,
+    pub(crate) inputs: HashMap<String, LayerInput>,
     /// The file's OSL struct types by name.
     pub(crate) structs: HashMap<&'a str, &'a ast::StructDef>,
     /// Inside an inlined function that returns before its end ([`returns`]).
-    pub(crate) returns: Option<returns::Returns>,
+    pub(crate) returns: Option<returns::Returns<'a>>,
 }
 
 /// Compiles shader `name` (the file's only or first shader when `None`) of a parsed file to
@@ -513,8 +522,11 @@ impl<'a> Lower<'a> {
             },
             None => self.expr_as(b, default, ty),
         };
+        // OSL's parameters may be bound to anything varying (a default reading `P` is
+        // common); RSL's are uniform unless declared `varying`.
         if let Val::V { varying: true, .. } = val
             && uniform
+            && self.dialect == Dialect::Rsl
         {
             self.error(
                 format!(

@@ -124,7 +124,7 @@ impl<'a> Lower<'a> {
         self.scopes.push(HashMap::new());
         if shader.body.stmts.iter().any(super::returns::has_return) {
             // `return;` ends the shader: what follows runs where it did not.
-            self.begin_returns(b, None);
+            self.begin_returns(b, None, None);
         }
         self.block(b, &shader.body);
         self.returns = None;
@@ -142,7 +142,7 @@ impl<'a> Lower<'a> {
         names.extend(outputs);
         names
             .into_iter()
-            .filter_map(|n| Some((n.to_string(), self.lookup(n)?.val.clone())))
+            .filter_map(|n| Some((n.to_string(), self.read_var(n)?)))
             .collect()
     }
 
@@ -220,11 +220,20 @@ impl<'a> Lower<'a> {
     /// (zero where it has none), read back as a program output at the end.
     pub(crate) fn osl_output_param(&mut self, b: &mut Builder, p: &'a ast::Param) {
         if p.ty.output.is_none() {
-            self.error(
-                "closure inputs are not built: a closure parameter must be an `output`",
-                p.span,
-                "closure input",
-            );
+            // A closure input: what a group layer connects to it, else the empty closure.
+            let v = match self.inputs.remove(&p.name.name) {
+                Some(super::LayerInput::Connected(v @ Val::Closure(_), _)) => v,
+                Some(super::LayerInput::Connected(_, at) | super::LayerInput::Values(_, at)) => {
+                    self.error(
+                        format!("closure parameter `{}` takes a closure output", p.name.name),
+                        at,
+                        "not a closure",
+                    );
+                    Val::Closure(Box::default())
+                }
+                None => Val::Closure(Box::default()),
+            };
+            self.declare(&p.name, v, false);
             return;
         }
         if p.ty.closure.is_some() {
@@ -239,6 +248,20 @@ impl<'a> Lower<'a> {
                 }
             }
             self.declare(&p.name, Val::Closure(Box::default()), false);
+            return;
+        }
+        if let ast::BaseType::Struct(n) = &p.ty.base
+            && let Some(def) = self.struct_def(&n.name)
+        {
+            let v = match &p.default {
+                Some(d) => self.expr(b, d),
+                None => self.struct_zero(b, def, 0),
+            };
+            let v = match v {
+                v @ Val::Struct(..) => v,
+                _ => self.struct_zero(b, def, 0),
+            };
+            self.bind_struct(&p.name, def, v, false);
             return;
         }
         let Some(ty) = self.declared_type(&p.ty) else {
@@ -377,6 +400,27 @@ impl<'a> Lower<'a> {
                     ty: Ty::Int,
                     varying: true,
                 })
+            }
+            _ => self.osl_more(b, name, &vs),
+        }
+    }
+
+    /// The rest of [`Lower::osl_builtin`]: `mix` of triples by a triple, `isnan`,
+    /// `isinf`, `isfinite`.
+    fn osl_more(&mut self, b: &mut Builder, name: &str, vs: &[(Value, Ty, bool)]) -> Option<Val> {
+        let varying = vs.iter().any(|v| v.2);
+        let out = |v: Value, ty: Ty| Some(Val::V { v, ty, varying });
+        match (name, vs) {
+            ("mix", [(x, tx, _), (y, ty, _), (a, ta, _)])
+                if tx.is_triple() && *ty == *tx && *ta == *tx =>
+            {
+                // OSL's mix of triples by a triple: x (1 − a) + y a, per component.
+                let one = b.float(1.0);
+                let one = b.splat_to(tx.ir(), one);
+                let om = b.sub(one, *a);
+                let xa = b.mul(*x, om);
+                let ya = b.mul(*y, *a);
+                out(b.add(xa, ya), *tx)
             }
             ("isnan" | "isinf" | "isfinite", [(x, Ty::Float, _)]) => {
                 let nan = b.binary(BinOp::Ne, *x, *x);
@@ -581,10 +625,26 @@ fn int_builtin(b: &mut Builder, name: &str, args: &[(Val, Span)]) -> Option<Val>
 }
 
 /// Declares `outputs` as the program's outputs in order: values as they are, closures lit
-/// by the surface lowering (one output per render component).
+/// by the surface lowering (one output per render component), a struct's fields as
+/// `name.field` and an array's elements as `name[k]`.
 pub(crate) fn declare_outputs(b: &mut Builder, outputs: Vec<(String, Val)>) {
     for (name, val) in outputs {
         match val {
+            Val::Struct(_, fields) => {
+                let named = fields
+                    .into_iter()
+                    .map(|(f, v)| (super::structs::field(&name, &f), v))
+                    .collect();
+                declare_outputs(b, named);
+            }
+            Val::Array(elems) => {
+                let named = elems
+                    .into_iter()
+                    .enumerate()
+                    .map(|(k, v)| (super::element(&name, k), v))
+                    .collect();
+                declare_outputs(b, named);
+            }
             Val::V { v, .. } => b.output(&name, None, v),
             Val::Closure(c) => {
                 let low = LowVal::closure(b, *c);

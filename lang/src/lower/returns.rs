@@ -16,11 +16,13 @@ pub(crate) const RETURNED: &str = "$ret";
 /// The hidden variable holding the value returned.
 pub(crate) const RETVAL: &str = "$retval";
 
-/// An inlined function that returns early: its result type (`None`: `void`).
+/// An inlined function that returns early: its result type (`None`: `void`, or a struct).
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Returns {
+pub(crate) struct Returns<'a> {
     /// The type `return e` converts `e` to.
     pub(crate) ty: Option<Ty>,
+    /// The struct type returned, where it is one (`$retval` is then a struct variable).
+    pub(crate) structure: Option<&'a crate::ast::StructDef>,
 }
 
 /// Whether `s` holds a `return` at any depth (functions are not nested).
@@ -39,8 +41,14 @@ pub(crate) fn has_return(s: &Stmt) -> bool {
 }
 
 impl<'a> Lower<'a> {
-    /// Binds the hidden return variables of a function returning `ty` (`None`: `void`).
-    pub(crate) fn begin_returns(&mut self, b: &mut Builder, ty: Option<Ty>) {
+    /// Binds the hidden return variables of a function returning `ty` (`None`: `void`) or
+    /// the struct `structure`.
+    pub(crate) fn begin_returns(
+        &mut self,
+        b: &mut Builder,
+        ty: Option<Ty>,
+        structure: Option<&'a crate::ast::StructDef>,
+    ) {
         let scope = self.scopes.last_mut().expect("a scope");
         let no = Val::V {
             v: b.boolean(false),
@@ -50,7 +58,15 @@ impl<'a> Lower<'a> {
         scope.insert(RETURNED.to_string(), hidden(no));
         let val = Self::poison(b, ty.unwrap_or(Ty::Float));
         scope.insert(RETVAL.to_string(), hidden(val));
-        self.returns = Some(Returns { ty });
+        if let Some(def) = structure {
+            let zero = self.struct_zero(b, def, 0);
+            let id = crate::ast::Ident {
+                name: RETVAL.to_string(),
+                span: def.span,
+            };
+            self.bind_struct(&id, def, zero, false);
+        }
+        self.returns = Some(Returns { ty, structure });
     }
 
     /// `return e;` / `return;` inside a function that returns early.
@@ -74,6 +90,22 @@ impl<'a> Lower<'a> {
         if let (Some(ty), Some(e)) = (r.ty, e) {
             let v = self.expr_as(b, e, ty);
             self.set_flag(RETVAL, v);
+        }
+        if let (Some(def), Some(e)) = (r.structure, e) {
+            let v = self.expr(b, e);
+            if !matches!(&v, Val::Struct(n, _) if *n == def.name.name) {
+                self.error(
+                    format!("this function returns a `{}`", def.name.name),
+                    e.span,
+                    "not one",
+                );
+            } else {
+                let id = crate::ast::Ident {
+                    name: RETVAL.to_string(),
+                    span: e.span,
+                };
+                self.store(&id, v, e.span);
+            }
         }
         let yes = Val::V {
             v: b.boolean(true),

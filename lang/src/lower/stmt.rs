@@ -759,6 +759,9 @@ impl<'a> Lower<'a> {
             } else if let (ast::BaseType::Struct(_), Val::Struct(..)) = (&p.ty.base, &a) {
                 // `accepts` matched the struct type.
                 self.bind_value(&p.name, a, false);
+            } else if p.ty.base == ast::BaseType::String && matches!(a, Val::Str(_)) {
+                // A string argument (a noise or space name): known while compiling.
+                self.declare(&p.name, a, true);
             } else if p.ty.closure.is_some() && self.dialect == crate::Dialect::Osl {
                 // `accepts` matched a closure to it.
                 self.declare(&p.name, a, false);
@@ -770,18 +773,22 @@ impl<'a> Lower<'a> {
         self.inlining.push((f.name.name.as_str(), span, f.span));
         let outer_returns = self.returns.take();
         let early = body.iter().any(super::returns::has_return);
-        let early_value = early && !(closure_ret || struct_ret);
+        let early_value = early && !closure_ret;
+        let ret_struct = match &f.ret.base {
+            ast::BaseType::Struct(n) => self.struct_def(&n.name),
+            _ => None,
+        };
         if early_value {
             // Returns before the end: every `return` (the last one too) sets the hidden
             // result, and what follows one runs where it did not.
-            self.begin_returns(b, ret);
+            self.begin_returns(b, ret, ret_struct);
             let all: Vec<&Stmt> = f.body.stmts.iter().collect();
             self.stmts(b, &all);
         } else {
             if early {
                 self.error(
                     format!(
-                        "`{}` returns a closure or a struct before its end: only a last `return` is built for those",
+                        "`{}` returns a closure before its end: only a last `return` is built for closures",
                         f.name.name
                     ),
                     f.name.span,
@@ -793,13 +800,10 @@ impl<'a> Lower<'a> {
             }
         }
         let out = match (ret, last) {
-            _ if early_value => match ret {
-                Some(_) => self
-                    .lookup(super::returns::RETVAL)
-                    .map(|v| v.val.clone())
-                    .unwrap_or_else(|| Self::poison(b, Ty::Float)),
-                None => Self::poison(b, Ty::Float),
-            },
+            _ if early_value && (ret.is_some() || ret_struct.is_some()) => self
+                .read_var(super::returns::RETVAL)
+                .unwrap_or_else(|| Self::poison(b, Ty::Float)),
+            _ if early_value => Self::poison(b, Ty::Float),
             _ if struct_ret => match last.map(|e| self.expr(b, e)) {
                 Some(v @ Val::Struct(..)) => v,
                 _ => {

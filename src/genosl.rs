@@ -1,0 +1,242 @@
+//! MaterialX's own OSL implementations of its nodes (the `genosl` target of the user's
+//! MaterialX libraries, read at run time, never copied), compiled by our OSL front end the
+//! way MaterialX's OSL generator uses them (issue 22): for a nodedef whose implementation is
+//! a function in a file, a shader that includes `mx_funcs.h` and the file and calls the
+//! function with the nodedef's inputs (as parameters with the nodedef's defaults) and
+//! outputs; for an inline `sourcecode` template, a shader whose output is the template with
+//! `{{input}}` replaced by the parameters. Inputs bound to geometry (`defaultgeomprop`)
+//! read our globals. MaterialX's types map onto ours (`color3` → `color`, `vector3` →
+//! `vector`, `integer` and `boolean` → `int`) or onto the structs of its OSL headers
+//! (`color4`, `vector2`, `vector4`, `matrix33`).
+//!
+//! It owns building these shaders; the language is `shadenet-lang`'s and the nodedefs the
+//! library's ([`crate::mtlx`]).
+
+use shadenet_graph::mtlx::Library;
+use shadenet_graph::mtlx::document::{CodeImpl, Input, NodeDefElem};
+use std::path::{Path, PathBuf};
+
+/// The library folders holding `genosl` implementations.
+const FOLDERS: &[&str] = &["stdlib/genosl", "pbrlib/genosl"];
+
+/// What MaterialX's OSL generator defines before every shader.
+const PREAMBLE: &str = "#define M_FLOAT_EPS 1e-8\n\
+    #define BSDF closure color\n#define EDF closure color\n#define VDF closure color\n\
+    #define surfaceshader closure color\n#define volumeshader closure color\n\
+    #define lightshader closure color\n#define material closure color\n";
+
+/// One `genosl` implementation and the folder its file is relative to.
+#[derive(Clone, Debug)]
+pub struct GenOsl {
+    /// The implementation element.
+    pub imp: CodeImpl,
+    /// The folder of the document that declares it.
+    pub dir: PathBuf,
+}
+
+/// Every `genosl` implementation in the libraries at `libraries`, in file order.
+pub fn implementations(libraries: &Path) -> Result<Vec<GenOsl>, String> {
+    let mut out = Vec::new();
+    for folder in FOLDERS {
+        let dir = libraries.join(folder);
+        let Ok(entries) = std::fs::read_dir(&dir) else {
+            continue;
+        };
+        let mut files: Vec<PathBuf> = entries
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|e| e == "mtlx"))
+            .collect();
+        files.sort();
+        for f in files {
+            let text = std::fs::read_to_string(&f).map_err(|e| format!("{}: {e}", f.display()))?;
+            let doc = shadenet_graph::mtlx::parse(&f.display().to_string(), &text)
+                .map_err(|e| e.to_string())?;
+            out.extend(
+                doc.code
+                    .into_iter()
+                    .filter(|c| c.target == "genosl")
+                    .map(|imp| GenOsl {
+                        imp,
+                        dir: dir.clone(),
+                    }),
+            );
+        }
+    }
+    Ok(out)
+}
+
+/// Our OSL type for a MaterialX type, or `None` where there is none.
+fn osl_type(mx: &str) -> Option<&'static str> {
+    Some(match mx {
+        "float" => "float",
+        "integer" | "boolean" => "int",
+        "color3" => "color",
+        "color4" => "color4",
+        "vector2" => "vector2",
+        "vector3" => "vector",
+        "vector4" => "vector4",
+        "matrix33" => "matrix33",
+        "matrix44" => "matrix",
+        "string" => "string",
+        "filename" => "textureresource",
+        "BSDF" | "EDF" | "VDF" | "surfaceshader" | "volumeshader" | "displacementshader"
+        | "lightshader" | "material" => "closure color",
+        _ => return None,
+    })
+}
+
+/// The OSL expression of a MaterialX value string of type `mx`.
+fn osl_value(mx: &str, value: &str) -> Option<String> {
+    let nums: Vec<&str> = value.split(',').map(str::trim).collect();
+    let list = || nums.join(", ");
+    Some(match mx {
+        "float" => nums.first()?.to_string(),
+        "integer" => nums.first()?.to_string(),
+        "boolean" => (if value.trim() == "true" { "1" } else { "0" }).to_string(),
+        "color3" => format!("color({})", list()),
+        "vector3" => format!("vector({})", list()),
+        "vector2" => format!("vector2({})", list()),
+        "vector4" => format!("vector4({})", list()),
+        "color4" if nums.len() == 4 => {
+            format!(
+                "color4(color({}, {}, {}), {})",
+                nums[0], nums[1], nums[2], nums[3]
+            )
+        }
+        "matrix33" => format!("matrix33(matrix({}))", list()),
+        "matrix44" => format!("matrix({})", list()),
+        "string" => format!("{value:?}"),
+        _ => return None,
+    })
+}
+
+/// The value an input bound to geometry reads (`defaultgeomprop`).
+fn geomprop(mx: &str, prop: &str) -> Option<String> {
+    Some(match (prop, mx) {
+        ("UV0", "vector2") => "vector2(u, v)".into(),
+        ("Nworld" | "Nobject", _) => "N".into(),
+        ("Pworld" | "Pobject", _) => "P".into(),
+        ("Tworld" | "Tobject", _) => "normalize(dPdu)".into(),
+        ("Bworld" | "Bobject", _) => "normalize(dPdv)".into(),
+        _ => return None,
+    })
+}
+
+/// A parameter name for input `name` (prefixed: MaterialX's inputs may be OSL keywords).
+fn param_name(name: &str) -> String {
+    format!("in_{name}")
+}
+
+/// The OSL shader that runs implementation `g` of `nd`, named `mx_<nodedef>`.
+pub fn shader_source(g: &GenOsl, nd: &NodeDefElem) -> Result<String, String> {
+    let mut params = Vec::new();
+    for i in &nd.inputs {
+        params.push(input_param(i)?);
+    }
+    let mut outs = Vec::new();
+    for o in &nd.outputs {
+        let ty = osl_type(&o.ty).ok_or_else(|| format!("output type `{}`", o.ty))?;
+        let name = format!("out_{}", o.name);
+        let init = if ty == "closure color" {
+            "0".to_string()
+        } else {
+            zero(ty)
+        };
+        params.push(format!("output {ty} {name} = {init}"));
+        outs.push(name);
+    }
+    let mut src = String::from(PREAMBLE);
+    src += "#include \"mx_funcs.h\"\n";
+    let body = match (&g.imp.file, &g.imp.function, &g.imp.sourcecode) {
+        (Some(file), Some(function), _) => {
+            src += &format!("#include \"{}\"\n", g.dir.join(file).display());
+            let args: Vec<String> = nd
+                .inputs
+                .iter()
+                .map(|i| param_name(&i.name))
+                .chain(outs.iter().cloned())
+                .collect();
+            format!("    {function}({});\n", args.join(", "))
+        }
+        (_, _, Some(code)) => {
+            let mut expr = code.clone();
+            for i in &nd.inputs {
+                expr = expr.replace(&format!("{{{{{}}}}}", i.name), &param_name(&i.name));
+            }
+            if expr.contains("{{") {
+                return Err(format!("template token left in `{expr}`"));
+            }
+            let [out] = outs.as_slice() else {
+                return Err("an inline template with several outputs".into());
+            };
+            format!("    {out} = {expr};\n")
+        }
+        _ => return Err("neither a function in a file nor a template".into()),
+    };
+    src += &format!(
+        "shader mx_{}(\n    {})\n{{\n{body}}}\n",
+        nd.name,
+        params.join(",\n    ")
+    );
+    Ok(src)
+}
+
+fn zero(ty: &str) -> String {
+    match ty {
+        "float" => "0".into(),
+        "int" => "0".into(),
+        "color" | "vector" => format!("{ty}(0)"),
+        "color4" => "color4(color(0), 0)".into(),
+        "vector2" => "vector2(0, 0)".into(),
+        "vector4" => "vector4(0, 0, 0, 0)".into(),
+        "matrix33" => "matrix33(matrix(0))".into(),
+        "matrix" => "matrix(0)".into(),
+        "string" => "\"\"".into(),
+        _ => "0".into(),
+    }
+}
+
+/// The shader parameter of nodedef input `i`.
+fn input_param(i: &Input) -> Result<String, String> {
+    let ty = osl_type(&i.ty).ok_or_else(|| format!("input type `{}`", i.ty))?;
+    if ty == "closure color" {
+        return Ok(format!("closure color {} = 0", param_name(&i.name)));
+    }
+    let default = match (&i.defaultgeomprop, &i.value) {
+        (Some(g), _) => geomprop(&i.ty, g).unwrap_or_else(|| zero(ty)),
+        (None, Some(v)) => osl_value(&i.ty, v).unwrap_or_else(|| zero(ty)),
+        (None, None) => zero(ty),
+    };
+    Ok(format!("{ty} {} = {default}", param_name(&i.name)))
+}
+
+/// Compiles implementation `g` of `nd` through our OSL front end (include folders: the
+/// library's `genosl/include`, its `genosl`, and `stdlib/genosl` for the shared headers).
+pub fn compile(
+    libraries: &Path,
+    g: &GenOsl,
+    nd: &NodeDefElem,
+) -> Result<shadenet_graph::ir::Program, String> {
+    let src = shader_source(g, nd)?;
+    let mut sources = shadenet_lang::SourceMap::new();
+    let stdlib = libraries.join("stdlib/genosl");
+    let options = shadenet_lang::Options {
+        dialect: Some(shadenet_lang::Dialect::Osl),
+        include_dirs: vec![
+            stdlib.join("include"),
+            stdlib.clone(),
+            stdlib.join("lib"),
+            g.dir.clone(),
+        ],
+        defines: Vec::new(),
+    };
+    let name = format!("mx_{}.osl", nd.name);
+    let parsed = shadenet_lang::parse_str(&mut sources, &name, &src, &options)
+        .map_err(|d| d.render(&sources))?;
+    shadenet_lang::lower::compile(&parsed, None).map_err(|d| d.render(&sources))
+}
+
+/// The nodedef an implementation is for, from `lib`.
+pub fn nodedef<'l>(lib: &'l Library, g: &GenOsl) -> Option<&'l NodeDefElem> {
+    lib.nodedef(&g.imp.nodedef)
+}
