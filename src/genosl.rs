@@ -129,9 +129,27 @@ fn param_name(name: &str) -> String {
 
 /// The OSL shader that runs implementation `g` of `nd`, named `mx_<nodedef>`.
 pub fn shader_source(g: &GenOsl, nd: &NodeDefElem) -> Result<String, String> {
+    shader_source_with(g, nd, &[])
+}
+
+/// [`shader_source`] with some inputs' values given (MaterialX value strings by input
+/// name) instead of the nodedef's defaults.
+pub fn shader_source_with(
+    g: &GenOsl,
+    nd: &NodeDefElem,
+    values: &[(String, String)],
+) -> Result<String, String> {
     let mut params = Vec::new();
     for i in &nd.inputs {
-        params.push(input_param(i)?);
+        match values.iter().find(|(n, _)| *n == i.name) {
+            Some((_, v)) => {
+                let mut given = i.clone();
+                given.value = Some(v.clone());
+                given.defaultgeomprop = None;
+                params.push(input_param(&given)?);
+            }
+            None => params.push(input_param(i)?),
+        }
     }
     let mut outs = Vec::new();
     for o in &nd.outputs {
@@ -217,7 +235,17 @@ pub fn compile(
     g: &GenOsl,
     nd: &NodeDefElem,
 ) -> Result<shadenet_graph::ir::Program, String> {
-    let src = shader_source(g, nd)?;
+    compile_with(libraries, g, nd, &[])
+}
+
+/// [`compile`] with some inputs' values given ([`shader_source_with`]).
+pub fn compile_with(
+    libraries: &Path,
+    g: &GenOsl,
+    nd: &NodeDefElem,
+    values: &[(String, String)],
+) -> Result<shadenet_graph::ir::Program, String> {
+    let src = shader_source_with(g, nd, values)?;
     let mut sources = shadenet_lang::SourceMap::new();
     let stdlib = libraries.join("stdlib/genosl");
     let options = shadenet_lang::Options {

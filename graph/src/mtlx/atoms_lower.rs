@@ -346,7 +346,10 @@ pub fn rotate2d(b: &mut Builder, inp: &NodeInputs) -> Out {
     let ry = b.sub(cy, sx);
     one(b.construct(Type::Vec2, &[rx, ry]))
 }
-/// Rodrigues' rotation of `in` by `amount` degrees about `normalize(axis)`.
+/// Rodrigues' rotation of `in` by `amount` degrees about `normalize(axis)`, in MaterialX's
+/// convention (`v' = v·M`, so `in × axis` where Wikipedia's `v' = M·v` has `axis × in`:
+/// MaterialX's GLSL and OSL implementations say so). Found by comparing with MaterialX's
+/// OSL implementation (`tests/mtlx_genosl.rs`): the cross product was the other way round.
 pub fn rotate3d(b: &mut Builder, inp: &NodeInputs) -> Out {
     let v = input(inp);
     let k = b.normalize(inp.get("axis"));
@@ -355,7 +358,7 @@ pub fn rotate3d(b: &mut Builder, inp: &NodeInputs) -> Out {
     let cs = b.splat(Type::Vec3, c);
     let ss = b.splat(Type::Vec3, s);
     let t1 = b.mul(v, cs);
-    let kxv = b.binary(BinOp::Cross, k, v);
+    let kxv = b.binary(BinOp::Cross, v, k);
     let t2 = b.mul(kxv, ss);
     let kv = b.dot(k, v);
     let one_f = b.float(1.0);
@@ -409,14 +412,36 @@ pub fn screen(b: &mut Builder, inp: &NodeInputs) -> Out {
         b.sub(o, p)
     })
 }
-/// `1 − (1 − bg)/fg`, blended by `mix` (0 where `fg` is 0: total division).
+/// `1 − (1 − bg)/fg`, blended by `mix`; per component, 0 (not blended) where `|fg| <
+/// 1e-8`, as MaterialX's implementations (`mx_burn_float`) define it. Found by comparing
+/// with MaterialX's OSL implementation (`tests/mtlx_genosl.rs`): the blend of the total
+/// division's 1 there was wrong.
 pub fn burn(b: &mut Builder, inp: &NodeInputs) -> Out {
-    composite(b, inp, |b, f, g, ty| {
-        let o = konst(b, ty, 1.0);
-        let a = b.sub(o, g);
-        let q = b.div(a, f);
-        b.sub(o, q)
-    })
+    let ty = out_ty(inp);
+    let (fg, bg) = (get(b, inp, "fg", ty), get(b, inp, "bg", ty));
+    let o = konst(b, ty, 1.0);
+    let a = b.sub(o, bg);
+    let q = b.div(a, fg);
+    let v = b.sub(o, q);
+    let t = inp.get("mix");
+    let blended = b.mix(bg, v, t);
+    let zero_where_small = |b: &mut Builder, f: Value, x: Value| {
+        let af = b.unary(UnOp::Abs, f);
+        let eps = b.float(1e-8);
+        let small = b.binary(crate::ir::BinOp::Lt, af, eps);
+        let z = b.float(0.0);
+        b.select(small, z, x)
+    };
+    if ty == Type::Float {
+        return one(zero_where_small(b, fg, blended));
+    }
+    let comps: Vec<Value> = (0..ty.width())
+        .map(|k| {
+            let (f, x) = (b.extract(fg, k), b.extract(blended, k));
+            zero_where_small(b, f, x)
+        })
+        .collect();
+    one(b.construct(ty, &comps))
 }
 /// `bg / (1 − fg)`, blended by `mix`.
 pub fn dodge(b: &mut Builder, inp: &NodeInputs) -> Out {

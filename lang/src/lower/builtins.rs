@@ -99,13 +99,16 @@ impl<'a> Lower<'a> {
         span: Span,
     ) -> Val {
         let want = self.want.take();
+        let want_struct = self.want_struct.take();
         let vals: Vec<(Val, Span)> = args.iter().map(|a| (self.expr(b, a), a.span)).collect();
         // User overloads come first; a name that is also a builtin's falls back to it
         // (OSL's user functions add overloads, as MaterialX's `abs(color4)`).
+        let wanted = (want, want_struct);
         if self.functions.contains_key(callee.name.as_str())
-            && (self.overload(&callee.name, &vals).is_some() || !self.is_builtin(&callee.name))
+            && (self.overload(&callee.name, &vals, &wanted).is_some()
+                || !self.is_builtin(&callee.name))
         {
-            return self.user_call(b, &callee.name, vals, args, span);
+            return self.user_call(b, &callee.name, vals, args, span, &wanted);
         }
         let name = callee.name.as_str();
         if let Some(def) = self.struct_def(name) {
@@ -166,8 +169,9 @@ impl<'a> Lower<'a> {
         vals: Vec<(Val, Span)>,
         args: &'a [Expr],
         span: Span,
+        wanted: &Wanted,
     ) -> Val {
-        if let Some(f) = self.overload(name, &vals) {
+        if let Some(f) = self.overload(name, &vals, wanted) {
             let vals = vals.into_iter().map(|v| v.0).collect();
             return self.inline(b, f, vals, args, span);
         }
@@ -205,6 +209,7 @@ impl<'a> Lower<'a> {
         &self,
         name: &str,
         vals: &[(Val, Span)],
+        wanted: &Wanted,
     ) -> Option<&'a ast::FunctionDef> {
         let defs = self.functions.get(name)?;
         // Among the overloads that take the arguments (by widening where needed), the one
@@ -220,12 +225,15 @@ impl<'a> Lower<'a> {
             {
                 continue;
             }
-            let exact = f
+            // Arguments of exactly the parameter's type count twice; a result of the type
+            // the value is assigned to once (OSL overloads by return type too).
+            let exact = 3 * f
                 .params
                 .iter()
                 .zip(vals)
                 .filter(|(p, (v, _))| accepts(p, v, true))
-                .count();
+                .count()
+                + returns_wanted(&f.ret, wanted);
             if best.is_none_or(|(e, _)| exact > e) {
                 best = Some((exact, f));
             }
@@ -548,6 +556,24 @@ impl<'a> Lower<'a> {
             ty: Ty::Color,
             varying: true,
         }
+    }
+}
+
+/// The type a call's result is assigned to, where known: a value type or a struct name.
+pub(crate) type Wanted = (Option<Ty>, Option<String>);
+
+/// How well return type `ret` fits the `wanted` one: 2 the same, 1 a triple for a triple
+/// (OSL converts them), 0 otherwise.
+fn returns_wanted(ret: &ast::Type, (ty, st): &Wanted) -> usize {
+    use ast::BaseType as B;
+    let triple = matches!(ret.base, B::Color | B::Point | B::Vector | B::Normal);
+    match (&ret.base, ty, st) {
+        (B::Struct(n), _, Some(s)) if n.name == *s => 2,
+        (B::Float, Some(Ty::Float), _) | (B::Int, Some(Ty::Int), _) => 2,
+        (B::Color, Some(Ty::Color), _) => 2,
+        (B::Point | B::Vector | B::Normal, Some(t), _) if t.is_geometric() => 2,
+        (_, Some(t), _) if triple && t.is_triple() => 1,
+        _ => 0,
     }
 }
 

@@ -155,7 +155,12 @@ impl<'a> Lower<'a> {
             } => self.construct(b, ty, *ty_span, space.as_ref(), args, e.span),
             ExprKind::Cast { ty, ty_span, expr } => {
                 let to = self.base_type(ty, *ty_span);
+                // `(color) noise(…)`: the cast is the type the call's result goes to.
+                if matches!(expr.kind, ExprKind::Call { .. }) {
+                    self.want = Some(to);
+                }
                 let v = self.expr(b, expr);
+                self.want = None;
                 self.cast(b, v, to, expr.span)
             }
             ExprKind::Index { base, index } => self.index(b, base, index),
@@ -954,6 +959,6 @@ impl<'a> Lower<'a> {
             );
             return Self::poison(b, Ty::Float);
         }
-        self.user_call(b, &f, vals, &[], span)
+        self.user_call(b, &f, vals, &[], span, &(None, None))
     }
 }

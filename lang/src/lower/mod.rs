@@ -267,6 +267,9 @@ pub(crate) struct Lower<'a> {
     pub(crate) inputs: HashMap<String, LayerInput>,
     /// The file's OSL struct types by name.
     pub(crate) structs: HashMap<&'a str, &'a ast::StructDef>,
+    /// The struct type the expression being lowered is assigned to, where a call's
+    /// overload depends on it (OSL's overloading by return type); taken by the call.
+    pub(crate) want_struct: Option<String>,
     /// Inside an inlined function that returns before its end ([`returns`]).
     pub(crate) returns: Option<returns::Returns<'a>>,
 }
@@ -377,6 +380,7 @@ impl<'a> Lower<'a> {
             prefix: String::new(),
             inputs: HashMap::new(),
             structs,
+            want_struct: None,
             returns: None,
         }
     }

@@ -212,7 +212,9 @@ impl<'a> Lower<'a> {
         let value = match &v.init {
             None => self.struct_zero(b, def, 0),
             Some(e) => {
+                self.want_struct = Some(def.name.name.clone());
                 let x = self.expr(b, e);
+                self.want_struct = None;
                 match x {
                     Val::Struct(ref s, _) if *s == def.name.name => x,
                     other => {
