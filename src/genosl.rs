@@ -151,6 +151,23 @@ pub fn shader_source_with(
             None => params.push(input_param(i)?),
         }
     }
+    let (params, outs) = with_outputs(nd, params)?;
+    let (include, shader) = shader_parts(g, nd, params, &outs)?;
+    let mut src = String::from(PREAMBLE);
+    src += "#include \"mx_funcs.h\"\n";
+    if let Some(file) = include {
+        src += &format!("#include \"{}\"\n", file.display());
+    }
+    src += &shader;
+    Ok(src)
+}
+
+/// `params` followed by the nodedef's outputs as `output` parameters, and the outputs'
+/// names.
+fn with_outputs(
+    nd: &NodeDefElem,
+    mut params: Vec<String>,
+) -> Result<(Vec<String>, Vec<String>), String> {
     let mut outs = Vec::new();
     for o in &nd.outputs {
         let ty = osl_type(&o.ty).ok_or_else(|| format!("output type `{}`", o.ty))?;
@@ -163,11 +180,20 @@ pub fn shader_source_with(
         params.push(format!("output {ty} {name} = {init}"));
         outs.push(name);
     }
-    let mut src = String::from(PREAMBLE);
-    src += "#include \"mx_funcs.h\"\n";
+    Ok((params, outs))
+}
+
+/// The file a shader for `g` includes (if any) and the shader's own text.
+fn shader_parts(
+    g: &GenOsl,
+    nd: &NodeDefElem,
+    params: Vec<String>,
+    outs: &[String],
+) -> Result<(Option<PathBuf>, String), String> {
+    let mut include = None;
     let body = match (&g.imp.file, &g.imp.function, &g.imp.sourcecode) {
         (Some(file), Some(function), _) => {
-            src += &format!("#include \"{}\"\n", g.dir.join(file).display());
+            include = Some(g.dir.join(file));
             let args: Vec<String> = nd
                 .inputs
                 .iter()
@@ -184,19 +210,19 @@ pub fn shader_source_with(
             if expr.contains("{{") {
                 return Err(format!("template token left in `{expr}`"));
             }
-            let [out] = outs.as_slice() else {
+            let [out] = outs else {
                 return Err("an inline template with several outputs".into());
             };
             format!("    {out} = {expr};\n")
         }
         _ => return Err("neither a function in a file nor a template".into()),
     };
-    src += &format!(
+    let shader = format!(
         "shader mx_{}(\n    {})\n{{\n{body}}}\n",
         nd.name,
         params.join(",\n    ")
     );
-    Ok(src)
+    Ok((include, shader))
 }
 
 fn zero(ty: &str) -> String {
@@ -267,4 +293,60 @@ pub fn compile_with(
 /// The nodedef an implementation is for, from `lib`.
 pub fn nodedef<'l>(lib: &'l Library, g: &GenOsl) -> Option<&'l NodeDefElem> {
     lib.nodedef(&g.imp.nodedef)
+}
+
+/// One OSL source holding the shaders of every implementation in `impls` whose nodedef
+/// `lib` has (the headers and each file included once), and the shaders' names by
+/// nodedef: compiling them all parses the shared headers once.
+pub fn module_source(impls: &[GenOsl], lib: &Library) -> (String, Vec<(String, String)>) {
+    let mut src = String::from(PREAMBLE);
+    src += "#include \"mx_funcs.h\"\n";
+    let mut included: Vec<PathBuf> = Vec::new();
+    let mut shaders = String::new();
+    let mut names = Vec::new();
+    for g in impls {
+        let Some(nd) = nodedef(lib, g) else {
+            continue;
+        };
+        let Ok(params) = nd
+            .inputs
+            .iter()
+            .map(input_param)
+            .collect::<Result<Vec<_>, _>>()
+        else {
+            continue;
+        };
+        let Ok((params, outs)) = with_outputs(nd, params) else {
+            continue;
+        };
+        let Ok((include, shader)) = shader_parts(g, nd, params, &outs) else {
+            continue;
+        };
+        if let Some(f) = include
+            && !included.contains(&f)
+        {
+            src += &format!("#include \"{}\"\n", f.display());
+            included.push(f);
+        }
+        shaders += &shader;
+        names.push((nd.name.clone(), format!("mx_{}", nd.name)));
+    }
+    src += &shaders;
+    (src, names)
+}
+
+/// Parses [`module_source`] once (include folders as [`compile`]'s).
+pub fn parse_module(
+    libraries: &Path,
+    source: &str,
+    sources: &mut shadenet_lang::SourceMap,
+) -> Result<shadenet_lang::Parsed, String> {
+    let stdlib = libraries.join("stdlib/genosl");
+    let options = shadenet_lang::Options {
+        dialect: Some(shadenet_lang::Dialect::Osl),
+        include_dirs: vec![stdlib.join("include"), stdlib.clone(), stdlib.join("lib")],
+        defines: Vec::new(),
+    };
+    shadenet_lang::parse_str(sources, "mx_genosl_module.osl", source, &options)
+        .map_err(|d| d.render(sources))
 }

@@ -33,6 +33,10 @@ fn genosl_implementations_compile() {
         match shadenet::genosl::compile(&dir, g, nd) {
             Ok(p) => {
                 shadenet::graph::ir::validate(&p).unwrap_or_else(|e| panic!("{}: {e}", nd.name));
+                // What compiles is optimized to a valid program.
+                let (o, _) = shadenet::graph::opt::run(&p, &Default::default());
+                shadenet::graph::ir::validate(&o)
+                    .unwrap_or_else(|e| panic!("{}: optimized: {e}", nd.name));
                 ok += 1;
             }
             Err(e) => {
@@ -223,3 +227,37 @@ fn genosl_agrees_with_our_atoms() {
 
 /// How many agree today (a floor: raise it as more is built).
 const MIN_AGREEING: usize = 351;
+
+/// The implementations that compile in one source (`genosl::module_source`): the shared
+/// headers and each file parsed once, every shader lowered by name — all of them compile
+/// there too (the benchmark's way of compiling them all).
+#[test]
+fn one_module_compiles_as_many() {
+    let Some(lib) = common::mtlx_library() else {
+        return;
+    };
+    let dir = shadenet::mtlx::locate(None).unwrap();
+    // The implementations that compile one by one (a parse error in one file would stop
+    // the module's parse).
+    let impls: Vec<_> = shadenet::genosl::implementations(&dir)
+        .unwrap()
+        .into_iter()
+        .filter(|g| {
+            shadenet::genosl::nodedef(lib, g)
+                .is_some_and(|nd| shadenet::genosl::compile(&dir, g, nd).is_ok())
+        })
+        .collect();
+    let (src, names) = shadenet::genosl::module_source(&impls, lib);
+    let mut sources = shadenet::lang::SourceMap::new();
+    let parsed =
+        shadenet::genosl::parse_module(&dir, &src, &mut sources).unwrap_or_else(|e| panic!("{e}"));
+    let ok = names
+        .iter()
+        .filter(|(_, shader)| shadenet::lang::lower::compile(&parsed, Some(shader)).is_ok())
+        .count();
+    eprintln!("genosl module: {ok} of {} shaders compile", names.len());
+    assert!(
+        ok >= MIN_COMPILED,
+        "{ok} compile in one module, fewer than {MIN_COMPILED}"
+    );
+}

@@ -308,3 +308,42 @@ fn the_cli_sets_parameters_before_compiling() {
         assert!(err.contains(&format!("--param {p}: {want}")), "{p}: {err}");
     }
 }
+
+/// Nested constant loops unroll inner first, then outer: the outer copies read the inner
+/// copies' results (they once read the inner loop's removed results: an invalid program,
+/// found compiling MaterialX's `mx_worleynoise2d_float`). The unrolled program gives the
+/// loop program's bits.
+#[test]
+fn nested_constant_loops_unroll_to_the_same_values() {
+    let src = r#"
+        surface s(float jitter = 1.5) {
+            float best = 1e6, x, y, n = 0;
+            for (x = -1; x <= 1; x += 1) {
+                for (y = -1; y <= 1; y += 1) {
+                    float d = (x - s) * jitter + (y - t) * (y - t);
+                    if (d < best) { best = d; n += 1; }
+                }
+                n += 0.5;
+            }
+            Ci = color(best, n, x + y);
+        }"#;
+    let p = compile(src).unwrap();
+    let (o, report) = shadenet::graph::opt::run(&p, &Default::default());
+    shadenet::graph::ir::validate(&o).unwrap();
+    assert_eq!(loops(&o), 0, "both loops unrolled");
+    let unrolled: usize = report
+        .passes
+        .iter()
+        .filter(|s| s.pass == "unroll")
+        .map(|s| s.changes)
+        .sum();
+    assert!(unrolled >= 2, "{:?}", report.passes);
+    for st in [(0.1, 0.9), (0.5, 0.5), (0.93, 0.2)] {
+        let mut f = plane_fragment();
+        f.uv = [st.0 as f32, st.1 as f32];
+        let a = run_program(&p, &f, &[], u32::MAX);
+        let b = run_program(&o, &f, &[], u32::MAX);
+        assert_eq!(a.get32("Ci"), b.get32("Ci"), "at {st:?}");
+        assert_eq!(a.get("Ci"), b.get("Ci"), "at {st:?} (f64)");
+    }
+}

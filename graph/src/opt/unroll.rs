@@ -79,7 +79,7 @@ fn unroll_block(
         let (init, body) = (init.clone(), body.clone());
         let mut cur = init;
         for _ in 0..trips {
-            cur = copy_iteration(p, &body, &cur, &mut out);
+            cur = copy_iteration(p, (&body, map), &cur, &mut out);
         }
         map.resize(p.exprs.len(), None);
         for (i, e) in p.exprs.iter().enumerate() {
@@ -190,15 +190,17 @@ fn eval(
 }
 
 /// Appends to `out` a copy of one iteration of `body` reading `cur` for its `loop.var`s;
-/// returns the copy's yields (the next carried values).
+/// returns the copy's yields (the next carried values). `map` holds the `proj`s of loops
+/// already unrolled inside the body (their uses read the copies' yields): the copy reads
+/// those instead.
 fn copy_iteration(
     p: &mut Program,
-    body: &Block,
+    (body, map): (&Block, &[Option<Value>]),
     cur: &[Value],
     out: &mut Vec<Value>,
 ) -> Vec<Value> {
     let mut rename: HashMap<Value, Value> = HashMap::new();
-    let copied = copy_block(p, body, cur, &mut rename, true);
+    let copied = copy_block(p, body, (cur, map), &mut rename, true);
     out.extend(copied.body);
     copied.yields
 }
@@ -208,10 +210,21 @@ fn copy_iteration(
 fn copy_block(
     p: &mut Program,
     block: &Block,
-    cur: &[Value],
+    (cur, map): (&[Value], &[Option<Value>]),
     rename: &mut HashMap<Value, Value>,
     own: bool,
 ) -> Block {
+    // A `proj` of an inner loop unrolled before reads that loop's last copy's yield.
+    let resolve = |v: Value, rename: &HashMap<Value, Value>| {
+        let mut r = v;
+        for _ in 0..map.len() {
+            match map.get(r.index()).copied().flatten() {
+                Some(m) if m != r => r = m,
+                _ => break,
+            }
+        }
+        rename.get(&r).copied().unwrap_or(r)
+    };
     let mut body = Vec::with_capacity(block.body.len());
     for &v in &block.body {
         let e = p.exprs[v.index()].clone();
@@ -224,14 +237,12 @@ fn copy_block(
         let inner_own = own && !matches!(e.op, Op::Loop { .. });
         let mut op = e.op;
         for o in op.operands_mut() {
-            if let Some(r) = rename.get(o) {
-                *o = *r;
-            }
+            *o = resolve(*o, rename);
         }
         let blocks: Vec<Block> = op.blocks_mut().into_iter().map(std::mem::take).collect();
         let copies: Vec<Block> = blocks
             .iter()
-            .map(|b| copy_block(p, b, cur, rename, inner_own))
+            .map(|b| copy_block(p, b, (cur, map), rename, inner_own))
             .collect();
         for (slot, b) in op.blocks_mut().into_iter().zip(copies) {
             *slot = b;
@@ -240,10 +251,6 @@ fn copy_block(
         rename.insert(v, c);
         body.push(c);
     }
-    let yields = block
-        .yields
-        .iter()
-        .map(|y| rename.get(y).copied().unwrap_or(*y))
-        .collect();
+    let yields = block.yields.iter().map(|y| resolve(*y, rename)).collect();
     Block { body, yields }
 }
