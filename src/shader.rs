@@ -77,7 +77,7 @@ pub fn load_light(path: &Path) -> Result<Program, ShaderError> {
         return Err(ShaderError::Kind {
             path: path.to_path_buf(),
             shader: program.name,
-            found: kind_name(kind),
+            found: shadenet_lang::lower::kind_name(kind),
             wanted: "a scene light needs a light shader (a surface shader is a material: [materials.NAME] network = …)",
         });
     }
@@ -90,18 +90,9 @@ fn compile_file(
     include: &[PathBuf],
     defines: &[String],
 ) -> Result<(Program, ShaderKind), ShaderError> {
-    let mut options = Options {
-        include_dirs: include.to_vec(),
-        ..Options::default()
-    };
-    for d in defines {
-        options = options.define(d);
-    }
+    let options = front_end_options(include, defines);
     let mut sources = SourceMap::new();
-    let fail = |sources: &SourceMap, d: shadenet_lang::Diagnostics| ShaderError::Compile {
-        path: path.to_path_buf(),
-        rendered: d.render(sources).trim_end().to_string(),
-    };
+    let fail = |sources: &SourceMap, d| compile_error(path, sources, d);
     if path.extension().is_some_and(|e| e == GROUP_EXTENSION) {
         // A group's program is a material (its layers are surfaces and patterns).
         return load_group(path, include, defines).map(|c| (c.program, ShaderKind::Surface));
@@ -121,14 +112,23 @@ fn compile_file(
     Ok((program, kind))
 }
 
-fn kind_name(k: ShaderKind) -> &'static str {
-    match k {
-        ShaderKind::Surface => "surface",
-        ShaderKind::Light => "light",
-        ShaderKind::Volume => "volume",
-        ShaderKind::Displacement => "displacement",
-        ShaderKind::Imager => "imager",
-        ShaderKind::Shader => "generic",
+/// The front end's options for `-I` folders `include` and `-D` macros `defines`.
+fn front_end_options(include: &[PathBuf], defines: &[String]) -> Options {
+    let mut options = Options {
+        include_dirs: include.to_vec(),
+        ..Options::default()
+    };
+    for d in defines {
+        options = options.define(d);
+    }
+    options
+}
+
+/// The error of `path`'s shader: every diagnostic, rendered against `sources`.
+fn compile_error(path: &Path, sources: &SourceMap, d: shadenet_lang::Diagnostics) -> ShaderError {
+    ShaderError::Compile {
+        path: path.to_path_buf(),
+        rendered: d.render(sources).trim_end().to_string(),
     }
 }
 
@@ -174,18 +174,9 @@ pub fn load_group(
     include: &[PathBuf],
     defines: &[String],
 ) -> Result<Compiled, ShaderError> {
-    let mut options = Options {
-        include_dirs: include.to_vec(),
-        ..Options::default()
-    };
-    for d in defines {
-        options = options.define(d);
-    }
+    let options = front_end_options(include, defines);
     let mut sources = SourceMap::new();
-    let fail = |sources: &SourceMap, d: shadenet_lang::Diagnostics| ShaderError::Compile {
-        path: path.to_path_buf(),
-        rendered: d.render(sources).trim_end().to_string(),
-    };
+    let fail = |sources: &SourceMap, d| compile_error(path, sources, d);
     let loaded =
         shadenet_lang::group::load(&mut sources, path, &options).map_err(|d| fail(&sources, d))?;
     let mut program =

@@ -262,18 +262,7 @@ fn instance_value(ty: Ty, values: &[ParamValue]) -> Option<ConstValue> {
             _ => None,
         })
         .collect();
-    let nums = nums?;
-    match (ty, nums.as_slice()) {
-        (Ty::Float, [x]) => Some(ConstValue::Float(*x)),
-        (Ty::Int, [x]) if x.fract() == 0.0 && x.abs() <= i32::MAX as f64 => {
-            Some(ConstValue::Int(*x as i32))
-        }
-        (Ty::Color, [x]) => Some(ConstValue::Color([*x; 3])),
-        (Ty::Color, [r, g, b]) => Some(ConstValue::Color([*r, *g, *b])),
-        (t, [x]) if t.is_geometric() => Some(ConstValue::Vec3([*x; 3])),
-        (t, [x, y, z]) if t.is_geometric() => Some(ConstValue::Vec3([*x, *y, *z])),
-        _ => None,
-    }
+    super::constant_of(ty, &nums?)
 }
 
 fn show(values: &[ParamValue]) -> String {

@@ -343,7 +343,8 @@ fn compile_here(parsed: &Parsed, name: Option<&str>) -> Result<Program, Diagnost
     })
 }
 
-fn kind_name(k: ShaderKind) -> &'static str {
+/// The name of a shader kind in messages.
+pub fn kind_name(k: ShaderKind) -> &'static str {
     match k {
         ShaderKind::Surface => "surface",
         ShaderKind::Light => "light",
@@ -639,8 +640,13 @@ impl<'a> Lower<'a> {
 /// A parameter default that is a constant of type `ty` (literals, signs, triples,
 /// constructors of constants, arithmetic on them), as the program's parameter value.
 pub(crate) fn const_eval(e: &ast::Expr, ty: Ty) -> Option<ConstValue> {
-    let v = eval(e)?;
-    match (ty, v.as_slice()) {
+    constant_of(ty, &eval(e)?)
+}
+
+/// The constant of type `ty` that numbers `v` give: one for a float or int (an integer for
+/// an int), one (repeated) or three for a triple.
+pub(crate) fn constant_of(ty: Ty, v: &[f64]) -> Option<ConstValue> {
+    match (ty, v) {
         (Ty::Float, [x]) => Some(ConstValue::Float(*x)),
         (Ty::Int, [x]) if x.fract() == 0.0 && x.abs() <= i32::MAX as f64 => {
             Some(ConstValue::Int(*x as i32))
