@@ -101,14 +101,7 @@ fn group_steps(path: &Path) -> ([Duration; 4], (usize, usize)) {
 fn genosl_module() -> Option<(String, Vec<String>, PathBuf)> {
     let dir = shadenet::mtlx::locate(None).ok()?;
     let lib = shadenet::mtlx::library(&dir).ok()?;
-    let impls: Vec<_> = shadenet::genosl::implementations(&dir)
-        .ok()?
-        .into_iter()
-        .filter(|g| {
-            shadenet::genosl::nodedef(lib, g)
-                .is_some_and(|nd| shadenet::genosl::compile(&dir, g, nd).is_ok())
-        })
-        .collect();
+    let impls = shadenet::genosl::compiling(&dir, lib).ok()?;
     let (src, names) = shadenet::genosl::module_source(&impls, lib);
     Some((src, names.into_iter().map(|(_, s)| s).collect(), dir))
 }

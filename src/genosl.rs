@@ -273,17 +273,7 @@ pub fn compile_with(
 ) -> Result<shadenet_graph::ir::Program, String> {
     let src = shader_source_with(g, nd, values)?;
     let mut sources = shadenet_lang::SourceMap::new();
-    let stdlib = libraries.join("stdlib/genosl");
-    let options = shadenet_lang::Options {
-        dialect: Some(shadenet_lang::Dialect::Osl),
-        include_dirs: vec![
-            stdlib.join("include"),
-            stdlib.clone(),
-            stdlib.join("lib"),
-            g.dir.clone(),
-        ],
-        defines: Vec::new(),
-    };
+    let options = options(libraries, Some(&g.dir));
     let name = format!("mx_{}.osl", nd.name);
     let parsed = shadenet_lang::parse_str(&mut sources, &name, &src, &options)
         .map_err(|d| d.render(&sources))?;
@@ -341,12 +331,30 @@ pub fn parse_module(
     source: &str,
     sources: &mut shadenet_lang::SourceMap,
 ) -> Result<shadenet_lang::Parsed, String> {
-    let stdlib = libraries.join("stdlib/genosl");
-    let options = shadenet_lang::Options {
-        dialect: Some(shadenet_lang::Dialect::Osl),
-        include_dirs: vec![stdlib.join("include"), stdlib.clone(), stdlib.join("lib")],
-        defines: Vec::new(),
-    };
+    let options = options(libraries, None);
     shadenet_lang::parse_str(sources, "mx_genosl_module.osl", source, &options)
         .map_err(|d| d.render(sources))
+}
+
+/// The front end's options for MaterialX's OSL: OSL, and the include folders of
+/// `stdlib/genosl` (its headers, its sources, `lib`), then `extra` (an implementation's own
+/// folder).
+fn options(libraries: &Path, extra: Option<&Path>) -> shadenet_lang::Options {
+    let stdlib = libraries.join("stdlib/genosl");
+    let mut include_dirs = vec![stdlib.join("include"), stdlib.clone(), stdlib.join("lib")];
+    include_dirs.extend(extra.map(Path::to_path_buf));
+    shadenet_lang::Options {
+        dialect: Some(shadenet_lang::Dialect::Osl),
+        include_dirs,
+        defines: Vec::new(),
+    }
+}
+
+/// The implementations in `libraries` that compile one by one (what [`module_source`]
+/// should hold: a parse error in one file would stop the module's parse).
+pub fn compiling(libraries: &Path, lib: &Library) -> Result<Vec<GenOsl>, String> {
+    Ok(implementations(libraries)?
+        .into_iter()
+        .filter(|g| nodedef(lib, g).is_some_and(|nd| compile(libraries, g, nd).is_ok()))
+        .collect())
 }

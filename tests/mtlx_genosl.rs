@@ -237,16 +237,7 @@ fn one_module_compiles_as_many() {
         return;
     };
     let dir = shadenet::mtlx::locate(None).unwrap();
-    // The implementations that compile one by one (a parse error in one file would stop
-    // the module's parse).
-    let impls: Vec<_> = shadenet::genosl::implementations(&dir)
-        .unwrap()
-        .into_iter()
-        .filter(|g| {
-            shadenet::genosl::nodedef(lib, g)
-                .is_some_and(|nd| shadenet::genosl::compile(&dir, g, nd).is_ok())
-        })
-        .collect();
+    let impls = shadenet::genosl::compiling(&dir, lib).unwrap();
     let (src, names) = shadenet::genosl::module_source(&impls, lib);
     let mut sources = shadenet::lang::SourceMap::new();
     let parsed =

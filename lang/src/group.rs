@@ -105,17 +105,7 @@ pub fn load(
     path: &Path,
     options: &Options,
 ) -> Result<LoadedGroup, Diagnostics> {
-    let file = match crate::preprocess::load_file(sources, path) {
-        Ok((id, None)) => id,
-        Ok((_, Some(d))) => return Err(d.into()),
-        Err(e) => {
-            return Err(Diagnostic::error_nowhere(format!(
-                "cannot read '{}': {e}",
-                path.display()
-            ))
-            .into());
-        }
-    };
+    let file = crate::preprocess::load_main(sources, path)?;
     let group = parse(sources, file)?;
     let mut dirs = vec![
         path.parent()

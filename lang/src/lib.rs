@@ -62,17 +62,7 @@ pub fn parse_file(
         ))
         .into());
     };
-    let main = match preprocess::load_file(sources, path) {
-        Ok((id, None)) => id,
-        Ok((_, Some(d))) => return Err(d.into()),
-        Err(e) => {
-            return Err(Diagnostic::error_nowhere(format!(
-                "cannot read '{}': {e}",
-                path.display()
-            ))
-            .into());
-        }
-    };
+    let main = preprocess::load_main(sources, path)?;
     parse_loaded(sources, main, dialect, options)
 }
 

@@ -104,11 +104,11 @@ impl<'a> Lower<'a> {
         // User overloads come first; a name that is also a builtin's falls back to it
         // (OSL's user functions add overloads, as MaterialX's `abs(color4)`).
         let wanted = (want, want_struct);
-        if self.functions.contains_key(callee.name.as_str())
-            && (self.overload(&callee.name, &vals, &wanted).is_some()
-                || !self.is_builtin(&callee.name))
-        {
-            return self.user_call(b, &callee.name, vals, args, span, &wanted);
+        if self.functions.contains_key(callee.name.as_str()) {
+            let found = self.overload(&callee.name, &vals, &wanted);
+            if found.is_some() || !self.is_builtin(&callee.name) {
+                return self.user_call(b, (&callee.name, found), vals, args, span);
+            }
         }
         let name = callee.name.as_str();
         if let Some(def) = self.struct_def(name) {
@@ -159,19 +159,18 @@ impl<'a> Lower<'a> {
         }
     }
 
-    /// A call of user function `name` (overloads chosen by argument types, an exact match
-    /// first, then one by widening), inlined; an error listing the candidates when none fits.
-    /// `args` are the argument expressions (for `output` parameters; empty for operators).
+    /// A call of user function `name` inlined, `found` its overload that takes `vals`
+    /// ([`Lower::overload`]); an error listing the candidates when none does. `args` are
+    /// the argument expressions (for `output` parameters; empty for operators).
     pub(crate) fn user_call(
         &mut self,
         b: &mut Builder,
-        name: &str,
+        (name, found): (&str, Option<&'a ast::FunctionDef>),
         vals: Vec<(Val, Span)>,
         args: &'a [Expr],
         span: Span,
-        wanted: &Wanted,
     ) -> Val {
-        if let Some(f) = self.overload(name, &vals, wanted) {
+        if let Some(f) = found {
             let vals = vals.into_iter().map(|v| v.0).collect();
             return self.inline(b, f, vals, args, span);
         }

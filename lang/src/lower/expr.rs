@@ -959,6 +959,7 @@ impl<'a> Lower<'a> {
             );
             return Self::poison(b, Ty::Float);
         }
-        self.user_call(b, &f, vals, &[], span, &(None, None))
+        let found = self.overload(&f, &vals, &(None, None));
+        self.user_call(b, (&f, found), vals, &[], span)
     }
 }

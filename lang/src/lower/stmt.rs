@@ -211,11 +211,7 @@ impl<'a> Lower<'a> {
                 if let ExprKind::Index { base, .. } = t {
                     t = &base.kind;
                 }
-                let place = Expr {
-                    kind: t.clone(),
-                    span: target.span,
-                };
-                let Some(id) = super::structs::place(&place) else {
+                let Some(id) = super::structs::place_of(t) else {
                     return;
                 };
                 if !names.iter().any(|n| n.name == id.name) {

@@ -18,7 +18,12 @@ pub(crate) fn field(s: &str, f: &str) -> String {
 /// The variable an assignment target names: `x`, or a field's hidden variable for `s.f`,
 /// `s.f.g` …; `None` for anything else.
 pub(crate) fn place(e: &Expr) -> Option<ast::Ident> {
-    match &e.kind {
+    place_of(&e.kind)
+}
+
+/// [`place`] of an expression's kind.
+pub(crate) fn place_of(e: &ExprKind) -> Option<ast::Ident> {
+    match e {
         ExprKind::Ident(id) => Some(id.clone()),
         ExprKind::Member { base, field: f } => place(base).map(|s| ast::Ident {
             name: field(&s.name, &f.name),

@@ -54,6 +54,18 @@ pub struct Preprocessed {
 /// Reads `path` into the source map (or finds it there, by canonical path). Returns the id
 /// and, for a file that is not valid UTF-8, the error at the first bad byte (the text is kept
 /// up to there, so the span is right).
+/// [`load_file`] of a file named on the command line (not an `#include`): an error that
+/// the file cannot be read names it.
+pub(crate) fn load_main(sm: &mut SourceMap, path: &Path) -> Result<FileId, Diagnostics> {
+    match load_file(sm, path) {
+        Ok((id, None)) => Ok(id),
+        Ok((_, Some(d))) => Err(d.into()),
+        Err(e) => {
+            Err(Diagnostic::error_nowhere(format!("cannot read '{}': {e}", path.display())).into())
+        }
+    }
+}
+
 pub(crate) fn load_file(
     sm: &mut SourceMap,
     path: &Path,
