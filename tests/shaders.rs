@@ -394,27 +394,12 @@ fn the_multiplication_tree_as_a_shader_reaches_the_networks_program() {
 /// shader and parameters.
 #[test]
 fn the_rsl_scene_renders_and_overrides_set_parameters() {
-    use shadenet::render::{self as r, BackendKind, RenderOptions};
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/scenes/rsl.toml");
-    let opts = RenderOptions {
-        spp: Some(1),
-        res: Some((48, 27)),
-        ..RenderOptions::default()
-    };
-    let mut films = Vec::new();
-    for kind in [BackendKind::Interp, BackendKind::Jit] {
-        let backend = r::backend(kind).unwrap();
-        let renderer = r::setup_with(Some(&path), &opts, backend.as_ref()).unwrap();
-        films.push(renderer.render(&|_, _| {}).0);
-    }
-    let bits = |f: &shadenet::tracer::Film| {
-        f.layers[0]
-            .data
-            .iter()
-            .map(|x| x.to_bits())
-            .collect::<Vec<_>>()
-    };
-    assert_eq!(bits(&films[0]), bits(&films[1]), "interp and JIT");
+    let films = common::render_interp_and_jit("rsl.toml", 1, (48, 27));
+    assert_eq!(
+        beauty_bits(&films[0]),
+        beauty_bits(&films[1]),
+        "interp and JIT"
+    );
     // The four spheres sit on row 12 around columns 13, 20, 28, 35: lit, and not alike.
     let beauty = &films[1].layers[0];
     let px = |x: usize, y: usize| {
@@ -460,7 +445,16 @@ fn the_rsl_scene_renders_and_overrides_set_parameters() {
         );
         let p = dir.join("scene.toml");
         std::fs::write(&p, scene).unwrap();
-        let e = match r::setup_with(Some(&p), &opts, &shadenet::tracer::shader::InterpBackend) {
+        let opts = shadenet::render::RenderOptions {
+            spp: Some(1),
+            res: Some((48, 27)),
+            ..Default::default()
+        };
+        let e = match shadenet::render::setup_with(
+            Some(&p),
+            &opts,
+            &shadenet::tracer::shader::InterpBackend,
+        ) {
             Ok(_) => panic!("{set}: accepted"),
             Err(e) => shadenet::graph::error_chain(&e),
         };

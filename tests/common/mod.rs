@@ -213,3 +213,27 @@ pub fn mtlx_library() -> Option<&'static shadenet::graph::mtlx::Library> {
         }
     }
 }
+
+/// Renders the example scene `name` (in `examples/scenes/`) at `spp` and `res` on the
+/// interpreter and on the JIT; the films in that order.
+pub fn render_interp_and_jit(name: &str, spp: u32, res: (u32, u32)) -> [shadenet::tracer::Film; 2] {
+    use shadenet::render::{self as r, BackendKind, RenderOptions};
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("examples/scenes")
+        .join(name);
+    let opts = RenderOptions {
+        spp: Some(spp),
+        res: Some(res),
+        ..RenderOptions::default()
+    };
+    [BackendKind::Interp, BackendKind::Jit].map(|kind| {
+        let backend = r::backend(kind).unwrap();
+        let renderer = r::setup_with(Some(&path), &opts, backend.as_ref()).unwrap();
+        renderer.render(&|_, _| {}).0
+    })
+}
+
+/// The bits of a film's first layer (the beauty).
+pub fn beauty_bits(f: &shadenet::tracer::Film) -> Vec<u32> {
+    f.layers[0].data.iter().map(|x| x.to_bits()).collect()
+}
