@@ -14,12 +14,14 @@
 //!   taken as constant across the pixel.
 //! - Linear and smooth ops by the chain rule; `floor`/`ceil`, comparisons, ints, bools and
 //!   matrices have none.
-//! - Intrinsics (noise, fractals, cell noise, HSV) by a one-sided difference over the
-//!   footprint, `f(x + ∂x) − f(x)`: what a filter needs is the size of the change, and the
-//!   difference sees every octave.
+//! - Intrinsics (noise, fractals, cell noise, HSV) and texture lookups by a one-sided
+//!   difference over the footprint, `f(x + ∂x) − f(x)` (GLSL's `dFdx` of a lookup): what a
+//!   filter or a bump needs is the size of the change, and the difference sees every octave.
+//!   The moved lookup keeps the lookup's sampling and footprint, so the difference is of the
+//!   filtered texture.
 //! - Results of an `If`: a select of the arms' derivatives, the arms' computation rebuilt in a
 //!   new `If` on the same condition where it lies inside them (not through regions nested in
-//!   an arm). Illuminance sums, texture lookups and scene queries are taken as constant.
+//!   an arm). Illuminance sums and scene queries are taken as constant.
 //!
 //! This module only adds ops through the [`Builder`]; it must not edit ops already built.
 
@@ -124,6 +126,28 @@ impl Builder {
                 self.each(d(&a), |b, da| b.splat(ty, da))
             }
             Op::Call(i, args) => self.call_derivs(i, &args, x, memo),
+            Op::Texture {
+                texture,
+                uv,
+                derivs,
+                sampling,
+                alpha,
+            } => {
+                let ty = self.ty(x);
+                let du = d(&uv)?;
+                Some([0, 1].map(|k| {
+                    let moved = self.add(uv, du[k]);
+                    let op = Op::Texture {
+                        texture,
+                        uv: moved,
+                        derivs,
+                        sampling,
+                        alpha,
+                    };
+                    let f = self.push(op, Some(ty));
+                    self.sub(f, x)
+                }))
+            }
             Op::Proj(region, i) => self.proj_derivs(region, i as usize),
             _ => None,
         }

@@ -10,6 +10,7 @@
 use super::atoms_lower as l;
 use super::atoms_matrix as mx;
 use super::atoms_pbr as pbr;
+use super::atoms_tiling as tl;
 use super::document::NodeDefElem;
 use crate::ir::Stream;
 use crate::nodes::LowerFn;
@@ -167,6 +168,20 @@ const ATOMS: &[Atom] = &[
     a("worleynoise3d", "position jitter style", l::worleynoise3d),
     // texture
     a("image", "file default texcoord", l::image),
+    a(
+        "hextiledimage",
+        "file default texcoord tiling rotation rotationrange scale scalerange offset \
+         offsetrange falloff falloffcontrast lumacoeffs",
+        tl::hextiledimage,
+    ),
+    a(
+        "hextilednormalmap",
+        "file texcoord tiling rotation rotationrange scale scalerange offset offsetrange \
+         falloff strength flip_g normal tangent bitangent",
+        tl::hextilednormalmap,
+    ),
+    // derivatives
+    a("heighttonormal", "in scale texcoord", tl::heighttonormal),
     // pbrlib values
     a(
         "roughness_anisotropy",
@@ -229,9 +244,6 @@ pub fn missing_reason(nd: &NodeDefElem) -> &'static str {
             }
             "frame" => "no frame number in the shading context yet",
             "flake2d" | "flake3d" => "no flake noise intrinsic yet",
-            "hextiledimage" | "hextilednormalmap" | "heighttonormal" => {
-                "needs texture derivatives or tangent frames (issue 16)"
-            }
             _ => "no lowering in the atom table yet",
         }
     }

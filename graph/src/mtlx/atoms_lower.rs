@@ -991,25 +991,9 @@ pub fn worleynoise3d(b: &mut Builder, inp: &NodeInputs) -> Out {
 /// channels.
 pub fn image(b: &mut Builder, inp: &NodeInputs) -> Out {
     let ty = out_ty(inp);
-    let file = inp.string("file").to_string();
-    if file.is_empty() {
+    let Some(t) = texture_file(b, inp)? else {
         return Ok(vec![inp.low("default").clone()]);
-    }
-    let cs = inp.string(&super::value::colorspace_port("file"));
-    let colorspace = match cs {
-        "" => ColorSpace::LinRec709,
-        name => ColorSpace::parse(name).ok_or_else(|| {
-            let known: Vec<&str> = ColorSpace::ALL.iter().map(|c| c.name()).collect();
-            format!(
-                "input `file`: unknown colorspace `{name}`; known: {}",
-                known.join(", ")
-            )
-        })?,
     };
-    let t = b.texture_index(&TextureFile {
-        path: file,
-        colorspace,
-    });
     let filter = match inp.string("filtertype") {
         "closest" => Filter::Closest,
         "linear" | "cubic" | "" => Filter::Anisotropic,
@@ -1061,8 +1045,32 @@ pub fn image(b: &mut Builder, inp: &NodeInputs) -> Out {
     one(b.select(outside, default, looked))
 }
 
+/// The texture table index of a node's `file` input with its `colorspace` (own or
+/// inherited; none = the working space); `None` for an empty filename.
+pub(super) fn texture_file(b: &mut Builder, inp: &NodeInputs) -> Result<Option<u32>, String> {
+    let file = inp.string("file").to_string();
+    if file.is_empty() {
+        return Ok(None);
+    }
+    let cs = inp.string(&super::value::colorspace_port("file"));
+    let colorspace = match cs {
+        "" => ColorSpace::LinRec709,
+        name => ColorSpace::parse(name).ok_or_else(|| {
+            let known: Vec<&str> = ColorSpace::ALL.iter().map(|c| c.name()).collect();
+            format!(
+                "input `file`: unknown colorspace `{name}`; known: {}",
+                known.join(", ")
+            )
+        })?,
+    };
+    Ok(Some(b.texture_index(&TextureFile {
+        path: file,
+        colorspace,
+    })))
+}
+
 /// The lookup of [`image`] for an output of type `ty`.
-fn image_lookup(
+pub(super) fn image_lookup(
     b: &mut Builder,
     t: u32,
     uv: Value,

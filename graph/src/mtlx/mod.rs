@@ -19,6 +19,7 @@ pub mod atoms_closure;
 pub mod atoms_lower;
 pub mod atoms_matrix;
 pub mod atoms_pbr;
+pub mod atoms_tiling;
 pub mod channels;
 pub mod coverage;
 pub mod document;
