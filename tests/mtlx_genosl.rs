@@ -62,7 +62,7 @@ fn genosl_implementations_compile() {
 }
 
 /// How many compile today (a floor: raise it as more is built).
-const MIN_COMPILED: usize = 402;
+const MIN_COMPILED: usize = 415;
 
 /// A MaterialX document of one node of nodedef `nd` with `values` set, its output `out`.
 fn one_node_document(
@@ -226,7 +226,7 @@ fn genosl_agrees_with_our_atoms() {
 }
 
 /// How many agree today (a floor: raise it as more is built).
-const MIN_AGREEING: usize = 351;
+const MIN_AGREEING: usize = 364;
 
 /// The implementations that compile in one source (`genosl::module_source`): the shared
 /// headers and each file parsed once, every shader lowered by name — all of them compile

@@ -783,3 +783,52 @@ fn closures_connect_between_layers() {
     let o = run_program(&alone.program, &f, &lights, u32::MAX);
     check(&o, "Ci", &[0.0; 3], 0.0);
 }
+
+/// `Dx`, `Dy`, `filterwidth`, `area` and `aastep` read the screen-space derivatives: on the
+/// plane with ray differentials, `P`'s are the differentials, `u`'s their x components, a
+/// product's by the chain rule; a parameter's are zero; `aastep` is stdosl.h's box step
+/// (a ramp across the footprint, hard where there is none).
+#[test]
+fn derivative_builtins_read_the_footprint() {
+    let src = r#"
+        shader d(float k = 3, output vector dp = 0, output color w = 0,
+                 output color s = 0, output float a = 0)
+        {
+            dp = Dx(P) + 10 * Dy(P);
+            float f = u * u * k;
+            w = color(filterwidth(u), Dx(f), Dy(k));
+            s = color(aastep(0.5, u), aastep(0.5, u, 0.2), aastep(0.5, u, 0, 0.2));
+            a = area(P);
+        }"#;
+    let p = compile(src).unwrap();
+    let f = shadenet::runtime::Fragment {
+        uv: [0.45, 0.5],
+        p: [0.45, 0.5, 0.0],
+        dpdx: [0.04, 0.0, 0.0],
+        dpdy: [0.0, 0.02, 0.0],
+        ..plane_fragment()
+    };
+    let o = run_program(&p, &f, &[], u32::MAX);
+    check(&o, "dp", &[0.04, 0.2, 0.0], 1e-7);
+    // d(u²k)/dx = 2·u·k·du/dx.
+    check(&o, "w", &[0.04, 2.0 * 0.45 * 3.0 * 0.04, 0.0], 1e-6);
+    // u = 0.45: [0.43, 0.47] is below 0.5 (w = 0.04); with ds = 0.2, [0.35, 0.55] → 0.25.
+    check(&o, "s", &[0.0, 0.25, 0.25], 1e-6);
+    check(&o, "a", &[0.04 * 0.02], 1e-9);
+    let flat = plane_fragment();
+    let o = run_program(&p, &flat, &[], u32::MAX);
+    check(&o, "w", &[0.0, 0.0, 0.0], 0.0);
+    // No footprint: OSL's formula is 0 at the edge itself (u = 0.5: `s <= edge − 0`), and
+    // the ramps of the given widths are [0.4, 0.6] → 0.5.
+    check(&o, "s", &[0.0, 0.5, 0.5], 1e-6);
+    let o = run_program(
+        &p,
+        &shadenet::runtime::Fragment {
+            uv: [0.6, 0.5],
+            ..flat
+        },
+        &[],
+        u32::MAX,
+    );
+    check(&o, "s", &[1.0, 1.0, 1.0], 0.0);
+}

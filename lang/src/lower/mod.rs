@@ -19,6 +19,7 @@
 mod arrays;
 mod builtins;
 mod closure;
+mod derivs;
 mod expr;
 mod group;
 pub mod light;

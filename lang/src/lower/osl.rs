@@ -42,6 +42,11 @@ pub(crate) const NAMES: &[&str] = &[
     "isnan",
     "isinf",
     "isfinite",
+    "Dx",
+    "Dy",
+    "filterwidth",
+    "area",
+    "aastep",
 ];
 
 /// RSL builtins that OSL does not have (or has as closures: `diffuse`, `phong`).
@@ -78,12 +83,6 @@ const UNBUILT: &[(&str, &str)] = &[
     (
         "environment",
         "environment lookups are not built for OSL yet",
-    ),
-    ("Dx", "derivatives are not exposed to OSL shaders yet"),
-    ("Dy", "derivatives are not exposed to OSL shaders yet"),
-    (
-        "filterwidth",
-        "derivatives are not exposed to OSL shaders yet",
     ),
     ("blackbody", "blackbody is not built for OSL yet"),
     ("wavelength_color", "wavelength_color is not built yet"),
@@ -406,7 +405,7 @@ impl<'a> Lower<'a> {
     }
 
     /// The rest of [`Lower::osl_builtin`]: `mix` of triples by a triple, `isnan`,
-    /// `isinf`, `isfinite`.
+    /// `isinf`, `isfinite`, and the derivative builtins ([`super::derivs`]).
     fn osl_more(&mut self, b: &mut Builder, name: &str, vs: &[(Value, Ty, bool)]) -> Option<Val> {
         let varying = vs.iter().any(|v| v.2);
         let out = |v: Value, ty: Ty| Some(Val::V { v, ty, varying });
@@ -437,7 +436,7 @@ impl<'a> Lower<'a> {
                 };
                 out(b.convert(Type::Int, v), Ty::Int)
             }
-            _ => None,
+            _ => super::derivs::builtin(b, name, vs),
         }
     }
 
