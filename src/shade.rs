@@ -45,9 +45,19 @@ pub fn grid_fragment(x: u32, y: u32, w: u32, h: u32) -> Fragment {
         ray_type: RAY_CAMERA,
         ray_depth: 0,
         seed: y * w + x,
-        // No scene: a BSDF sample's ray returns black whatever its direction.
-        rand: [0.5; 4],
+        // No scene: a BSDF sample's ray returns black whatever its direction, so these only
+        // decide which direction is drawn — spread over [0, 1) as a renderer's sampler's
+        // are (the same 0.5 everywhere drew the same angle for every fragment: exactly π
+        // for the GGX samples, whose argument reduction is the slow exact path).
+        rand: [0, 1, 2, 3].map(|k| grid_rand(x, y, k)),
     }
+}
+
+/// A number in [0, 1) from a hash of the fragment's position and the dimension `k`.
+fn grid_rand(x: u32, y: u32, k: u32) -> f32 {
+    let h = shadenet_tracer::render::hash3(x, y, k);
+    // The top 24 bits: exactly representable, below 1.
+    (h >> 8) as f32 / (1u32 << 24) as f32
 }
 
 /// The environment of the shade grid: the given lights, the camera at [`EYE`], identity

@@ -186,8 +186,11 @@ fn every_example_material() {
     for path in paths {
         let text = std::fs::read_to_string(&path).unwrap();
         let name = path.file_name().unwrap().to_string_lossy().into_owned();
-        let c = mx::compile(&name, &text, lib, &Selection::default())
+        let mut c = mx::compile(&name, &text, lib, &Selection::default())
             .unwrap_or_else(|e| panic!("{name}: {}", shadenet::graph::error_chain(&e)));
+        // Files are named relative to the document (maps.mtlx's texture).
+        c.program
+            .resolve_textures(path.parent().expect("in a folder"));
         let (p, _) = opt::run(&c.program, &Specialization::default());
         check_program(&name, &p, &env, u32::MAX, &frags, Class::Mixed);
         let what = format!("{name} (unoptimized)");
