@@ -589,9 +589,10 @@ fn layered_furnace(node: &str, configs: &[Config]) -> Option<f64> {
 }
 
 // The measured excess (README, docs/closures.md): `layer` scales the base by `1 − albedo
-// fit(top)`, and the fits are off by a few percent: MaterialX's rational fit of the GGX
-// albedo (up to +1.6 % for one dielectric layer, +3.1 % under a coat, and the mirror limit
-// at 89°: +1.2 %) and the sheen albedo at roughness 1 and grazing views (+10 %).
+// (top)`; the GGX albedo is our table (exact to 0.007), the dielectric's uses Schlick's split
+// of its exact Fresnel (up to +1.8 % for one dielectric layer, +3.3 % under a coat, the
+// mirror limit at 89.9°: +0.4 %) and the sheen albedo is a fit (+8.4 % at roughness 1 and
+// grazing views).
 // Transmission and white metal alone stay within noise of ≤ 1.
 
 #[test]

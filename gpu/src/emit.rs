@@ -99,8 +99,9 @@ const LIBRARY_SOURCE: &str = include_str!("wgsl/lib.wgsl");
 
 /// The WGSL intrinsic library: every `sn_*` function the expressions of [`op_expr`] call
 /// (each kernel includes the declarations it uses). `wgsl/lib.wgsl` with the noise's
-/// permutation table taken from the CPU's (`shadenet_graph::ops::noise::PERM`), so the two
-/// cannot drift apart.
+/// permutation table and the GGX albedo table taken from the CPU's
+/// (`shadenet_graph::ops::noise::PERM`, `ops::ggx_albedo::table`), so the two cannot drift
+/// apart.
 pub fn library() -> &'static str {
     static LIBRARY: std::sync::LazyLock<String> = std::sync::LazyLock::new(|| {
         let rows: Vec<String> = shadenet_graph::ops::noise::PERM
@@ -111,7 +112,21 @@ pub fn library() -> &'static str {
             })
             .collect();
         let entries = format!("(\n{}\n)", rows.join("\n"));
-        LIBRARY_SOURCE.replacen("(SN_PERM_ENTRIES)", &entries, 1)
+        // The GGX albedo table, each f32 written in its shortest exact decimal.
+        let ggx: Vec<String> = shadenet_graph::ops::ggx_albedo::table()
+            .chunks(8)
+            .map(|row| {
+                let row: Vec<String> = row
+                    .iter()
+                    .map(|ab| format!("{:?}f, {:?}f", ab[0], ab[1]))
+                    .collect();
+                format!("    {},", row.join(", "))
+            })
+            .collect();
+        let ggx = format!("(\n{}\n)", ggx.join("\n"));
+        LIBRARY_SOURCE
+            .replacen("(SN_PERM_ENTRIES)", &entries, 1)
+            .replacen("(SN_GGX_ALBEDO_ENTRIES)", &ggx, 1)
     });
     &LIBRARY
 }

@@ -403,6 +403,7 @@ fn op_table() -> Vec<Row> {
             Intrinsic::Noise3 | Intrinsic::CellNoise3 => vec![Type::Vec3],
             Intrinsic::Fbm3 => vec![Type::Vec3, Type::Int, Type::Float, Type::Float],
             Intrinsic::RgbToHsv | Intrinsic::HsvToRgb => vec![Type::Color],
+            Intrinsic::GgxAlbedo => vec![Type::Float, Type::Float],
             osl => ops::osl_intrinsic_operands(osl)
                 .expect("an OSL noise intrinsic")
                 .to_vec(),

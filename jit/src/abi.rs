@@ -462,6 +462,9 @@ fn ints(x: [f32; LANES]) -> [i32; LANES] {
 fn rgb_to_hsv(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
     o.copy_from_slice(&ops::rgb_to_hsv([a[0], a[1], a[2]]));
 }
+fn ggx_albedo(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&ops::ggx_albedo::ggx_albedo(a[0], a[1]));
+}
 fn hsv_to_rgb(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
     o.copy_from_slice(&ops::hsv_to_rgb([a[0], a[1], a[2]]));
 }
@@ -809,6 +812,7 @@ mem_helpers! {
     cellnoise3: 3 -> 1 => cellnoise3_x4,
     rgb_to_hsv: 3 -> 3 => rgb_to_hsv_x4,
     hsv_to_rgb: 3 -> 3 => hsv_to_rgb_x4,
+    ggx_albedo: 2 -> 2,
     osl_perlin2: 2 -> 1 => osl_perlin2_x4,
     osl_perlin3: 3 -> 1 => osl_perlin3_x4,
     osl_vperlin2: 2 -> 3 => osl_vperlin2_x4,

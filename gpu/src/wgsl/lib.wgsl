@@ -742,6 +742,40 @@ fn sn_mul_vector(m: array<vec4<f32>, 4>, v: vec3<f32>, k: u32) -> vec3<f32> {
     );
 }
 
+// ---- GGX directional albedo (ops::ggx_albedo) ----
+
+// The table of (A, B) pairs, 32 √cos θo nodes by 32 α^¼ nodes: `emit::library()` writes the
+// CPU's table (`ops::ggx_albedo::table`) in place of SN_GGX_ALBEDO_ENTRIES.
+var<private> SN_GGX_ALBEDO: array<f32, 2048> = array<f32, 2048>(SN_GGX_ALBEDO_ENTRIES);
+
+// A coordinate clamped to [0, 1] (NaN to 0) on an axis of n nodes: (node, fraction).
+fn sn_ggx_axis(x: f32, n: i32) -> vec2<f32> {
+    let a = select(0.0f, x, x > 0.0f);
+    let b = select(1.0f, a, a < 1.0f);
+    let s = b * f32(n - 1i);
+    let k = min(max(sn_f2i(floor(s)), 0i), n - 2i);
+    return vec2<f32>(f32(k), s - f32(k));
+}
+
+fn sn_ggx_at(i: i32, j: i32, k: i32) -> f32 {
+    return SN_GGX_ALBEDO[(j * 32i + i) * 2i + k];
+}
+
+// ops::ggx_albedo::ggx_albedo: bilinear in √cos θo and α^¼.
+fn sn_ggx_albedo(c: f32, alpha: f32) -> vec2<f32> {
+    let x = sn_ggx_axis(sn_sqrt(c), 32i);
+    let y = sn_ggx_axis(sn_sqrt(sn_sqrt(alpha)), 32i);
+    let i = i32(x.x);
+    let j = i32(y.x);
+    var r: vec2<f32>;
+    for (var k = 0i; k < 2i; k++) {
+        let lo = sn_ggx_at(i, j, k) + (sn_ggx_at(i + 1i, j, k) - sn_ggx_at(i, j, k)) * x.y;
+        let hi = sn_ggx_at(i, j + 1i, k) + (sn_ggx_at(i + 1i, j + 1i, k) - sn_ggx_at(i, j + 1i, k)) * x.y;
+        r[k] = lo + (hi - lo) * y.y;
+    }
+    return r;
+}
+
 // ---- noise (ops::noise) ----
 
 // Ken Perlin's reference permutation (Improved Noise, 2002): `emit::library()` writes

@@ -12,7 +12,7 @@
 //! A thin film (`thinfilm_thickness` > 0) replaces `F` by [`thin_film::fresnel`] over this
 //! metal.
 //!
-//! Albedo: MaterialX's approximation, the fit `F0 A + B` with `F0` the Fresnel at normal
+//! Albedo: MaterialX's approximation `F0 A + B` (our GGX albedo table, `ops::ggx_albedo`) with `F0` the Fresnel at normal
 //! incidence (the Schlick split with `F90 = 1`); its error against the exact conductor
 //! Fresnel is largest for strongly colored metals at grazing angles.
 
@@ -76,7 +76,7 @@ impl Conductor {
         self.with(b, |b, m| m.sample(b, wo, u))
     }
 
-    /// The directional albedo (color): `F(1) A + B` from MaterialX's fit; with a film,
+    /// The directional albedo (color): `F(1) A + B` from the GGX albedo table; with a film,
     /// [`thin_film::albedo`] where its thickness is > 0.
     pub fn albedo(&self, b: &mut Builder, wo: Value) -> Value {
         let alpha = Alpha::new(b, self.roughness);

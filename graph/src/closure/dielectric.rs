@@ -11,7 +11,7 @@
 //! with pbrt-v4's `1/etap²` radiance scaling (see [`ggx`]). In `RT` reflection is chosen
 //! with probability `F(wo·h)` using `u.z`.
 //!
-//! Albedo: `R` uses MaterialX's fit `tint max(F0 A + B, F(cos θo) (A + B) max(1 − 4ᾱ, 0))`,
+//! Albedo: `R` uses the GGX albedo table (`ops::ggx_albedo`) as MaterialX uses its fit: `tint max(F0 A + B, F(cos θo) (A + B) max(1 − 4ᾱ, 0))`,
 //! `F0 = ((etap − 1)/(etap + 1))²` (Schlick's split of the exact Fresnel, as MaterialX does,
 //! raised for near-mirror lobes to the exact Fresnel at the view angle where Schlick's is
 //! lower, so that `layer` does not give the base light the top reflects; `ᾱ = √(αx αy)`);
@@ -134,7 +134,7 @@ impl Dielectric {
         self.with(b, |b, m| m.sample(b, wo, u))
     }
 
-    /// The directional albedo (color): the fit for `R`, `tint` for `T`/`RT`.
+    /// The directional albedo (color): the table for `R`, `tint` for `T`/`RT`.
     pub fn albedo(&self, b: &mut Builder, wo: Value) -> Value {
         if self.mode != ScatterMode::R {
             return self.tint;

@@ -1,7 +1,7 @@
 //! The GGX (Trowbridge–Reitz) anisotropic microfacet pieces the specular lobes share: the
 //! roughness clamp, the distribution `D`, Smith masking `G1` and the height-correlated
-//! `G2`, visible-normal sampling, the reflection/refraction geometry, MaterialX's fit of the
-//! directional albedo, and [`Microfacet`], a rough reflector/refractor parameterized by its
+//! `G2`, visible-normal sampling, the reflection/refraction geometry, the directional
+//! albedo (a table of our own integration), and [`Microfacet`], a rough reflector/refractor parameterized by its
 //! Fresnel function that the dielectric, conductor and generalized-Schlick lobes build on.
 //! It owns no MaterialX node and no Fresnel formula (each lobe file brings its own).
 //!
@@ -24,7 +24,7 @@ use super::math::{
     comp, div_pdf, f, gray, gt, lt, one_minus, pos, safe_sqrt, saturate, scale, sq, vec3,
 };
 use super::{Eval, Sample, ScatterMode};
-use crate::ir::{BinOp, Builder, UnOp, Value};
+use crate::ir::{BinOp, Builder, Intrinsic, UnOp, Value};
 use crate::types::Type;
 use std::f64::consts::PI;
 
@@ -62,7 +62,7 @@ impl Alpha {
         Alpha { x, y }
     }
 
-    /// MaterialX's average roughness `√(αx αy)`, used by the albedo fit (an approximation
+    /// MaterialX's average roughness `√(αx αy)`, used by the albedo table (an approximation
     /// for anisotropic lobes: at normal incidence α = (0.2, 0.5) reflects 0.802 of white
     /// light, the isotropic α = 0.316 reflects 0.864).
     pub fn average(&self, b: &mut Builder) -> Value {
@@ -211,52 +211,14 @@ pub fn refract(b: &mut Builder, wo: Value, h: Value, etap: Value) -> (Value, Val
     (wt, ok)
 }
 
-/// MaterialX's rational fit of the GGX directional albedo (`mx_ggx_dir_albedo_analytic`,
-/// fitted to Monte-Carlo data): the pair `(A, B)`, both in [0, 1], such that a lobe with
-/// Schlick Fresnel `F0 + (F90 − F0)(1 − wo·h)⁵` reflects `F0 A + F90 B` of the light from
-/// `wo` (`cos = wo.z`, `alpha` the average roughness). Its error against numerical
-/// integration is measured by this file's tests.
-pub fn dir_albedo_fit(b: &mut Builder, cos: Value, alpha: Value) -> (Value, Value) {
-    let num = [FIT_A_NUM, FIT_B_NUM].map(|k| fit_poly(b, cos, alpha, &k));
-    let den = [FIT_A_DEN, FIT_B_DEN].map(|k| fit_poly(b, cos, alpha, &k));
-    let ea = b.div(num[0], den[0]);
-    let eb = b.div(num[1], den[1]);
-    (saturate(b, ea), saturate(b, eb))
-}
-
-/// Coefficients of the fit's polynomials in `x = cos`, `y = α`, in the order
-/// `1, x, y, xy, x², y², x²y, xy², x²y²`.
-pub(crate) const FIT_A_NUM: [f64; 9] = [
-    0.1003, -0.6303, 9.748, -2.038, 29.34, -8.245, -26.44, 19.99, -5.448,
-];
-/// See [`FIT_A_NUM`].
-pub(crate) const FIT_B_NUM: [f64; 9] = [
-    0.9345, -2.323, 2.229, -3.748, 1.424, -0.7684, 1.436, 0.2913, 0.6286,
-];
-/// See [`FIT_A_NUM`].
-pub(crate) const FIT_A_DEN: [f64; 9] = [
-    1.0, -1.765, 8.263, 11.53, 28.96, -7.507, -36.11, 15.86, 33.37,
-];
-/// See [`FIT_A_NUM`].
-pub(crate) const FIT_B_DEN: [f64; 9] = [
-    1.0, 0.2281, 15.94, -55.83, 13.08, 41.26, 54.9, 300.2, -285.1,
-];
-
-/// `Σ k_i m_i(x, y)` over the fit's nine monomials.
-fn fit_poly(b: &mut Builder, x: Value, y: Value, k: &[f64; 9]) -> Value {
-    let (x2, y2) = (sq(b, x), sq(b, y));
-    let xy = b.mul(x, y);
-    let x2y = b.mul(x2, y);
-    let xy2 = b.mul(x, y2);
-    let x2y2 = b.mul(x2, y2);
-    let terms = [x, y, xy, x2, y2, x2y, xy2, x2y2];
-    let mut s = f(b, k[0]);
-    for (t, kk) in terms.iter().zip(&k[1..]) {
-        let c = f(b, *kk);
-        let p = b.mul(c, *t);
-        s = b.add(s, p);
-    }
-    s
+/// The GGX directional albedo `(A, B)`: a lobe with Schlick Fresnel `F0 + (F90 −
+/// F0)(1 − wo·h)⁵` reflects `F0 A + F90 B` of the light from `wo` (`cos = wo.z`, `alpha`
+/// the average roughness) — the IR intrinsic `ggx_albedo`, a table of our own numerical
+/// integration ([`crate::ops::ggx_albedo`]; it replaced MaterialX's rational fit, which is
+/// off by up to 0.11 at grazing views of smooth lobes).
+pub fn dir_albedo(b: &mut Builder, cos: Value, alpha: Value) -> (Value, Value) {
+    let ab = b.call(Intrinsic::GgxAlbedo, &[cos, alpha]);
+    (b.extract(ab, 0), b.extract(ab, 1))
 }
 
 /// A Fresnel function: the reflectance (color) at `cos = wo·h` (≥ 0); it must give 1
@@ -478,11 +440,11 @@ impl Microfacet<'_> {
     }
 }
 
-/// `(F0 A + F90 B)` of [`dir_albedo_fit`] at `wo` (0 for `wo.z ≤ 0`), colors `f0`, `f90`.
+/// `(F0 A + F90 B)` of [`dir_albedo`] at `wo` (0 for `wo.z ≤ 0`), colors `f0`, `f90`.
 pub fn albedo_f0_f90(b: &mut Builder, a: Alpha, wo: Value, f0: Value, f90: Value) -> Value {
     let co = comp(b, wo, 2);
     let avg = a.average(b);
-    let (ea, eb) = dir_albedo_fit(b, co, avg);
+    let (ea, eb) = dir_albedo(b, co, avg);
     let x = scale(b, f0, ea);
     let y = scale(b, f90, eb);
     let e = b.add(x, y);
@@ -496,135 +458,4 @@ pub fn albedo_f0_f90(b: &mut Builder, a: Alpha, wo: Value, f0: Value, f90: Value
 pub fn white(b: &mut Builder) -> Value {
     let one = f(b, 1.0);
     gray(b, one)
-}
-
-#[cfg(test)]
-mod tests {
-    //! The albedo fit against a numerical integration of the same GGX formulas in f64.
-    use super::{FIT_A_DEN, FIT_A_NUM, FIT_B_DEN, FIT_B_NUM};
-    use std::f64::consts::PI;
-
-    fn poly(x: f64, y: f64, k: &[f64; 9]) -> f64 {
-        let m = [
-            1.0,
-            x,
-            y,
-            x * y,
-            x * x,
-            y * y,
-            x * x * y,
-            x * y * y,
-            x * x * y * y,
-        ];
-        m.iter().zip(k).map(|(a, b)| a * b).sum()
-    }
-
-    /// The fit `(A, B)` in f64, as [`super::dir_albedo_fit`] emits it.
-    fn fit(c: f64, a: f64) -> (f64, f64) {
-        let ea = poly(c, a, &FIT_A_NUM) / poly(c, a, &FIT_A_DEN);
-        let eb = poly(c, a, &FIT_B_NUM) / poly(c, a, &FIT_B_DEN);
-        (ea.clamp(0.0, 1.0), eb.clamp(0.0, 1.0))
-    }
-
-    fn len(v: [f64; 3]) -> f64 {
-        (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
-    }
-
-    fn norm(v: [f64; 3]) -> [f64; 3] {
-        let l = len(v);
-        [v[0] / l, v[1] / l, v[2] / l]
-    }
-
-    fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-        a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-    }
-
-    /// `L(w)` for isotropic `a`.
-    fn proj(a: f64, w: [f64; 3]) -> f64 {
-        (w[2] * w[2] + a * a * (w[0] * w[0] + w[1] * w[1])).sqrt()
-    }
-
-    /// `(A, B)` by integrating the VNDF-sampled weight `G2/G1 · (1 − (1 − wo·h)⁵)` and
-    /// `G2/G1 · (1 − wo·h)⁵` over an n × n midpoint grid of the sampling square: the
-    /// estimator is smooth in `u`, so the grid converges fast for every roughness.
-    fn integrate(c: f64, a: f64, n: usize) -> (f64, f64) {
-        let wo = [(1.0 - c * c).sqrt(), 0.0, c];
-        let v = norm([wo[0] * a, wo[1] * a, wo[2]]);
-        let g1o = 2.0 * c / (c + proj(a, wo));
-        let (mut sa, mut sb) = (0.0, 0.0);
-        for i in 0..n {
-            for j in 0..n {
-                let (u1, u2) = ((i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64);
-                let phi = 2.0 * PI * u1;
-                let z = (1.0 - u2) * (1.0 + v[2]) - v[2];
-                let s = (1.0 - z * z).max(0.0).sqrt();
-                let hs = [s * phi.cos() + v[0], s * phi.sin() + v[1], z + v[2]];
-                let h = norm([hs[0] * a, hs[1] * a, hs[2].max(0.0)]);
-                let vh = dot(wo, h);
-                let wi = [
-                    2.0 * vh * h[0] - wo[0],
-                    2.0 * vh * h[1] - wo[1],
-                    2.0 * vh * h[2] - wo[2],
-                ];
-                if wi[2] <= 0.0 {
-                    continue;
-                }
-                let g2 = 2.0 * c * wi[2] / (proj(a, wo) * wi[2] + proj(a, wi) * c);
-                let w = g2 / g1o;
-                let f5 = (1.0 - vh).max(0.0).powi(5);
-                sa += w * (1.0 - f5);
-                sb += w * f5;
-            }
-        }
-        let k = (n * n) as f64;
-        (sa / k, sb / k)
-    }
-
-    /// The grid converges: two resolutions agree to 2e-3 (measured: 1.6e-3 at the sharpest
-    /// lobe, where the horizon cuts the grid; ≤ 2e-5 elsewhere), well under the fit's error.
-    #[test]
-    fn integration_converges() {
-        for &(c, a) in &[(0.1, 0.05), (0.5, 0.3), (0.9, 1.0), (0.02, 0.6)] {
-            let (a1, b1) = integrate(c, a, 200);
-            let (a2, b2) = integrate(c, a, 400);
-            assert!((a1 - a2).abs() < 2e-3 && (b1 - b2).abs() < 2e-3, "{c} {a}");
-        }
-    }
-
-    /// A white lobe (`F0 = F90 = 1`) at normal incidence and low roughness reflects all.
-    #[test]
-    fn smooth_white_lobe_reflects_all() {
-        let (a, b) = integrate(1.0, 1e-3, 64);
-        assert!((a + b - 1.0).abs() < 1e-6, "{}", a + b);
-    }
-
-    /// MaterialX's fit against the integration on a grid of `cos θo` ∈ {0.05, …, 1} × `α`
-    /// ∈ {1e-4, 0.02, 0.05, 0.1, …, 1}: the largest absolute error of `A`, `B` and the
-    /// white albedo `A + B`, separately where `cos θo ≥ 0.25` or `α ≥ 0.2` (measured:
-    /// 0.022, 0.006, 0.024) and at grazing, nearly smooth lobes (measured: 0.112, 0.030,
-    /// 0.082, worst at `α → 0`, `cos θo = 0.1`, where the fit misses the mirror limit
-    /// `A = 1 − (1 − cos)⁵`, `B = (1 − cos)⁵`).
-    #[test]
-    fn albedo_fit_error() {
-        let mut err = [[0.0f64; 3]; 2];
-        for ci in 1..=20 {
-            let c = ci as f64 / 20.0;
-            for &a in &[
-                1e-4, 0.02, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0,
-            ] {
-                let (ia, ib) = integrate(c, a, 200);
-                let (fa, fb) = fit(c, a);
-                let r = &mut err[usize::from(c < 0.25 && a < 0.2)];
-                r[0] = r[0].max((ia - fa).abs());
-                r[1] = r[1].max((ib - fb).abs());
-                r[2] = r[2].max((ia + ib - fa - fb).abs());
-            }
-        }
-        eprintln!(
-            "fit max |error| (A, B, A+B): main {:?}, grazing/smooth {:?}",
-            err[0], err[1]
-        );
-        assert!(err[0].iter().all(|e| *e < 0.025), "{err:?}");
-        assert!(err[1].iter().all(|e| *e < 0.12), "{err:?}");
-    }
 }

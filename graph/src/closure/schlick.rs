@@ -16,7 +16,7 @@
 //! A thin film (`thinfilm_thickness` > 0) replaces `F` by [`thin_film::fresnel`] over this
 //! interface, seen from outside.
 //!
-//! Albedo: `R` is MaterialX's fit `color0 A + color90 B` (F82 ignored, as MaterialX
+//! Albedo: `R` is `color0 A + color90 B` of the GGX albedo table (F82 ignored, as MaterialX
 //! does); `T` and `RT` give white (energy through, see the dielectric's note).
 
 use super::ggx::{self, Alpha, Microfacet};

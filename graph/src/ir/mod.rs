@@ -505,6 +505,10 @@ named_enum! {
         MxWorley3V2 = "mx_worley3_v2",
         /// MaterialX Worley noise (p: vec3, …) → (F1, F2, F3) (vec3).
         MxWorley3V3 = "mx_worley3_v3",
+        /// The directional albedo of a GGX lobe with Schlick's Fresnel, `(cos θo: float,
+        /// α: float)` → `(A, B)` (vec2): it reflects `F0·A + F90·B`
+        /// ([`crate::ops::ggx_albedo`], a table of our own integration).
+        GgxAlbedo = "ggx_albedo",
     }
 }
 

@@ -15,6 +15,7 @@
 //! material output guard, which replaces them with 0 and counts them.
 
 pub mod cell_hsv_x4;
+pub mod ggx_albedo;
 pub mod math;
 pub mod math_x4;
 pub mod noise;
@@ -538,10 +539,12 @@ pub fn intrinsic_type(i: Intrinsic, args: &[Type]) -> Option<Type> {
         Noise3 | CellNoise3 => args == [Type::Vec3],
         Fbm3 => args == [Type::Vec3, Type::Int, Type::Float, Type::Float],
         RgbToHsv | HsvToRgb => args == [Type::Color],
+        GgxAlbedo => args == [Type::Float, Type::Float],
         _ => return osl_intrinsic_type(i, args),
     };
     ok.then_some(match i {
         RgbToHsv | HsvToRgb => Type::Color,
+        GgxAlbedo => Type::Vec2,
         _ => Type::Float,
     })
 }
@@ -750,6 +753,9 @@ pub fn intrinsic<F: Real>(i: Intrinsic, args: &[Val<F>]) -> Val<F> {
         Intrinsic::CellNoise3 => Val::Float(noise::cellnoise3(arg(0).as_vec3())),
         Intrinsic::RgbToHsv => Val::Vec3(rgb_to_hsv(arg(0).as_vec3())),
         Intrinsic::HsvToRgb => Val::Vec3(hsv_to_rgb(arg(0).as_vec3())),
+        Intrinsic::GgxAlbedo => {
+            Val::Vec2(ggx_albedo::ggx_albedo(arg(0).as_float(), arg(1).as_float()))
+        }
         _ => osl_intrinsic(i, args),
     }
 }
