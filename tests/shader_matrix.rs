@@ -186,7 +186,9 @@ fn named_spaces_match_the_renderers_transforms() {
 }
 
 /// Varying matrices through `if`, loops, user functions (arguments, results, output
-/// arguments) and a struct field, on fragments on both sides of the branch.
+/// arguments) and a struct field, on fragments on both sides of the branch. (A loop
+/// carrying a matrix and its previous value found an aliasing bug in the interpreter's
+/// matrix slots, fixed: a carried matrix has its own slot.)
 #[test]
 fn varying_matrices_through_control_flow() {
     let src = r#"
@@ -204,9 +206,13 @@ fn varying_matrices_through_control_flow() {
             o = transform(M, point(1, 1, 1));
             matrix T = matrix(1, 0, 0, 0,  0, 1, 0, 0,  0, 0, 1, 0,  1, 0, 0, 1);
             matrix L = 1;
-            for (int i = 0; i < int(u * 4); i++) L = L * T;
+            matrix prev = 1;
+            for (int i = 0; i < int(u * 4); i++) {
+                prev = L;
+                L = L * T;
+            }
             shift(L, 0.5);
-            l = transform(scaled(L, 1), point(0, 0, 0));
+            l = transform(scaled(L, 1), point(0, 0, 0)) + 10 * transform(prev, point(0, 0, 0));
             frame f = frame(M, 2);
             f.m[1][1] = f.k;
             st = color(f.m[0][0], f.m[1][1], f.m[3][0]);
@@ -220,17 +226,19 @@ fn varying_matrices_through_control_flow() {
     };
     let o = at(1.0, 5.0, 0.5);
     check(&o, "o", &[2.0, 2.0, 2.0], 0.0);
-    // u = 0.5: two translations by 1, then 0.5.
-    check(&o, "l", &[2.5, 0.0, 0.0], 0.0);
+    // u = 0.5: two translations by 1, then 0.5; the matrix before the last step (a
+    // carried matrix that held the previous iteration's value) translates by 1.
+    check(&o, "l", &[2.5 + 10.0, 0.0, 0.0], 0.0);
     check(&o, "st", &[2.0, 2.0, 0.0], 0.0);
     let o = at(-1.0, 5.0, 0.9);
     check(&o, "o", &[6.0, 1.0, 1.0], 0.0);
-    check(&o, "l", &[3.5, 0.0, 0.0], 0.0);
+    check(&o, "l", &[3.5 + 20.0, 0.0, 0.0], 0.0);
     check(&o, "st", &[1.0, 2.0, 5.0], 0.0);
 }
 
 /// The interpreter and the JIT's scalar and batch entries give the same bits on varying
-/// matrices (products, inverses, run-time elements, a loop, camera space).
+/// matrices (products, inverses, run-time elements, a loop carrying a matrix and its
+/// previous value, a matrix read after a product that replaces it, camera space).
 #[test]
 fn the_jit_agrees_with_the_interpreter_on_matrices() {
     let src = r#"
@@ -238,10 +246,17 @@ fn the_jit_agrees_with_the_interpreter_on_matrices() {
             matrix M = matrix(1 + u, v, 0, 0,  P[1], 2, u * v, 0,  0, 0.5, 1 + P[0], 0,
                               P[0], P[1], P[2], 1);
             matrix C = matrix("camera");
-            for (int i = 0; i < int(u * 5); i++) M = M * M / (1 + determinant(M));
+            matrix prev = 0;
+            for (int i = 0; i < int(u * 5); i++) {
+                prev = M;
+                matrix n = M * M / (1 + determinant(M));
+                q = color(determinant(M));
+                M = n;
+            }
             if (v > 0.5) M = transpose(M); else M = inverse(M) * C;
             o = transform(M, P) + transform(M, N) + transform(C, vector(u, v, 1));
-            q = color(M[int(u * 4)][int(v * 4)], determinant(M), (M == C) + (M != M));
+            q += color(M[int(u * 4)][int(v * 4)], determinant(M), (M == C) + (M != M));
+            q += color(determinant(prev), prev[1][2], 0);
         }"#;
     let p = compile(src).unwrap();
     let env = shadenet::shade::grid_env(&[]);
