@@ -6,8 +6,9 @@
 //! outputs; for an inline `sourcecode` template, a shader whose output is the template with
 //! `{{input}}` replaced by the parameters. Inputs bound to geometry (`defaultgeomprop`)
 //! read our globals. MaterialX's types map onto ours (`color3` → `color`, `vector3` →
-//! `vector`, `integer` and `boolean` → `int`) or onto the structs of its OSL headers
-//! (`color4`, `vector2`, `vector4`, `matrix33`).
+//! `vector`, `integer` and `boolean` → `int`, `matrix33` and `matrix44` → `matrix`, a
+//! matrix33 being the 4×4 with the 3×3 in its corner, as MaterialX's OSL syntax has it) or
+//! onto the structs of its OSL headers (`color4`, `vector2`, `vector4`).
 //!
 //! It owns building these shaders; the language is `shadenet-lang`'s and the nodedefs the
 //! library's ([`crate::mtlx`]).
@@ -75,7 +76,9 @@ fn osl_type(mx: &str) -> Option<&'static str> {
         "vector2" => "vector2",
         "vector3" => "vector",
         "vector4" => "vector4",
-        "matrix33" => "matrix33",
+        // MaterialX's OSL generator writes a matrix33 as OSL's 4×4 `matrix` (its functions
+        // take `matrix` for matrix33 inputs: `mx_extract_matrix33(matrix in, …)`).
+        "matrix33" => "matrix",
         "matrix44" => "matrix",
         "string" => "string",
         "filename" => "textureresource",
@@ -103,7 +106,19 @@ fn osl_value(mx: &str, value: &str) -> Option<String> {
                 nums[0], nums[1], nums[2], nums[3]
             )
         }
-        "matrix33" => format!("matrix33(matrix({}))", list()),
+        // A matrix33 is OSL's 4×4 with the 3×3 in its corner (the last row and column of
+        // the identity), as MaterialX's OSL syntax writes it: a `matrix` takes 1 or 16 floats.
+        "matrix33" if nums.len() == 9 => {
+            let row = |r: usize| {
+                format!(
+                    "{}, {}, {}, 0",
+                    nums[3 * r],
+                    nums[3 * r + 1],
+                    nums[3 * r + 2]
+                )
+            };
+            format!("matrix({}, {}, {}, 0, 0, 0, 1)", row(0), row(1), row(2))
+        }
         "matrix44" => format!("matrix({})", list()),
         "string" => format!("{value:?}"),
         _ => return None,
@@ -233,7 +248,6 @@ fn zero(ty: &str) -> String {
         "color4" => "color4(color(0), 0)".into(),
         "vector2" => "vector2(0, 0)".into(),
         "vector4" => "vector4(0, 0, 0, 0)".into(),
-        "matrix33" => "matrix33(matrix(0))".into(),
         "matrix" => "matrix(0)".into(),
         "string" => "\"\"".into(),
         _ => "0".into(),

@@ -62,7 +62,7 @@ fn genosl_implementations_compile() {
 }
 
 /// How many compile today (a floor: raise it as more is built).
-const MIN_COMPILED: usize = 415;
+const MIN_COMPILED: usize = 467;
 
 /// A MaterialX document of one node of nodedef `nd` with `values` set, its output `out`.
 fn one_node_document(
@@ -100,13 +100,16 @@ fn value_for(ty: &str, seed: u32) -> Option<String> {
         "vector2" => 2,
         "color3" | "vector3" => 3,
         "color4" | "vector4" => 4,
+        "matrix33" => 9,
+        "matrix44" => 16,
         _ => return None,
     };
     Some((0..n).map(x).collect::<Vec<_>>().join(", "))
 }
 
 /// For every nodedef with a native atom of ours whose `genosl` implementation compiles (one
-/// output, a value type), the two agree within 1e-5 absolute on fragments across the plane,
+/// output, a value type or a matrix — both front ends hold a matrix as its transpose, so
+/// the elements compare directly), the two agree within 1e-5 absolute on fragments across the plane,
 /// at the nodedef's defaults and at three sets of other input values (ordinary values in
 /// [−2, 2]; the nodedefs' defaults give the zeros). Prints the counts. (It found two bugs in
 /// our atoms: `burn` at `fg` = 0 and `rotate3d`'s direction.)
@@ -128,7 +131,14 @@ fn genosl_agrees_with_our_atoms() {
         let value_out = nd.outputs.len() == 1
             && matches!(
                 out_ty,
-                "float" | "color3" | "color4" | "vector2" | "vector3" | "vector4"
+                "float"
+                    | "color3"
+                    | "color4"
+                    | "vector2"
+                    | "vector3"
+                    | "vector4"
+                    | "matrix33"
+                    | "matrix44"
             );
         if !matches!(lib.implementation(nd), Impl::Atom) || !value_out {
             continue;
@@ -189,6 +199,10 @@ fn genosl_agrees_with_our_atoms() {
                         av.extend(e.2.iter().copied());
                     }
                 }
+                if out_ty == "matrix33" && av.len() == 16 {
+                    // A matrix33 is an OSL 4×4 `matrix` here: its top-left 3×3.
+                    av = (0..9).map(|k| av[(k / 3) * 4 + k % 3]).collect();
+                }
                 let bv = b.get32("out");
                 if av.len() != bv.len() {
                     failed = Some(format!("{} vs {} values", av.len(), bv.len()));
@@ -209,6 +223,17 @@ fn genosl_agrees_with_our_atoms() {
         }
         match failed {
             None if worst <= 1e-5 => agree += 1,
+            // MaterialX's own implementations disagree here: its OSL transforms the vector3
+            // as a direction (`transform(mat, vector)`, w = 0), its GLSL as a point
+            // (`vec4(val, 1.0)`), as our atom does. Held as a difference, so that a fix on
+            // either side shows.
+            None if nd.name == MATERIALX_INCONSISTENT => {
+                assert!(worst > 0.1, "{}: now agrees ({worst:e})", nd.name);
+                eprintln!(
+                    "  differs as known: {} (max abs {worst:.3e}: MaterialX's OSL takes a direction, its GLSL a point)",
+                    nd.name
+                );
+            }
             None => disagree.push(format!("{}: max abs {worst:.3e}", nd.name)),
             Some(why) => disagree.push(format!("{}: {why}", nd.name)),
         }
@@ -219,6 +244,7 @@ fn genosl_agrees_with_our_atoms() {
     for d in &disagree {
         eprintln!("  differs: {d}");
     }
+    assert!(disagree.is_empty(), "{} differ", disagree.len());
     assert!(
         agree >= MIN_AGREEING,
         "{agree} agree, fewer than {MIN_AGREEING}"
@@ -226,7 +252,10 @@ fn genosl_agrees_with_our_atoms() {
 }
 
 /// How many agree today (a floor: raise it as more is built).
-const MIN_AGREEING: usize = 364;
+const MIN_AGREEING: usize = 415;
+
+/// The nodedef whose MaterialX OSL and GLSL implementations disagree (see the test).
+const MATERIALX_INCONSISTENT: &str = "ND_transformmatrix_vector3M4";
 
 /// The implementations that compile in one source (`genosl::module_source`): the shared
 /// headers and each file parsed once, every shader lowered by name — all of them compile

@@ -273,8 +273,8 @@ fn errors_name_the_place_and_the_problem() {
             "uniform variable `k` is assigned a varying value",
         ),
         (
-            "surface s() { matrix m; }",
-            "matrix values are not built yet",
+            "surface s() { matrix m = matrix(\"screen\"); }",
+            "the space \"screen\" is not available here",
         ),
         (
             "surface s() { color c = 0; illuminance(P) { c = Cl; } Ci = c; }",

@@ -82,7 +82,10 @@ pub struct Interpreter<F: Real> {
     /// Matrix table: constants and parameters of a matrix type, then the prelude's computed
     /// matrices (a matrix33 fills the first 9 elements, row-major).
     mats: Vec<[F; 16]>,
-    /// For each `Construct` of a matrix (by arena index): its `Val::Mat` index. Those of the
+    /// For each `Construct` of a matrix (by arena index): its `Val::Mat` index; for each
+    /// `Loop`, the first of its carried values' own matrix slots (one per carried value: a
+    /// carried matrix is copied there after each body run, so that a construct running
+    /// again in the next run cannot change a value the loop still carries). Those of the
     /// prelude index `mats`; those of the body index past it, into [`Scratch`]'s matrices.
     mat_index: Vec<u32>,
     /// Matrices the body constructs per fragment.
@@ -437,7 +440,7 @@ impl<F: Real> Interpreter<F> {
                 cur.clear();
                 cur.extend(init.iter().map(reg));
                 s.loops.push(cur);
-                self.run_loop(cond, body, ctx, s);
+                self.run_loop(cond, body, self.mat_index[v.index()], ctx, s);
                 let cur = s.loops.pop().unwrap_or_default();
                 self.store_sums(v, &cur, s);
                 s.sums.push(cur);
@@ -499,7 +502,7 @@ impl<F: Real> Interpreter<F> {
     /// body while it holds and the loop nest has iterations left (an outermost loop starts
     /// the nest's budget of [`LOOP_ITERATION_LIMIT`] body runs; the loops nested in it share
     /// it).
-    fn run_loop(&self, cond: &Block, body: &Block, ctx: &ShadeCtx, s: &mut Scratch<F>) {
+    fn run_loop(&self, cond: &Block, body: &Block, carry: u32, ctx: &ShadeCtx, s: &mut Scratch<F>) {
         if s.loops.len() == 1 {
             s.budget = LOOP_ITERATION_LIMIT;
         }
@@ -519,9 +522,42 @@ impl<F: Real> Interpreter<F> {
             s.budget -= 1;
             self.block(body, ctx, s);
             let regs = &s.regs;
+            if !body
+                .yields
+                .iter()
+                .any(|y| matches!(regs[y.index()], Val::Mat(_)))
+            {
+                if let Some(cur) = s.loops.last_mut() {
+                    for (c, y) in cur.iter_mut().zip(&body.yields) {
+                        *c = regs[y.index()];
+                    }
+                }
+                continue;
+            }
+            // The next values; carried matrices read (all of them first: one may be another's
+            // slot) and then copied into the loop's own slots.
+            let next: Vec<Val<F>> = body.yields.iter().map(|y| s.regs[y.index()]).collect();
+            let copies: Vec<(usize, [F; 16])> = next
+                .iter()
+                .enumerate()
+                .filter(|(_, v)| matches!(v, Val::Mat(_)))
+                .map(|(k, v)| (k, self.mat(*v, s)))
+                .collect();
+            for (k, m) in copies {
+                let slot = carry as usize + k;
+                if let Some(d) = slot
+                    .checked_sub(self.mats.len())
+                    .and_then(|j| s.mats.get_mut(j))
+                {
+                    *d = m;
+                }
+            }
             if let Some(cur) = s.loops.last_mut() {
-                for (c, y) in cur.iter_mut().zip(&body.yields) {
-                    *c = regs[y.index()];
+                for (k, (c, v)) in cur.iter_mut().zip(next).enumerate() {
+                    *c = match v {
+                        Val::Mat(_) => Val::Mat(carry + k as u32),
+                        v => v,
+                    };
                 }
             }
         }
@@ -557,26 +593,32 @@ impl<F: Real> Interpreter<F> {
     }
 }
 
-/// Numbers the matrices a program constructs (by arena index): those in the prelude from
-/// `base`, then those in the body. Returns the numbers and how many each part has.
+/// Numbers the matrices a program constructs (by arena index), and gives each loop one
+/// slot per carried value: those in the prelude from `base`, then those in the body.
+/// Returns the numbers and how many slots each part has.
 fn matrix_indices(program: &Program, base: usize) -> (Vec<u32>, usize, usize) {
     let mut in_prelude = vec![false; program.exprs.len()];
     program.walk(&program.prelude, &mut |v| in_prelude[v.index()] = true);
     let in_prelude = &in_prelude;
-    let constructs = |prelude: bool| {
-        program.exprs.iter().enumerate().filter(move |(i, e)| {
-            matches!(e.op, Op::Construct(_))
-                && e.ty.is_some_and(Type::is_matrix)
-                && in_prelude[*i] == prelude
-        })
+    let slots = |e: &shadenet_graph::ir::Expr| match &e.op {
+        Op::Construct(_) if e.ty.is_some_and(Type::is_matrix) => 1,
+        Op::Loop { init, .. } => init.len(),
+        _ => 0,
     };
     let mut index = vec![0; program.exprs.len()];
     let mut n = base;
-    for (i, _) in constructs(true).chain(constructs(false)) {
-        index[i] = n as u32;
-        n += 1;
+    let mut prelude = 0;
+    for part in [true, false] {
+        for (i, e) in program.exprs.iter().enumerate() {
+            if in_prelude[i] == part && slots(e) > 0 {
+                index[i] = n as u32;
+                n += slots(e);
+            }
+        }
+        if part {
+            prelude = n - base;
+        }
     }
-    let prelude = constructs(true).count();
     (index, prelude, n - base - prelude)
 }
 

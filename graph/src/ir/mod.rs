@@ -37,6 +37,7 @@
 mod builder;
 mod derivs;
 mod edit;
+pub mod matrix;
 mod text;
 mod validate;
 

@@ -2,7 +2,9 @@
 //! products, transpose, determinant, inverse, `creatematrix`, `extract` of a row and
 //! `transformmatrix`, each written element by element with `extract`/`construct` and scalar
 //! IR arithmetic, so every back end runs them as it runs floats (constant, uniform or per
-//! fragment) and partial evaluation folds or hoists them like any arithmetic.
+//! fragment) and partial evaluation folds or hoists them like any arithmetic. The product,
+//! transpose, determinant and inverse are [`crate::ir::matrix`]'s (the OSL front end uses
+//! the same copy).
 //!
 //! Convention: a MaterialX matrix value is row-major with row vectors (`p·M`); ours are
 //! column vectors (`M·p`), so [`super::value::literal`] stores the transpose `Mᵀ`. Every
@@ -11,7 +13,8 @@
 //! those formulas; it must not decide which nodedef uses which lowering (the table in
 //! [`super::atoms`] does).
 
-use crate::ir::{BinOp, Builder, UnOp, Value};
+use crate::ir::matrix::{Mat, determinant as det, inverse, product};
+use crate::ir::{BinOp, Builder, Value};
 use crate::nodes::{LowVal, NodeInputs};
 use crate::types::Type;
 
@@ -19,36 +22,6 @@ type Out = Result<Vec<LowVal>, String>;
 
 fn one(v: Value) -> Out {
     Ok(vec![LowVal::plain(v)])
-}
-
-/// A matrix's elements, row-major, with its size.
-struct Mat {
-    n: usize,
-    e: Vec<Value>,
-}
-
-impl Mat {
-    fn of(b: &mut Builder, m: Value) -> Result<Mat, String> {
-        let n = b.ty(m).matrix_size();
-        if n == 0 {
-            return Err(format!("expected a matrix, found a {}", b.ty(m)));
-        }
-        let e = (0..n * n).map(|i| b.extract(m, i)).collect();
-        Ok(Mat { n, e })
-    }
-    fn at(&self, r: usize, c: usize) -> Value {
-        self.e[r * self.n + c]
-    }
-    fn build(&self, b: &mut Builder) -> Value {
-        let ty = Type::matrix(self.n).expect("size 3 or 4");
-        b.construct(ty, &self.e)
-    }
-    fn map(&self, f: impl FnMut(&Value) -> Value) -> Mat {
-        Mat {
-            n: self.n,
-            e: self.e.iter().map(f).collect(),
-        }
-    }
 }
 
 /// Whether input `port` of a node is a matrix (the node's matrix variant).
@@ -74,23 +47,6 @@ pub fn elementwise(b: &mut Builder, inp: &NodeInputs, op: BinOp) -> Out {
     one(r.build(b))
 }
 
-/// `x·y`, sums in index order (`((x0·y0 + x1·y1) + x2·y2) + …`).
-fn product(b: &mut Builder, x: &Mat, y: &Mat) -> Mat {
-    let n = x.n;
-    let mut e = Vec::with_capacity(n * n);
-    for r in 0..n {
-        for c in 0..n {
-            let mut s = b.mul(x.at(r, 0), y.at(0, c));
-            for k in 1..n {
-                let p = b.mul(x.at(r, k), y.at(k, c));
-                s = b.add(s, p);
-            }
-            e.push(s);
-        }
-    }
-    Mat { n, e }
-}
-
 /// MaterialX `in1 * in2` (a matrix product): ours `in2ᵀ·in1ᵀ`.
 pub fn multiply(b: &mut Builder, inp: &NodeInputs) -> Out {
     let (x, y) = (Mat::of(b, inp.get("in1"))?, Mat::of(b, inp.get("in2"))?);
@@ -110,68 +66,13 @@ pub fn divide(b: &mut Builder, inp: &NodeInputs) -> Out {
 /// The transpose.
 pub fn transpose(b: &mut Builder, inp: &NodeInputs) -> Out {
     let x = Mat::of(b, inp.get("in"))?;
-    let n = x.n;
-    let e = (0..n * n).map(|i| x.at(i % n, i / n)).collect();
-    one(Mat { n, e }.build(b))
-}
-
-/// The determinant of the rows/columns `rows` × `cols` of `x` (cofactor expansion along the
-/// first listed row, alternating signs; a 2×2 as `a·d − b·c`).
-fn minor(b: &mut Builder, x: &Mat, rows: &[usize], cols: &[usize]) -> Value {
-    if rows.len() == 1 {
-        return x.at(rows[0], cols[0]);
-    }
-    if rows.len() == 2 {
-        let ad = b.mul(x.at(rows[0], cols[0]), x.at(rows[1], cols[1]));
-        let bc = b.mul(x.at(rows[0], cols[1]), x.at(rows[1], cols[0]));
-        return b.sub(ad, bc);
-    }
-    let mut sum: Option<Value> = None;
-    for (j, &c) in cols.iter().enumerate() {
-        let rest: Vec<usize> = cols.iter().copied().filter(|k| *k != c).collect();
-        let m = minor(b, x, &rows[1..], &rest);
-        let t = b.mul(x.at(rows[0], c), m);
-        sum = Some(match sum {
-            None => t,
-            Some(s) if j % 2 == 1 => b.sub(s, t),
-            Some(s) => b.add(s, t),
-        });
-    }
-    sum.expect("at least one column")
-}
-
-fn det(b: &mut Builder, x: &Mat) -> Value {
-    let idx: Vec<usize> = (0..x.n).collect();
-    minor(b, x, &idx, &idx)
+    one(crate::ir::matrix::transpose(&x).build(b))
 }
 
 /// The determinant (cofactor expansion along the first row); the same for `Mᵀ`.
 pub fn determinant(b: &mut Builder, inp: &NodeInputs) -> Out {
     let x = Mat::of(b, inp.get("in"))?;
     one(det(b, &x))
-}
-
-/// `adj(x) / det(x)` (each cofactor divided by the determinant): with the IR's total
-/// division a singular matrix (determinant exactly 0) has the zero matrix as inverse.
-fn inverse(b: &mut Builder, x: &Mat) -> Mat {
-    let n = x.n;
-    let d = det(b, x);
-    let mut e = Vec::with_capacity(n * n);
-    for r in 0..n {
-        for c in 0..n {
-            // inverse[r][c] = (−1)^(r+c) · minor(c, r) / det
-            let rows: Vec<usize> = (0..n).filter(|k| *k != c).collect();
-            let cols: Vec<usize> = (0..n).filter(|k| *k != r).collect();
-            let m = minor(b, x, &rows, &cols);
-            let m = if (r + c) % 2 == 1 {
-                b.unary(UnOp::Neg, m)
-            } else {
-                m
-            };
-            e.push(b.div(m, d));
-        }
-    }
-    Mat { n, e }
 }
 
 /// The inverse (`adj / det`; the zero matrix where the determinant is 0). Transposing

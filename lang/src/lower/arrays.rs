@@ -175,7 +175,31 @@ impl<'a> Lower<'a> {
     /// `base[index]`: an array element, or a component of a triple (the index constant or
     /// computed, as for arrays).
     pub(crate) fn index(&mut self, b: &mut Builder, base: &'a Expr, index: &'a Expr) -> Val {
-        let elems = match self.expr(b, base) {
+        if let ExprKind::Index {
+            base: inner,
+            index: i,
+        } = &base.kind
+        {
+            // `m[i][j]` of a matrix; else `a[i][j]`, a component of an array's element.
+            let outer = self.expr(b, inner);
+            if let Val::V {
+                v,
+                ty: Ty::Matrix,
+                varying,
+            } = outer
+            {
+                return self.matrix_read(b, (v, varying), i, index);
+            }
+            let row = self.index_of(b, outer, inner.span, i);
+            return self.index_of(b, row, base.span, index);
+        }
+        let v = self.expr(b, base);
+        self.index_of(b, v, base.span, index)
+    }
+
+    /// `v[index]` of a lowered `v` (at `at`).
+    fn index_of(&mut self, b: &mut Builder, v: Val, at: Span, index: &'a Expr) -> Val {
+        let elems = match v {
             Val::Array(elems) => elems,
             Val::V { v, ty, varying } if ty.is_triple() => (0..3)
                 .map(|k| Val::V {
@@ -184,10 +208,14 @@ impl<'a> Lower<'a> {
                     varying,
                 })
                 .collect(),
+            Val::V { ty: Ty::Matrix, .. } => {
+                self.error("a matrix element is `m[row][column]`", at, "a matrix");
+                return Self::poison(b, Ty::Float);
+            }
             other => {
                 self.error(
                     format!("{} cannot be indexed", super::an(other.type_name())),
-                    base.span,
+                    at,
                     "not an array or a triple",
                 );
                 return Self::poison(b, Ty::Float);
@@ -198,7 +226,7 @@ impl<'a> Lower<'a> {
     }
 
     /// The element of `elems` at `pos` (a chain of selects for a run-time position).
-    fn pick(&mut self, b: &mut Builder, elems: &[Val], pos: &Position) -> Val {
+    pub(crate) fn pick(&mut self, b: &mut Builder, elems: &[Val], pos: &Position) -> Val {
         match *pos {
             Position::Known(k) => elems[k].clone(),
             Position::Computed(i, vi) => {
@@ -309,7 +337,7 @@ impl<'a> Lower<'a> {
 
     /// Where `index` points in a sequence of `len`: a constant position (out of range: an
     /// error), or a run-time one clamped to `[0, len − 1]` (an int).
-    fn position(&mut self, b: &mut Builder, index: &'a Expr, len: usize) -> Position {
+    pub(crate) fn position(&mut self, b: &mut Builder, index: &'a Expr, len: usize) -> Position {
         let (v, ty, varying) = self.value(b, index);
         if !matches!(ty, Ty::Int | Ty::Float) {
             self.error(
@@ -353,7 +381,7 @@ pub(crate) enum Rhs<'a> {
 }
 
 /// Where an index points.
-enum Position {
+pub(crate) enum Position {
     /// A constant element.
     Known(usize),
     /// A run-time element (an int in range) and whether it varies.

@@ -123,6 +123,9 @@ impl<'a> Lower<'a> {
             );
             return Self::poison(b, Ty::Float);
         }
+        if let Some(v) = self.matrix_builtin(b, name, &vals, args, span) {
+            return v;
+        }
         if self.dialect == Dialect::Osl {
             if let Some(v) = self.closure_call(b, name, &vals, span) {
                 return v;
@@ -243,7 +246,8 @@ impl<'a> Lower<'a> {
     /// Whether `name` is a builtin of the dialect (or an OSL closure).
     fn is_builtin(&self, name: &str) -> bool {
         match self.dialect {
-            Dialect::Rsl => NAMES.contains(&name),
+            _ if super::matrix::NAMES.contains(&name) => true,
+            Dialect::Rsl => NAMES.contains(&name) || super::matrix::RSL_NAMES.contains(&name),
             Dialect::Osl => {
                 (NAMES.contains(&name) && !osl::RSL_ONLY.contains(&name))
                     || osl::NAMES.contains(&name)
@@ -569,7 +573,7 @@ fn returns_wanted(ret: &ast::Type, (ty, st): &Wanted) -> usize {
     match (&ret.base, ty, st) {
         (B::Struct(n), _, Some(s)) if n.name == *s => 2,
         (B::Float, Some(Ty::Float), _) | (B::Int, Some(Ty::Int), _) => 2,
-        (B::Color, Some(Ty::Color), _) => 2,
+        (B::Color, Some(Ty::Color), _) | (B::Matrix, Some(Ty::Matrix), _) => 2,
         (B::Point | B::Vector | B::Normal, Some(t), _) if t.is_geometric() => 2,
         (_, Some(t), _) if triple && t.is_triple() => 1,
         _ => 0,
@@ -600,6 +604,7 @@ fn accepts(param: &ast::Param, v: &Val, exact: bool) -> bool {
         ast::BaseType::Point => ty == Ty::Point,
         ast::BaseType::Vector => ty == Ty::Vector,
         ast::BaseType::Normal => ty == Ty::Normal,
+        ast::BaseType::Matrix => ty == Ty::Matrix,
         _ => false,
     };
     if same || exact {

@@ -61,6 +61,16 @@ impl<'a> Lower<'a> {
                 varying,
             };
         }
+        if to == Ty::Matrix && matches!(ty, Ty::Int | Ty::Float) {
+            // A number as a matrix: it on the diagonal (OSL's `matrix m = 1`).
+            let f = if ty == Ty::Int {
+                b.convert(shadenet_graph::Type::Float, v)
+            } else {
+                v
+            };
+            let v = super::matrix::diagonal(b, f);
+            return Val::V { v, ty: to, varying };
+        }
         if ty == Ty::Int && (to == Ty::Float || to.is_triple()) {
             v = b.convert(shadenet_graph::Type::Float, v);
             ty = Ty::Float;
@@ -309,9 +319,10 @@ impl<'a> Lower<'a> {
             ast::BaseType::Vector => Ty::Vector,
             ast::BaseType::Normal => Ty::Normal,
             ast::BaseType::Color => Ty::Color,
+            ast::BaseType::Matrix => Ty::Matrix,
             _ => {
                 self.error(
-                    "only float, point, vector, normal and color values (and OSL's int) are built",
+                    "only float, point, vector, normal, color and matrix values (and OSL's int) are built",
                     span,
                     "this type",
                 );
@@ -338,6 +349,7 @@ impl<'a> Lower<'a> {
         };
         let v = match (op, ty) {
             (UnaryOp::Plus, _) if ty != Ty::Bool => v,
+            (UnaryOp::Neg, Ty::Matrix) => Self::matrix_neg(b, v),
             (UnaryOp::Neg, _) if ty != Ty::Bool => b.unary(UnOp::Neg, v),
             (UnaryOp::Not, Ty::Bool) => b.unary(UnOp::Not, v),
             _ => {
@@ -393,7 +405,7 @@ impl<'a> Lower<'a> {
                 *t = Ty::Float;
             }
         }
-        if ta == Ty::Bool || tc == Ty::Bool {
+        if ta == Ty::Bool || tc == Ty::Bool || ta == Ty::Matrix || tc == Ty::Matrix {
             return bad(self);
         }
         if ta == Ty::Float && tc != Ty::Float {
@@ -452,6 +464,12 @@ impl<'a> Lower<'a> {
         let (c, tc, vc) = self.plain(b, r, rspan);
         let varying = va || vc;
         let out = |v, ty| Val::V { v, ty, varying };
+        if ta == Ty::Matrix || tc == Ty::Matrix {
+            return match self.matrix_binary(b, op, (a, ta), (c, tc), span) {
+                Some((v, ty)) => out(v, ty),
+                None => Self::poison(b, Ty::Matrix),
+            };
+        }
         match op {
             BinaryOp::Add | BinaryOp::Sub | BinaryOp::Mul | BinaryOp::Div | BinaryOp::Rem => {
                 let Some((a, c, ty)) = self.arith(b, op, (a, ta), (c, tc), span) else {
@@ -613,6 +631,16 @@ impl<'a> Lower<'a> {
         value: &'a Expr,
         span: Span,
     ) -> Val {
+        // `m[i][j]` of a matrix variable (or field: `s.m[i][j]`).
+        if let Some((base, i, j)) = super::matrix::double_index(target)
+            && let Some(id) = super::structs::place(base)
+            && matches!(
+                self.lookup(&id.name).map(|v| &v.val),
+                Some(Val::V { ty: Ty::Matrix, .. })
+            )
+        {
+            return self.assign_matrix_element(b, &id, (i, j), (op, value), span);
+        }
         // `a[i]`, `s.a[i]` (the field's hidden array variable), `s.f`, `s.f.g`.
         if let ExprKind::Index { base, index } = &target.kind
             && let Some(id) = super::structs::place(base)
@@ -856,6 +884,9 @@ impl<'a> Lower<'a> {
         span: Span,
     ) -> Val {
         let to = self.base_type(ty, ty_span);
+        if to == Ty::Matrix {
+            return self.matrix_construct(b, space, args, span);
+        }
         let hsv = match space {
             None => false,
             Some((s, _)) if to == Ty::Color && s == "rgb" => false,

@@ -11,8 +11,8 @@
 //! `"current"` and `"world"`; user functions (inlined); the builtins of `builtins`. OSL
 //! `surface` and `shader` shaders add `int`, closures (`closure`: lobe lists), output
 //! parameters and OSL's builtins and noise (`osl`); both have fixed-size arrays (`arrays`)
-//! and OSL shader groups lower through `group`. What is not yet — matrices, other
-//! spaces, volume/displacement shaders, OSL light shaders — is an error that says so,
+//! and OSL shader groups lower through `group`; both have `matrix` values (`matrix`).
+//! What is not yet — other spaces, volume/displacement shaders, OSL light shaders — is an error that says so,
 //! naming the construct. It owns the rules of the language;
 //! it must not hold op semantics (the IR's) nor touch the renderer.
 
@@ -24,6 +24,7 @@ mod expr;
 mod group;
 pub mod light;
 mod loops;
+mod matrix;
 mod osl;
 mod returns;
 mod spline;
@@ -65,6 +66,8 @@ pub(crate) enum Ty {
     Int,
     /// A condition (comparisons, `&&`, `!`).
     Bool,
+    /// A 4×4 `matrix` of row vectors, held as its transpose ([`matrix`]).
+    Matrix,
 }
 
 impl Ty {
@@ -76,6 +79,7 @@ impl Ty {
             Ty::Color => Type::Color,
             Ty::Int => Type::Int,
             Ty::Bool => Type::Bool,
+            Ty::Matrix => Type::Matrix44,
         }
     }
 
@@ -89,6 +93,7 @@ impl Ty {
             Ty::Color => "color",
             Ty::Int => "int",
             Ty::Bool => "bool (a condition)",
+            Ty::Matrix => "matrix",
         }
     }
 
@@ -174,6 +179,7 @@ pub(crate) fn same(
 ) -> Option<(Value, Value, Ty)> {
     match (tx, ty) {
         _ if tx == Ty::Bool || ty == Ty::Bool => None,
+        _ if (tx == Ty::Matrix || ty == Ty::Matrix) && tx != ty => None,
         _ if tx == ty => Some((x, y, tx)),
         (Ty::Float, t) => Some((b.splat(t.ir(), x), y, t)),
         (t, Ty::Float) => Some((x, b.splat(t.ir(), y), t)),
@@ -565,9 +571,9 @@ impl<'a> Lower<'a> {
             ast::BaseType::Vector => Some(Ty::Vector),
             ast::BaseType::Normal => Some(Ty::Normal),
             ast::BaseType::Color => Some(Ty::Color),
+            ast::BaseType::Matrix => Some(Ty::Matrix),
             other => {
                 let what = match other {
-                    ast::BaseType::Matrix => "matrix values are not built yet (issue 21)",
                     ast::BaseType::String => "string variables are not built yet",
                     ast::BaseType::Int => "RSL has no `int`: use float",
                     ast::BaseType::Void => "a variable cannot be void",
@@ -602,6 +608,7 @@ impl<'a> Lower<'a> {
         let mut v: Vec<String> = self.scopes.iter().flat_map(|s| s.keys().cloned()).collect();
         v.extend(self.functions.keys().map(|k| k.to_string()));
         v.extend(builtins::NAMES.iter().map(|s| s.to_string()));
+        v.extend(matrix::NAMES.iter().map(|s| s.to_string()));
         if self.dialect == Dialect::Osl {
             v.extend(osl::NAMES.iter().map(|s| s.to_string()));
             v.extend(closure::names().map(str::to_string));

@@ -70,10 +70,6 @@ const UNBUILT: &[(&str, &str)] = &[
         "error",
         "side effects (printf, format, warning, error) are not built yet",
     ),
-    (
-        "transform",
-        "spaces other than \"common\" are not built yet",
-    ),
     ("getattribute", "attributes are not built yet"),
     ("raytype", "ray types are not readable by shaders yet"),
     (
