@@ -158,63 +158,87 @@ pub fn fractal(
     // A constant scale ≤ 0 folds the count back to `octaves`: the unfiltered call.
     let kept = switch(b, scale, kept, octaves);
     let sum = b.call(f.sum, &[q, kept, lacunarity, gain]);
+    // Octave i lies inside the band where lacunarityⁱ·w < FADE[1], that is where
+    // i < n + log(FADE[1]/FADE[0]) / log(lacunarity): no power computed outside the regions
+    // (a constant lacunarity folds the bound's offset).
+    let last = {
+        let span = b.float((FADE[1] / FADE[0]).ln());
+        let o = b.div(span, ln_lac);
+        b.add(n, o)
+    };
+    // The first fading octave's frequency and amplitude (powers), in a region no lane of a
+    // packet that keeps every octave enters; the next ones by products.
+    let first = b.if_(
+        fades,
+        |b| {
+            let freq = b.binary(BinOp::Pow, lacunarity, kf);
+            vec![freq, signed_power(b, gain, kf)]
+        },
+        |b| vec![b.float(1.0), b.float(1.0)],
+    );
+    let (mut freq, mut amp) = (first[0], first[1]);
     let mut acc = sum;
     for j in 0..FADING {
         let i = {
             let jf = b.float(j as f64);
             b.add(kf, jf)
         };
-        let freq = b.binary(BinOp::Pow, lacunarity, i);
-        let x = b.mul(freq, w);
         let inside = b.binary(BinOp::Lt, i, count);
-        let hi = b.float(FADE[1]);
-        let in_band = b.binary(BinOp::Lt, x, hi);
+        let in_band = b.binary(BinOp::Lt, i, last);
         let c = b.binary(BinOp::And, fades, inside);
         let c = b.binary(BinOp::And, c, in_band);
         let before = acc;
+        let (fr, am) = (freq, amp);
         acc = b.if_(
             c,
             |b| {
-                let term = fading_octave(b, f, q, gain, i, freq, x);
+                let term = fading_octave(b, f.octave, q, w, fr, am);
                 vec![b.add(before, term)]
             },
             |_| vec![before],
         )[0];
+        if j + 1 < FADING {
+            freq = b.mul(freq, lacunarity);
+            amp = b.mul(amp, gain);
+        }
     }
     switch(b, scale, acc, sum)
 }
 
-/// Octave `i` (a float) of `f` at `q`, with frequency `freq = lacunarityⁱ` and `x = freq·w`:
-/// `gainⁱ · weight(x) · octave(q · freq)` (the sign of `gainⁱ` kept for a negative gain).
+/// `gainⁱ` for a float `i ≥ 0` holding an integer: `|gain|ⁱ` with the sign of `gain` where
+/// `i` is odd.
+fn signed_power(b: &mut Builder, gain: Value, i: Value) -> Value {
+    let g = b.unary(UnOp::Abs, gain);
+    let a = b.binary(BinOp::Pow, g, i);
+    let zero = b.float(0.0);
+    let neg = b.binary(BinOp::Lt, gain, zero);
+    let half = b.float(0.5);
+    let h = b.mul(i, half);
+    let fl = b.unary(UnOp::Floor, h);
+    let odd = b.binary(BinOp::Ne, fl, h);
+    let flip = b.binary(BinOp::And, neg, odd);
+    let na = b.unary(UnOp::Neg, a);
+    b.select(flip, na, a)
+}
+
+/// One fading octave of noise `octave` at `q` for the footprint width `w`, of frequency
+/// `freq` and amplitude `amp`: `amp · weight(freq·w) · octave(q · freq)`.
 fn fading_octave(
     b: &mut Builder,
-    f: Fractal,
+    octave: Intrinsic,
     q: Value,
-    gain: Value,
-    i: Value,
+    w: Value,
     freq: Value,
-    x: Value,
+    amp: Value,
 ) -> Value {
-    let amp = {
-        let g = b.unary(UnOp::Abs, gain);
-        let a = b.binary(BinOp::Pow, g, i);
-        let zero = b.float(0.0);
-        let neg = b.binary(BinOp::Lt, gain, zero);
-        let half = b.float(0.5);
-        let h = b.mul(i, half);
-        let fl = b.unary(UnOp::Floor, h);
-        let odd = b.binary(BinOp::Ne, fl, h);
-        let flip = b.binary(BinOp::And, neg, odd);
-        let na = b.unary(UnOp::Neg, a);
-        b.select(flip, na, a)
-    };
+    let x = b.mul(freq, w);
     let qty = b.ty(q);
     let fs = b.splat_to(qty, freq);
     let qk = b.mul(q, fs);
-    let octave = b.call(f.octave, &[qk]);
+    let v = b.call(octave, &[qk]);
     let s = weight(b, x);
     let s = b.mul(s, amp);
-    let ty = b.ty(octave);
+    let ty = b.ty(v);
     let s = b.splat_to(ty, s);
-    b.mul(octave, s)
+    b.mul(v, s)
 }
