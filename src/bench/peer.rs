@@ -17,7 +17,7 @@ use shadenet_jit::{JitBackend, JitOptions};
 use shadenet_runtime::Backend;
 
 /// `examples/networks/fbm.json`: one `fractal` node of object-space P (scale 3, 6 octaves,
-/// lacunarity 2.1, gain 0.55).
+/// lacunarity 2.1, gain 0.55); B7 shades it unfiltered ([`fbm_unfiltered`]).
 const FBM_NETWORK: &str = include_str!("../../examples/networks/fbm.json");
 
 /// Threads, as in the quoted runs.
@@ -36,9 +36,22 @@ const QUOTED: [(&str, &str, &str, &str); 3] = [
     ),
 ];
 
+/// [`FBM_NETWORK`] with its fractal unfiltered (`filter = 0`), as OSL's quoted `fBm` is: both
+/// sides compute the same six octaves (filtered, the finest octaves fade at this grid).
+fn fbm_unfiltered() -> String {
+    let mut v: serde_json::Value =
+        serde_json::from_str(FBM_NETWORK).expect("examples/networks/fbm.json is JSON");
+    if let Some(nodes) = v["nodes"].as_array_mut() {
+        for n in nodes.iter_mut().filter(|n| n["type"] == "fractal") {
+            n["inputs"]["filter"] = 0.into();
+        }
+    }
+    v.to_string()
+}
+
 /// The three workloads: (case, linked program).
 fn workloads() -> Vec<(&'static str, Program)> {
-    let fbm = compile_json(FBM_NETWORK, &NodeLibrary::standard())
+    let fbm = compile_json(&fbm_unfiltered(), &NodeLibrary::standard())
         .expect("examples/networks/fbm.json links")
         .program;
     vec![

@@ -10,6 +10,7 @@ use crate::ir::{
     BinOp, Builder, ColorSpace, Filter, Intrinsic, Sampling, Space, Stream, TextureFile, UnOp,
     Value, Wrap, XformKind,
 };
+use crate::nodes::filtered_noise::{self, Fractal};
 use crate::nodes::{LowVal, NodeInputs};
 use crate::types::{ConstValue, Type};
 
@@ -856,6 +857,10 @@ fn noise_node(
         let v = b.call(vector, &[p]);
         noise_as(b, v, ty)?
     };
+    // Filtered as the image node is: always, over the footprint (MaterialX has no filter
+    // input).
+    let on = b.float(1.0);
+    let n = filtered_noise::noise(b, n, p, on);
     let amp = get(b, inp, "amplitude", ty);
     let amp = noise_as(b, amp, ty)?;
     let pivot = get(b, inp, "pivot", ty);
@@ -863,7 +868,8 @@ fn noise_node(
     one(b.add(s, pivot))
 }
 /// `snoise(texcoord) · amplitude + pivot`: OSL's signed 2D Perlin noise
-/// ([`crate::ops::osl_noise::perlin2`]; vector outputs from its vector noise).
+/// ([`crate::ops::osl_noise::perlin2`]; vector outputs from its vector noise), faded to
+/// `pivot` over a coarse footprint ([`filtered_noise::noise`]).
 pub fn noise2d(b: &mut Builder, inp: &NodeInputs) -> Out {
     let p = inp.get("texcoord");
     noise_node(
@@ -874,7 +880,7 @@ pub fn noise2d(b: &mut Builder, inp: &NodeInputs) -> Out {
         &[19.0, 73.0],
     )
 }
-/// `snoise(position) · amplitude + pivot`: OSL's signed 3D Perlin noise.
+/// `snoise(position) · amplitude + pivot`: OSL's signed 3D Perlin noise, filtered as [`noise2d`].
 pub fn noise3d(b: &mut Builder, inp: &NodeInputs) -> Out {
     let p = inp.get("position");
     noise_node(
@@ -885,7 +891,8 @@ pub fn noise3d(b: &mut Builder, inp: &NodeInputs) -> Out {
         &[19.0, 73.0, 29.0],
     )
 }
-/// MaterialX `mx_fractal*_noise_*` of `p` times `amplitude`: float and vector3 outputs from
+/// MaterialX `mx_fractal*_noise_*` of `p` times `amplitude`, the octaves finer than the
+/// footprint dropped ([`filtered_noise::fractal`]): float and vector3 outputs from
 /// the float and vector fractal noise, vector2 from the float fractal noise at `p` and at
 /// `p + offset` (MaterialX's (19, 193[, 17])).
 fn fractal(
@@ -901,29 +908,51 @@ fn fractal(
         inp.get("lacunarity"),
         inp.get("diminish"),
     );
+    // Filtered as the image node is: always, over the footprint of `p` (MaterialX has no
+    // filter input); the offset points share it.
+    let on = b.float(1.0);
+    let width = filtered_noise::point_width(b, p, on);
+    let args = [oct, lac, dim];
+    let sum =
+        |b: &mut Builder, f: Fractal, q: Value| filtered_noise::fractal(b, f, q, args, width, on);
+    let (scalar, vector) = (mx_fractal(scalar), mx_fractal(vector));
     let n = match ty {
-        Type::Float => b.call(scalar, &[p, oct, lac, dim]),
+        Type::Float => sum(b, scalar, p),
         Type::Vec2 => {
             let q = offset_point(b, p, offset);
-            let f0 = b.call(scalar, &[p, oct, lac, dim]);
-            let f1 = b.call(scalar, &[q, oct, lac, dim]);
+            let f0 = sum(b, scalar, p);
+            let f1 = sum(b, scalar, q);
             b.construct(Type::Vec2, &[f0, f1])
         }
         // `mx_fractal*_noise_vec4`: the vector fractal and the float one at `p + offset`.
         ty if ty.width() == 4 => {
-            let v = b.call(vector, &[p, oct, lac, dim]);
+            let v = sum(b, vector, p);
             let q = offset_point(b, p, offset);
-            let w = b.call(scalar, &[q, oct, lac, dim]);
+            let w = sum(b, scalar, q);
             four(b, v, w, ty)
         }
         _ => {
-            let v = b.call(vector, &[p, oct, lac, dim]);
+            let v = sum(b, vector, p);
             noise_as(b, v, ty)?
         }
     };
     let amp = get(b, inp, "amplitude", ty);
     let amp = noise_as(b, amp, ty)?;
     one(b.mul(n, amp))
+}
+/// A MaterialX fractal sum intrinsic with the OSL noise of its octaves.
+fn mx_fractal(sum: Intrinsic) -> Fractal {
+    let octave = match sum {
+        Intrinsic::MxFractal2 => Intrinsic::OslPerlin2,
+        Intrinsic::MxFractal3 => Intrinsic::OslPerlin3,
+        Intrinsic::MxVFractal2 => Intrinsic::OslVPerlin2,
+        _ => Intrinsic::OslVPerlin3,
+    };
+    Fractal {
+        sum,
+        octave,
+        max_octaves: crate::ops::osl_noise::MAX_OCTAVES,
+    }
 }
 /// `Σ_{i<octaves} diminishⁱ · snoise(texcoord · lacunarityⁱ) · amplitude` (MaterialX
 /// `mx_fractal2d_noise_*`).

@@ -14,13 +14,22 @@ use crate::types::Type;
 /// difference of the integrals far from the origin.
 const NARROW: f64 = 1e-3;
 
+/// Probes along the footprint's major axis in [`checker_weight`]: the footprint
+/// parallelogram is cut into this many slices across its major axis, each box-filtered
+/// separably. A separable box over the whole parallelogram is wrong where the parallelogram
+/// is sheared against the checks (a grazing view away from the image's centre line); over a
+/// slice the error shrinks with the slice.
+pub const CHECKER_PROBES: usize = 4;
+
 /// The weight of the "even" checks (cells whose integer coordinates have an even sum) in
-/// the box average of a checkerboard of unit cells over the footprint of `s` (a float or
-/// vector of cell coordinates), with the footprint's width scaled by `scale` (a float; 0
-/// turns filtering off): 1 or 0 where the footprint is narrow, the analytic average
-/// elsewhere (`(1 + Π gₖ) / 2`, with `gₖ` the box average of the ±1 square wave along axis
-/// `k`). `even` is the unfiltered parity (a bool), used where the footprint is narrow and
-/// where `scale ≤ 0`.
+/// the average of a checkerboard of unit cells over the footprint of `s` (a float or vector
+/// of cell coordinates): the parallelogram `s + a·∂s/∂x + b·∂s/∂y`, `a, b ∈ [−½, ½]`, scaled
+/// by `scale` (a float; 0 turns filtering off). The parallelogram is cut into
+/// [`CHECKER_PROBES`] slices along its longer axis; each slice contributes the analytic box
+/// average `(1 + Π gₖ) / 2` over a box of its per-axis widths `√((majorₖ/N)² + minorₖ²)`
+/// (`gₖ` the box average of the ±1 square wave along axis `k`). 1 or 0 where the whole
+/// footprint is narrow; `even` is the unfiltered parity (a bool), used there and where
+/// `scale ≤ 0`.
 pub fn checker_weight(b: &mut Builder, s: Value, even: Value, scale: Value) -> Value {
     let (one, zero) = (b.float(1.0), b.float(0.0));
     let hard = b.select(even, one, zero);
@@ -32,45 +41,68 @@ pub fn checker_weight(b: &mut Builder, s: Value, even: Value, scale: Value) -> V
     let comp = |b: &mut Builder, v: Value, k: usize| {
         if ty.is_vector() { b.extract(v, k) } else { v }
     };
-    let mut product: Option<Value> = None;
+    // The longer screen axis is the major one.
+    let (lx, ly) = if ty.is_vector() {
+        (b.dot(dx, dx), b.dot(dy, dy))
+    } else {
+        (b.mul(dx, dx), b.mul(dy, dy))
+    };
+    let x_major = b.binary(BinOp::Ge, lx, ly);
+    let probes = b.float(CHECKER_PROBES as f64);
+    let mut centre = Vec::new();
+    let mut major = Vec::new();
+    let mut slice_w = Vec::new();
     let mut all_narrow: Option<Value> = None;
     for k in 0..n {
         let x = comp(b, s, k);
         let (ax, ay) = (comp(b, dx, k), comp(b, dy, k));
-        let w = footprint_width(b, ax, ay, scale);
+        let maj = b.select(x_major, ax, ay);
+        let min = b.select(x_major, ay, ax);
+        let full = footprint_width(b, maj, min, scale);
         let narrow = {
             let eps = b.float(NARROW);
             // NaN widths count as narrow: the point value is always defined.
-            let wide = b.binary(BinOp::Gt, w, eps);
+            let wide = b.binary(BinOp::Gt, full, eps);
             b.unary(UnOp::Not, wide)
         };
-        let g = box_square_wave(b, x, w);
-        // The point value of the square wave where the footprint is narrow.
-        let sq = {
-            let f = b.unary(UnOp::Floor, x);
-            let i = b.convert(Type::Int, f);
-            let two = b.int(2);
-            let parity = b.binary(BinOp::Mod, i, two);
-            let z = b.int(0);
-            let ev = b.binary(BinOp::Eq, parity, z);
-            let m = b.float(-1.0);
-            b.select(ev, one, m)
-        };
-        let gk = b.select(narrow, sq, g);
-        product = Some(match product {
-            Some(p) => b.mul(p, gk),
-            None => gk,
-        });
         all_narrow = Some(match all_narrow {
             Some(a) => b.binary(BinOp::And, a, narrow),
             None => narrow,
         });
+        let part = b.div(maj, probes);
+        slice_w.push(footprint_width(b, part, min, scale));
+        major.push(b.mul(maj, scale));
+        centre.push(x);
     }
-    let (Some(product), Some(all_narrow)) = (product, all_narrow) else {
+    let Some(all_narrow) = all_narrow else {
         return hard;
     };
     let half = b.float(0.5);
-    let hp = b.mul(half, product);
+    let mut sum: Option<Value> = None;
+    for j in 0..CHECKER_PROBES {
+        let offset = b.float((j as f64 + 0.5) / CHECKER_PROBES as f64 - 0.5);
+        let mut product: Option<Value> = None;
+        for k in 0..n {
+            let shift = b.mul(major[k], offset);
+            let x = b.add(centre[k], shift);
+            let g = box_square_wave_or_point(b, x, slice_w[k]);
+            product = Some(match product {
+                Some(p) => b.mul(p, g),
+                None => g,
+            });
+        }
+        let product = product.expect("a checker has an axis");
+        sum = Some(match sum {
+            Some(t) => b.add(t, product),
+            None => product,
+        });
+    }
+    let mean = {
+        let inv = b.float(1.0 / CHECKER_PROBES as f64);
+        let t = sum.expect("probes");
+        b.mul(t, inv)
+    };
+    let hp = b.mul(half, mean);
     let soft = b.add(half, hp);
     // Where every axis is narrow the parity is exact (and NaN-proof) as unfiltered.
     let filtered = b.select(all_narrow, hard, soft);
@@ -79,6 +111,25 @@ pub fn checker_weight(b: &mut Builder, s: Value, even: Value, scale: Value) -> V
     let z = b.float(0.0);
     let on = b.binary(BinOp::Gt, scale, z);
     b.select(on, filtered, hard)
+}
+
+/// The box average of the ±1 square wave over `[x − w/2, x + w/2]` ([`box_square_wave`]),
+/// or its point value where `w` is narrow (or NaN).
+fn box_square_wave_or_point(b: &mut Builder, x: Value, w: Value) -> Value {
+    let eps = b.float(NARROW);
+    let wide = b.binary(BinOp::Gt, w, eps);
+    let g = box_square_wave(b, x, w);
+    let sq = {
+        let f = b.unary(UnOp::Floor, x);
+        let i = b.convert(Type::Int, f);
+        let two = b.int(2);
+        let parity = b.binary(BinOp::Mod, i, two);
+        let z = b.int(0);
+        let ev = b.binary(BinOp::Eq, parity, z);
+        let (one, m) = (b.float(1.0), b.float(-1.0));
+        b.select(ev, one, m)
+    };
+    b.select(wide, g, sq)
 }
 
 /// The width of the footprint along one coordinate, `√(∂x² + ∂y²)·scale` (OSL's

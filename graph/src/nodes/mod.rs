@@ -21,6 +21,7 @@
 
 pub mod env_image;
 pub mod filtered;
+pub mod filtered_noise;
 pub mod geometry;
 pub mod math;
 pub mod pattern;

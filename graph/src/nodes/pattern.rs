@@ -156,6 +156,17 @@ fn grey_noise_outputs(alpha_doc: &'static str) -> Vec<super::OutDef> {
     ]
 }
 
+/// The `filter` port of the noise patterns (Maya's convention, as `checker`'s).
+fn noise_filter_port() -> super::PortDef {
+    port::float(
+        "filter",
+        1.0,
+        "Scale of the filter footprint (Maya's `filter`): 1 fades the noise to its average \
+         as it gets finer than the pixel's footprint, larger values blur more, 0 or less \
+         turns filtering off.",
+    )
+}
+
 // ---- checker ----
 
 fn checker_def() -> NodeDef {
@@ -463,6 +474,9 @@ fn noise_def() -> NodeDef {
               lies in about [-1, 1] and is 0 at integer lattice points, so with `amplitude ≤ 1` \
               `outAlpha` stays in about [0, 1]; it is not clamped. `outColor` is `outAlpha` as \
               a grey.\n\n\
+              Filtering: `noise2` fades to its average 0 (`outAlpha` to 0.5) as it gets finer \
+              than the pixel's footprint, as one octave of `fractal` (weight `1 − smoothstep(0.1, \
+              2.2, w)`; exactly the unfiltered value for `w ≤ 0.1`).\n\n\
               Hard inputs: a non-finite coordinate component is read at the origin of a \
               valid lattice cell (NaN as 0; ±inf at the saturated cell), so an all-NaN \
               coordinate gives noise 0 (`outAlpha = 0.5`); huge coordinates saturate to a \
@@ -480,6 +494,7 @@ fn noise_def() -> NodeDef {
                 1.0,
                 "Scale of the noise around 0.5 (1: about [0, 1]).",
             ),
+            noise_filter_port(),
         ],
         outputs: grey_noise_outputs("`0.5 + 0.5 · amplitude · noise2(uvCoord · frequency)`."),
         lower: lower_noise,
@@ -493,6 +508,7 @@ fn lower_noise(b: &mut Builder, inp: &NodeInputs) -> Result<Vec<LowVal>, String>
     let amp = inp.get("amplitude");
     let q = scale_by(b, uv, freq);
     let n = b.call(Intrinsic::Noise2, &[q]);
+    let n = super::filtered_noise::noise(b, n, q, inp.get("filter"));
     let n = b.mul(amp, n);
     let alpha = unsigned(b, n);
     Ok(grey_outputs(b, alpha))
@@ -524,12 +540,19 @@ fn solid_noise_def() -> NodeDef {
               `outAlpha = 0.5 + 0.5 · noise3(point · scale)`, where `noise3` lies in about \
               [-1, 1] and is 0 at integer lattice points; not clamped. `outColor` is \
               `outAlpha` as a grey.\n\n\
+              Filtering: `noise3` fades to its average 0 (`outAlpha` to 0.5) as it gets finer \
+              than the pixel's footprint, as one octave of `fractal` (weight `1 − smoothstep(0.1, \
+              2.2, w)`; exactly the unfiltered value for `w ≤ 0.1`).\n\n\
               Hard inputs: a non-finite coordinate component is read at the origin of a \
               valid lattice cell (NaN as 0; ±inf at the saturated cell), so an all-NaN \
               coordinate gives noise 0 (`outAlpha = 0.5`); huge coordinates saturate to a \
               valid cell. The output is always finite.",
         generic: &[],
-        inputs: point_scale_ports(),
+        inputs: {
+            let mut i = point_scale_ports();
+            i.push(noise_filter_port());
+            i
+        },
         outputs: grey_noise_outputs("`0.5 + 0.5 · noise3(point · scale)`."),
         lower: lower_solid_noise,
         kind: NodeKind::Shading,
@@ -541,6 +564,7 @@ fn lower_solid_noise(b: &mut Builder, inp: &NodeInputs) -> Result<Vec<LowVal>, S
     let s = inp.get("scale");
     let q = scale_by(b, p, s);
     let n = b.call(Intrinsic::Noise3, &[q]);
+    let n = super::filtered_noise::noise(b, n, q, inp.get("filter"));
     let alpha = unsigned(b, n);
     Ok(grey_outputs(b, alpha))
 }
@@ -561,6 +585,7 @@ fn fractal_def() -> NodeDef {
             "Frequency ratio between successive octaves.",
         ),
         port::float("gain", 0.5, "Amplitude ratio between successive octaves."),
+        noise_filter_port(),
     ]);
     NodeDef {
         name: "fractal",
@@ -571,6 +596,14 @@ fn fractal_def() -> NodeDef {
               `solidNoise`. The sum of amplitudes is `(1 − gainⁿ) / (1 − gain)` (1.875 for the \
               defaults), so `outAlpha` may leave [0, 1]; it is not clamped. `outColor` is \
               `outAlpha` as a grey.\n\n\
+              Filtering: each octave fades to its average 0 as it gets finer than the pixel's \
+              footprint: with `w = max(|∂q/∂x|, |∂q/∂y|) · filter` the footprint of `q = \
+              point · scale`, octave `i` keeps the weight `1 − smoothstep(0.1, 2.2, \
+              lacunarityⁱ · w)` (the measured attenuation of the noise under a box of width \
+              `w`); the octaves past the band are not computed, and at most 5 fade at once \
+              (with `lacunarity < 1.86` the finer ones in the band are dropped). Where no \
+              octave fades (`lacunarity^(octaves−1) · w ≤ 0.1`, no ray differentials, \
+              `lacunarity ≤ 1`, or `filter = 0`) the result is exactly the unfiltered one.\n\n\
               Hard inputs: as `solidNoise`, per octave — a coordinate that overflows at a high \
               octave (`point · scale · lacunarityⁱ` = ±inf) is read at the saturated lattice \
               cell's origin, so each octave stays finite. A `gain` so large that `gainⁱ · \
@@ -591,7 +624,14 @@ fn lower_fractal(b: &mut Builder, inp: &NodeInputs) -> Result<Vec<LowVal>, Strin
     let lacunarity = inp.get("lacunarity");
     let gain = inp.get("gain");
     let q = scale_by(b, p, s);
-    let n = b.call(Intrinsic::Fbm3, &[q, octaves, lacunarity, gain]);
+    let scale = inp.get("filter");
+    let w = super::filtered_noise::point_width(b, q, scale);
+    let f = super::filtered_noise::Fractal {
+        sum: Intrinsic::Fbm3,
+        octave: Intrinsic::Noise3,
+        max_octaves: 16,
+    };
+    let n = super::filtered_noise::fractal(b, f, q, [octaves, lacunarity, gain], w, scale);
     let alpha = unsigned(b, n);
     Ok(grey_outputs(b, alpha))
 }
