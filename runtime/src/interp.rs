@@ -23,6 +23,9 @@
 //!   sample and the fragment's seed, and clamps the answer to [0, 1] (a NaN answer counts as
 //!   1); it is 1 without a scene, for a zero or non-finite normal, and for a maximum distance
 //!   that is not positive (or NaN).
+//! - `attribute` calls [`SceneServices::attribute`] through [`attribute_value`] (the JIT's
+//!   helper calls the same function): the scene's value, or the op's default where the
+//!   scene has none, gives a non-finite component, or there is no scene.
 //!
 //! Arguments go to the scene in f32 (the f64 reference rounds them) and its answers are
 //! widened back.

@@ -10,7 +10,7 @@
 //! the other way first. This module owns those rules; it must not resolve names against
 //! geometry (the renderer does, once per program and mesh).
 
-use crate::ir::{Builder, Op};
+use crate::ir::{BinOp, Builder, Op};
 use crate::nodes::{LowVal, NodeInputs};
 use crate::types::{ConstValue, Type};
 
@@ -21,21 +21,39 @@ pub fn color_set_name(index: i32) -> String {
     format!("COLOR_{index}")
 }
 
-/// `geomcolor`: colour set `index` (a constant integer) of the geometry, 0 where it has
-/// none (the nodedef's default). The float variant reads the set's first channel.
+/// Colour sets a `geomcolor` whose `index` is not a constant (a material parameter) can
+/// reach: `COLOR_0` to `COLOR_7`, chosen per hit by the parameter's value (another value
+/// gives the default).
+pub const PARAM_COLOR_SETS: i32 = 8;
+
+/// `geomcolor`: colour set `index` of the geometry, 0 where it has none (the nodedef's
+/// default). The float variant reads the set's first channel. A constant index reads its
+/// set; an index left as a parameter selects among sets 0 to [`PARAM_COLOR_SETS`] − 1 (once
+/// the parameter is baked, folding leaves the one set it names).
 pub fn geomcolor(b: &mut Builder, inp: &NodeInputs) -> Out {
-    let index = match b.program().op(inp.get("index")) {
-        Op::Const(ConstValue::Int(i)) if *i >= 0 => *i,
-        Op::Const(ConstValue::Int(i)) => {
+    let index = inp.get("index");
+    let ty = inp.def.outputs[0].ty.unwrap_or(Type::Float);
+    let zero = b.zero(ty);
+    if let Op::Const(ConstValue::Int(i)) = b.program().op(index) {
+        let i = *i;
+        if i < 0 {
             return Err(format!(
                 "input `index`: {i} is not a colour set (0 or more)"
             ));
         }
-        _ => return Err("input `index`: must be a constant integer (it is uniform)".into()),
-    };
-    let ty = inp.def.outputs[0].ty.unwrap_or(Type::Float);
-    let zero = b.zero(ty);
-    let v = b.attribute(&color_set_name(index), zero);
+        let v = b.attribute(&color_set_name(i), zero);
+        return Ok(vec![LowVal::plain(v)]);
+    }
+    if b.ty(index) != Type::Int {
+        return Err(format!("input `index`: an integer, not a {}", b.ty(index)));
+    }
+    let mut v = zero;
+    for i in (0..PARAM_COLOR_SETS).rev() {
+        let set = b.attribute(&color_set_name(i), zero);
+        let k = b.int(i);
+        let is = b.binary(BinOp::Eq, index, k);
+        v = b.select(is, set, v);
+    }
     Ok(vec![LowVal::plain(v)])
 }
 
