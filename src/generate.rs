@@ -344,23 +344,6 @@ pub fn mult_tree_group(levels: u32) -> Result<String, GenError> {
     Ok(s)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_tree_links_with_the_thesis_node_counts() {
-        for level in 1..=4 {
-            let net = mult_tree(level, Space::World).unwrap().to_string();
-            assert_eq!(net.matches("\"multiply\"").count(), (1 << level) - 1);
-            assert_eq!(net.matches("\"samplerInfo\"").count(), 1 << level);
-            let c = shadenet_graph::compile_json(&net, &shadenet_graph::NodeLibrary::standard())
-                .unwrap();
-            shadenet_graph::ir::validate(&c.program).unwrap();
-        }
-    }
-}
-
 /// The grid cells per side of [`vertex_color_obj`]'s mesh.
 pub const VERTEX_COLOR_GRID: u32 = 8;
 
@@ -409,4 +392,21 @@ pub fn vertex_color_obj() -> String {
         }
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_tree_links_with_the_thesis_node_counts() {
+        for level in 1..=4 {
+            let net = mult_tree(level, Space::World).unwrap().to_string();
+            assert_eq!(net.matches("\"multiply\"").count(), (1 << level) - 1);
+            assert_eq!(net.matches("\"samplerInfo\"").count(), 1 << level);
+            let c = shadenet_graph::compile_json(&net, &shadenet_graph::NodeLibrary::standard())
+                .unwrap();
+            shadenet_graph::ir::validate(&c.program).unwrap();
+        }
+    }
 }

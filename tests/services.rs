@@ -1098,7 +1098,7 @@ const ATTRIBUTES: &str = "program \"attrs\" {
 
 /// What `TaggedScene` gives fragment `i` for slot `slot` of `width` floats, or the default.
 fn tagged_attribute(i: usize, slot: u32, default: &[f32]) -> Vec<f32> {
-    if (i as u32 + slot) % 4 == 0 || i % 7 == 5 {
+    if (i as u32 + slot).is_multiple_of(4) || i % 7 == 5 {
         return default.to_vec();
     }
     (0..default.len())

@@ -658,7 +658,7 @@ fn occlusion_x4(ctx: &CallCtx, _: u32, a: &[[f32; LANES]; 9], o: &mut [[f32; LAN
 /// The immediate of an attribute helper call: the slot below bit 24 and the width (1 to
 /// 4 floats) above; `None` for a slot that does not fit.
 pub fn attribute_imm(slot: u32, width: usize) -> Option<u32> {
-    (slot <= TEXTURE_INDEX_MASK && (1..=4).contains(&width)).then(|| slot | (width as u32) << 24)
+    (slot <= TEXTURE_INDEX_MASK && (1..=4).contains(&width)).then_some(slot | (width as u32) << 24)
 }
 /// Geometry attribute `imm & 0xffffff` read as `imm >> 24` floats: `a` = the default (4
 /// slots, the width's first), `o` = the value (`runtime::interp::attribute_value`, the

@@ -241,7 +241,7 @@ impl SceneServices for TaggedScene {
     /// give a NaN first component (which the lookup turns into the default); the batch's
     /// own services have none.
     fn attribute(&self, slot: u32, out: &mut [f32]) -> bool {
-        if self.tag < 0.0 || (self.tag as u32 + slot) % 4 == 0 {
+        if self.tag < 0.0 || (self.tag as u32 + slot).is_multiple_of(4) {
             return false;
         }
         for (k, o) in out.iter_mut().enumerate() {

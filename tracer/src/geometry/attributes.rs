@@ -114,7 +114,7 @@ mod tests {
         let mut four = [0.0f32; 4];
         attribute_at(&a, [0, 1, 2], [0.1, 0.7, 0.2], &mut four);
         assert_eq!(four[3], 1.0, "an RGB set read as color4 is opaque");
-        let t = attr("TANGENT", 4, vec![1.0, 0.0, 0.0, -1.0].repeat(3));
+        let t = attr("TANGENT", 4, [1.0, 0.0, 0.0, -1.0].repeat(3));
         let mut xyz = [0.0f32; 3];
         attribute_at(&t, [0, 1, 2], bary, &mut xyz);
         assert_eq!(xyz, [1.0, 0.0, 0.0]);

@@ -148,13 +148,11 @@ fn vertex_colours_interpolate_at_the_hit() {
 #[test]
 fn built_in_shapes_give_the_default() {
     use shadenet_graph::types::Type;
-    let (s, _) = scene_with_obj("");
-    let text = format!(
+    let text = String::from(
         "[camera]\nposition = [0, 0, 3]\nlook_at = [0, 0, 0]\nfov = 40\nresolution = [4, 4]\n\n\
-         [materials.m]\njson = '{{\"nodes\": [], \"outputs\": {{}}}}'\n\n[meshes.s]\ntype = \"sphere\"\n\n\
-         [[instances]]\nmesh = \"s\"\nmaterial = \"m\"\n"
+         [materials.m]\njson = '{\"nodes\": [], \"outputs\": {}}'\n\n[meshes.s]\ntype = \"sphere\"\n\n\
+         [[instances]]\nmesh = \"s\"\nmaterial = \"m\"\n",
     );
-    drop(s);
     let s = crate::scene::parse(&text, Path::new("t.toml")).unwrap();
     let (_, pos) = render(s.clone(), probe(Stream::Ng), ShadingMode::Immediate);
     let (r, film) = render(
