@@ -28,8 +28,8 @@ pub const PARAM_COLOR_SETS: i32 = 8;
 
 /// `geomcolor`: colour set `index` of the geometry, 0 where it has none (the nodedef's
 /// default). The float variant reads the set's first channel. A constant index reads its
-/// set; an index left as a parameter selects among sets 0 to [`PARAM_COLOR_SETS`] − 1 (once
-/// the parameter is baked, folding leaves the one set it names).
+/// set; an index left as a parameter selects among sets 0 to [`PARAM_COLOR_SETS`] − 1 by
+/// its value per hit.
 pub fn geomcolor(b: &mut Builder, inp: &NodeInputs) -> Out {
     let index = inp.get("index");
     let ty = inp.def.outputs[0].ty.unwrap_or(Type::Float);
