@@ -1071,3 +1071,170 @@ fn the_batch_entry_asks_each_fragment_for_its_own_services() {
         );
     }
 }
+
+// ---- geometry attributes (Op::Attribute) ----
+
+/// A program reading attributes of every width (slots 0 to 3: float, vec2, color, color4)
+/// with distinct defaults, each an output.
+const ATTRIBUTES: &str = "program \"attrs\" {
+  attribute \"_temp\" float
+  attribute \"TEXCOORD_1\" vec2
+  attribute \"COLOR_0\" color
+  attribute \"COLOR_1\" color4
+  %0 = const -1.0 : float
+  %1 = attribute #0 %0 : float
+  %2 = const (-2.0, -3.0) : vec2
+  %3 = attribute #1 %2 : vec2
+  %4 = const (-4.0, -5.0, -6.0) : color
+  %5 = attribute #2 %4 : color
+  %6 = const (-7.0, -8.0, -9.0, -10.0) : color4
+  %7 = attribute #3 %6 : color4
+  output a %1
+  output b %3
+  output c %5
+  output d %7
+}
+";
+
+/// What `TaggedScene` gives fragment `i` for slot `slot` of `width` floats, or the default.
+fn tagged_attribute(i: usize, slot: u32, default: &[f32]) -> Vec<f32> {
+    if (i as u32 + slot).is_multiple_of(4) || i % 7 == 5 {
+        return default.to_vec();
+    }
+    (0..default.len())
+        .map(|k| i as f32 / 4.0 + slot as f32 + k as f32 / 2.0)
+        .collect()
+}
+
+/// The IR text form of `attribute` round-trips; validation names a slot past the table and
+/// a default of the wrong type.
+#[test]
+fn attribute_ops_print_parse_and_validate() {
+    let p = ir::parse(ATTRIBUTES).unwrap();
+    ir::validate(&p).unwrap();
+    assert_eq!(p.to_string(), ATTRIBUTES);
+    assert_eq!(p.attributes.len(), 4);
+    let bad_slot = ATTRIBUTES.replace("attribute #3 %6", "attribute #4 %6");
+    let e = ir::validate(&ir::parse(&bad_slot).unwrap()).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("reads attribute 4, but the program has 4"),
+        "{e}"
+    );
+    let bad_default = ATTRIBUTES.replace("attribute #3 %6", "attribute #3 %4");
+    let e = ir::validate(&ir::parse(&bad_default).unwrap()).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("is a color4 but its default is a color"),
+        "{e}"
+    );
+}
+
+/// The interpreter, the JIT's scalar entry and its batch entry (`shade_many`, each lane
+/// asking its own fragment's services) read attributes through the one lookup: the same
+/// bits, the scene's values where it has them, the default where it has none, where a
+/// value is not finite, and without a scene.
+#[test]
+fn attributes_agree_across_interpreter_jit_scalar_and_batch() {
+    let p = ir::parse(ATTRIBUTES).unwrap();
+    let env = ShadeEnv::default();
+    let frags: Vec<Fragment> = (0..43)
+        .map(|i| Fragment {
+            p: [i as f32, 0.0, 0.0],
+            ..Fragment::default()
+        })
+        .collect();
+    let scene = shadenet_runtime::testing::TaggedScene::with_fragments(frags.len());
+    let interp = shadenet_runtime::InterpBackend
+        .compile_program(&p, Duration::ZERO)
+        .unwrap();
+    let jit = shadenet_jit::JitBackend::new()
+        .compile_program(&p, Duration::ZERO)
+        .unwrap();
+    assert_eq!(jit.info().backend, "jit");
+    let w = jit.width();
+    assert_eq!(w, 10);
+    let mut batch = vec![f32::NAN; w * frags.len()];
+    shadenet_runtime::shade_many_unpacked(&*jit, &env, u32::MAX, Some(&scene), &frags, &mut batch);
+    let defaults: [&[f32]; 4] = [
+        &[-1.0],
+        &[-2.0, -3.0],
+        &[-4.0, -5.0, -6.0],
+        &[-7.0, -8.0, -9.0, -10.0],
+    ];
+    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    for (i, f) in frags.iter().enumerate() {
+        let want: Vec<f32> = (0..4)
+            .flat_map(|s| tagged_attribute(i, s, defaults[s as usize]))
+            .collect();
+        for (what, m) in [("interpreter", &interp), ("jit scalar", &jit)] {
+            let mut one = vec![f32::NAN; w];
+            let ctx = ShadeCtx {
+                frag: *f,
+                env: &env,
+                mask: u32::MAX,
+                scene: scene.fragment(i),
+            };
+            m.shade(&ctx, &mut one);
+            assert_eq!(bits(&one), bits(&want), "fragment {i}: {what}");
+            // Without a scene: the defaults.
+            let ctx = ShadeCtx { scene: None, ..ctx };
+            m.shade(&ctx, &mut one);
+            assert_eq!(
+                one,
+                defaults.concat(),
+                "fragment {i}: {what} without a scene"
+            );
+        }
+        assert_eq!(
+            bits(&batch[i * w..(i + 1) * w]),
+            bits(&want),
+            "fragment {i}: jit batch"
+        );
+    }
+}
+
+/// The needs list an attribute only while a live op reads it; a program without attribute
+/// ops has an empty table and needs none (it prints and compiles as before: no `attribute`
+/// line), and the table's slots survive optimization.
+#[test]
+fn needs_list_only_live_attributes() {
+    let p = ir::parse(ATTRIBUTES).unwrap();
+    let (o, report) = opt::run(&p, &Specialization::default());
+    let names: Vec<&str> = report
+        .needs
+        .attributes
+        .iter()
+        .map(|a| a.name.as_str())
+        .collect();
+    assert_eq!(names, ["COLOR_0", "COLOR_1", "TEXCOORD_1", "_temp"]);
+    assert_eq!(o.attributes, p.attributes, "slots are stable");
+    // Only `a` and `c` live: the others are not needed.
+    let mut dead = p.clone();
+    dead.outputs.retain(|o| o.name == "a" || o.name == "c");
+    let (o, report) = opt::run(&dead, &Specialization::default());
+    let names: Vec<&str> = report
+        .needs
+        .attributes
+        .iter()
+        .map(|a| a.name.as_str())
+        .collect();
+    assert_eq!(names, ["COLOR_0", "_temp"]);
+    assert!(
+        report
+            .needs
+            .to_string()
+            .contains("attributes: COLOR_0:color _temp:float")
+    );
+    assert_eq!(o.attributes.len(), 4);
+    // No attribute op: nothing in the table, the needs or the text.
+    let plain = ir::parse(
+        "program \"p\" {\n  %0 = stream uv : vec2\n  %1 = extract %0, 0 : float\n  output x %1\n}\n",
+    )
+    .unwrap();
+    let (o, report) = opt::run(&plain, &Specialization::default());
+    assert!(o.attributes.is_empty() && report.needs.attributes.is_empty());
+    assert!(
+        !o.to_string().contains("attribute") && !report.needs.to_string().contains("attributes")
+    );
+}

@@ -658,6 +658,37 @@ fn occlusion_x4(ctx: &CallCtx, _: u32, a: &[[f32; LANES]; 9], o: &mut [[f32; LAN
     }
 }
 
+/// The immediate of an attribute helper call: the slot below bit 24 and the width (1 to
+/// 4 floats) above; `None` for a slot that does not fit.
+pub fn attribute_imm(slot: u32, width: usize) -> Option<u32> {
+    (slot <= TEXTURE_INDEX_MASK && (1..=4).contains(&width)).then_some(slot | (width as u32) << 24)
+}
+/// Geometry attribute `imm & 0xffffff` read as `imm >> 24` floats: `a` = the default (4
+/// slots, the width's first), `o` = the value (`runtime::interp::attribute_value`, the
+/// interpreter's lookup).
+fn attribute(ctx: &CallCtx, imm: u32, a: &[f32], o: &mut [f32]) {
+    let n = (imm >> 24).clamp(1, 4) as usize;
+    interp::attribute_value(ctx.scene(), imm & TEXTURE_INDEX_MASK, &a[..n], &mut o[..n]);
+}
+/// The batch form of `attribute`: each lane asks its own fragment's services.
+fn attribute_x4(ctx: &CallCtx, imm: u32, a: &[[f32; LANES]; 4], o: &mut [[f32; LANES]; 4]) {
+    let n = (imm >> 24).clamp(1, 4) as usize;
+    for lane in 0..LANES {
+        let default: [f32; 4] = std::array::from_fn(|k| a[k][lane]);
+        let mut got = [0.0f32; 4];
+        let scene = ctx.lane_scene(lane);
+        interp::attribute_value(
+            scene,
+            imm & TEXTURE_INDEX_MASK,
+            &default[..n],
+            &mut got[..n],
+        );
+        for (dst, x) in o.iter_mut().zip(got) {
+            dst[lane] = x;
+        }
+    }
+}
+
 /// The illuminance loop's trip count: every light's samples.
 pub fn light_samples(env: &ShadeEnv) -> u32 {
     env.lights.iter().map(lights::sample_count).sum()
@@ -835,6 +866,7 @@ mem_helpers! {
     light: 4 -> 11 => ctx light_x4,
     trace: 8 -> 3 => ctx trace_x4,
     occlusion: 9 -> 1 => ctx occlusion_x4,
+    attribute: 4 -> 4 => ctx attribute_x4,
     visible: 6 -> 1 => ctx visible_x4,
     ambient: 0 -> 3,
     matrices: 0 -> 64,

@@ -430,13 +430,14 @@ impl<'a, 'b> Lowerer<'a, 'b> {
         Ok(())
     }
 
-    /// Whether the block calls a scene helper (`trace`, `occlusion`, `light.visible`).
+    /// Whether the block calls a scene helper (`trace`, `occlusion`, `light.visible`,
+    /// `attribute`).
     fn asks_scene(&self, block: &Block) -> bool {
         let mut asks = false;
         self.p.walk(block, &mut |v| {
             asks |= matches!(
                 self.p.op(v),
-                Op::Trace { .. } | Op::Occlusion { .. } | Op::LightVisible
+                Op::Trace { .. } | Op::Occlusion { .. } | Op::LightVisible | Op::Attribute { .. }
             )
         });
         asks
@@ -941,6 +942,17 @@ impl<'a, 'b> Lowerer<'a, 'b> {
                 args.push(pdf);
                 let imm = self.b.ins().iconst(I32, *ray_type as i64);
                 Ok(self.call_mem("sn_trace", imm, &args, 3))
+            }
+            Op::Attribute { slot, default } => {
+                let mut args = self.get(*default)?;
+                let width = args.len();
+                let imm = abi::attribute_imm(*slot, width)
+                    .ok_or_else(|| self.unsupported(v, "more than 2^24 attributes"))?;
+                args.resize(4, self.fconst(0.0));
+                let imm = self.b.ins().iconst(I32, imm as i64);
+                let mut got = self.call_mem("sn_attribute", imm, &args, 4);
+                got.truncate(width);
+                Ok(got)
             }
             Op::Occlusion {
                 n,

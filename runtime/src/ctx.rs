@@ -225,6 +225,18 @@ pub trait SceneServices: Send + Sync {
         seed: u32,
     ) -> f32;
 
+    /// The value of the shading program's geometry attribute `slot` (an index into its
+    /// `Program::attributes`, resolved by the renderer to one of the hit geometry's
+    /// attributes once per program and geometry) at this fragment: `out.len()` floats (1 to
+    /// 4, the type's width) interpolated at the hit. `false` (the default) where the
+    /// geometry has no such attribute, or for services that belong to no hit: the shader
+    /// then uses the attribute op's default. Back ends call it only through
+    /// `shadenet_runtime::interp::attribute_value`.
+    fn attribute(&self, slot: u32, out: &mut [f32]) -> bool {
+        let _ = (slot, out);
+        false
+    }
+
     /// The services of fragment `index` of the batch a `Material::shade_many` call shades
     /// with these services, for a renderer whose services carry per-hit state (the tracer's:
     /// the hit's point, facing normals, seed and ray differentials). `None` (the default):

@@ -23,6 +23,9 @@
 //!   sample and the fragment's seed, and clamps the answer to [0, 1] (a NaN answer counts as
 //!   1); it is 1 without a scene, for a zero or non-finite normal, and for a maximum distance
 //!   that is not positive (or NaN).
+//! - `attribute` calls [`SceneServices::attribute`] through [`attribute_value`] (the JIT's
+//!   helper calls the same function): the scene's value, or the op's default where the
+//!   scene has none, gives a non-finite component, or there is no scene.
 //!
 //! Arguments go to the scene in f32 (the f64 reference rounds them) and its answers are
 //! widened back.
@@ -485,6 +488,12 @@ impl<F: Real> Interpreter<F> {
                 let pdf = pdf.map_or(F::ZERO, |p| reg(&p).as_float());
                 Val::Vec3(trace(ctx, reg(dir).as_vec3(), *ray_type, pdf))
             }
+            Op::Attribute { slot, default } => {
+                let d = reg(default);
+                let mut v = d;
+                attribute_value(ctx.scene, *slot, d.floats(), floats_mut(&mut v));
+                v
+            }
             Op::Occlusion {
                 n,
                 samples,
@@ -706,6 +715,40 @@ pub fn occlusion<F: Real>(ctx: &ShadeCtx, n: [F; 3], samples: i32, max_distance:
         max_distance,
         ctx.frag.seed,
     )
+}
+
+/// The value of geometry attribute `slot` at the fragment whose services are `scene`, into
+/// `out` (as many floats as `default`, 1 to 4): the scene's
+/// ([`SceneServices::attribute`]), or `default` where the scene has none, there is no
+/// scene, or a component it gives is not finite. The one lookup of [`Op::Attribute`]:
+/// every CPU back end calls it, so they agree bit for bit.
+pub fn attribute_value<F: Real>(
+    scene: Option<&dyn SceneServices>,
+    slot: u32,
+    default: &[F],
+    out: &mut [F],
+) {
+    let n = default.len().min(4);
+    let mut got = [0.0f32; 4];
+    let found = scene.is_some_and(|s| s.attribute(slot, &mut got[..n]));
+    if found && got[..n].iter().all(|x| x.is_finite()) {
+        for (o, x) in out.iter_mut().zip(&got[..n]) {
+            *o = F::from_f64(f64::from(*x));
+        }
+    } else {
+        out[..n].copy_from_slice(&default[..n]);
+    }
+}
+
+/// The float components of a value, mutably (empty for bool, int and matrices).
+fn floats_mut<F>(v: &mut Val<F>) -> &mut [F] {
+    match v {
+        Val::Float(x) => std::slice::from_mut(x),
+        Val::Vec2(x) => x,
+        Val::Vec3(x) => x,
+        Val::Vec4(x) => x,
+        _ => &mut [],
+    }
 }
 
 /// [`occlusion`] from its parts: the scene, the fragment's `p` and `seed`. Shared by every

@@ -236,6 +236,22 @@ impl SceneServices for TaggedScene {
     fn occlusion(&self, _: [f32; 3], _: [f32; 3], _: u32, _: f32, _: u32) -> f32 {
         self.tag / 1000.0
     }
+    /// Fragment `i` (tag ≥ 0) has attribute `slot` where `(i + slot) % 4 != 0`, with
+    /// component `k` = `tag / 4 + slot + k / 2`, except that fragments with `i % 7 == 5`
+    /// give a NaN first component (which the lookup turns into the default); the batch's
+    /// own services have none.
+    fn attribute(&self, slot: u32, out: &mut [f32]) -> bool {
+        if self.tag < 0.0 || (self.tag as u32 + slot).is_multiple_of(4) {
+            return false;
+        }
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = self.tag / 4.0 + slot as f32 + k as f32 / 2.0;
+        }
+        if self.tag as u32 % 7 == 5 {
+            out[0] = f32::NAN;
+        }
+        true
+    }
     fn fragment(&self, index: usize) -> Option<&dyn SceneServices> {
         self.parts.get(index).map(|t| t as &dyn SceneServices)
     }

@@ -1,5 +1,5 @@
-//! `shadenet gen`: generated networks for the benchmarks, the procedural sky map and the
-//! test texture.
+//! `shadenet gen`: generated networks for the benchmarks, the procedural sky map, the
+//! test texture and the vertex-coloured mesh.
 
 use anyhow::{Context, Result, bail};
 use clap::{Subcommand, ValueEnum};
@@ -55,6 +55,13 @@ pub(crate) enum GenCmd {
     /// and thin lines at every scale); the default makes examples/scenes/textures/grid.png.
     Texture {
         /// The image file to write (.png).
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// A plane with vertex colours as a Wavefront OBJ (`v x y z r g b`, read as attribute
+    /// COLOR_0); it makes examples/scenes/meshes/vertex_colors.obj.
+    VertexColors {
+        /// The mesh file to write (.obj).
         #[arg(short, long)]
         output: PathBuf,
     },
@@ -128,6 +135,11 @@ pub(crate) fn run(what: GenCmd) -> Result<()> {
             };
             let bytes = shadenet::generate::sky_hdr(&sky)?;
             write_bytes_atomic(&output, &bytes)?;
+            Ok(())
+        }
+        GenCmd::VertexColors { output } => {
+            let text = shadenet::generate::vertex_color_obj();
+            write_bytes_atomic(&output, text.as_bytes())?;
             Ok(())
         }
         GenCmd::Texture { output } => {

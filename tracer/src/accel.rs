@@ -16,7 +16,7 @@
 //!   rays start at `t = 0`. The hit point is computed from barycentrics, not from `o + t·d`,
 //!   which keeps it within a few ulps of the surface.
 
-use crate::geometry::{MAX_COORDINATE, Mesh};
+use crate::geometry::{MAX_COORDINATE, Mesh, interpolate};
 use crate::scene::Instance;
 use glam::{DVec3, Vec2, Vec3, Vec3A};
 use obvhs::cwbvh::CwBvh;
@@ -30,6 +30,8 @@ struct TriAttr {
     normals: Option<[Vec3; 3]>,
     uvs: [Vec2; 3],
     instance: u32,
+    /// The mesh's vertex indices (wound as placed): where named attributes are read.
+    verts: [u32; 3],
 }
 
 /// The world's triangles and their BVH.
@@ -248,6 +250,7 @@ impl Accel {
                         None => [Vec2::ZERO, Vec2::X, Vec2::ONE],
                     },
                     instance: ii as u32,
+                    verts: t,
                 });
             }
         }
@@ -271,6 +274,11 @@ impl Accel {
     /// count over all instances; `None` when every triangle is in the BVH.
     pub fn rejected(&self) -> Option<(u32, usize)> {
         self.rejected
+    }
+
+    /// The mesh vertex indices of a triangle (as wound in the world), for named attributes.
+    pub fn vertices(&self, prim: u32) -> [u32; 3] {
+        self.attrs.get(prim as usize).map_or([0; 3], |a| a.verts)
     }
 
     /// The instance a triangle belongs to.
@@ -330,8 +338,9 @@ impl Accel {
         let p = p0 * b0 + p1 * b1 + p2 * b2;
         let ng = (p1 - p0).cross(p2 - p0).normalize_or_zero();
         let n = match attr.normals {
-            Some([n0, n1, n2]) => {
-                let n = (n0 * b0 + n1 * b1 + n2 * b2).normalize_or_zero();
+            Some(ns) => {
+                let n =
+                    Vec3::from(interpolate(ns.map(|n| n.to_array()), hit.bary)).normalize_or_zero();
                 if n == Vec3::ZERO { ng } else { n }
             }
             None => ng,
@@ -347,7 +356,7 @@ impl Accel {
         };
         if uv_tangents {
             let [t0, t1, t2] = attr.uvs;
-            s.uv = t0 * b0 + t1 * b1 + t2 * b2;
+            s.uv = Vec2::from(interpolate(attr.uvs.map(|t| t.to_array()), hit.bary));
             // pbrt's triangle tangents: solve dp02 = du02·dpdu + dv02·dpdv (and for 12).
             let (d02, d12) = (t0 - t2, t1 - t2);
             let (dp02, dp12) = (p0 - p2, p1 - p2);

@@ -178,6 +178,20 @@ pub(super) fn linearize(
     prelude: &HashMap<usize, usize>,
     names: &[Option<u32>],
 ) -> Result<(Vec<Entry>, Vec<LightSet>), BackendError> {
+    // Geometry attributes (primvars) live in the renderer's meshes, which no kernel reads:
+    // refused, so the material falls back to a CPU back end.
+    let mut attribute = None;
+    p.walk(&p.body, &mut |v| {
+        if matches!(p.op(v), Op::Attribute { .. }) {
+            attribute.get_or_insert(v);
+        }
+    });
+    if let Some(v) = attribute {
+        let why = "geometry attributes (vertex colours, primvars) are read through the \
+                   renderer's services on the CPU; the GPU back end has no attribute buffers"
+            .to_string();
+        return Err(unsupported(p, names, v, why));
+    }
     let mut lin = Linearizer {
         p,
         prelude,

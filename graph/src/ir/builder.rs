@@ -493,6 +493,21 @@ impl Builder {
         self.push(op, Some(Type::Float))
     }
 
+    /// The geometry's attribute `name` at the shaded point, read as `default`'s type (float,
+    /// vec2, vec3, color, vec4 or color4), or `default` where the geometry lacks it
+    /// ([`Op::Attribute`]).
+    pub fn attribute(&mut self, name: &str, default: Value) -> Value {
+        let ty = self.ty(default);
+        if !super::is_attribute_type(ty) {
+            self.fail(format!(
+                "attribute {name:?} cannot be read as a {ty}: attributes are floats, vectors and colors"
+            ));
+            return default;
+        }
+        let slot = self.program.attribute_slot(name, ty);
+        self.push(Op::Attribute { slot, default }, Some(ty))
+    }
+
     fn build_block(&mut self, f: impl FnOnce(&mut Builder) -> Vec<Value>) -> Block {
         self.blocks.push(Block::default());
         let yields = f(self);

@@ -31,6 +31,7 @@ impl Op {
             Op::If { cond, .. } => vec![cond],
             Op::Illuminance { p, .. } => vec![p],
             Op::Proj(r, _) => vec![r],
+            Op::Attribute { default, .. } => vec![default],
             Op::Texture { uv, derivs, .. } => {
                 let mut v = vec![uv];
                 if let Some([dx, dy]) = derivs {
@@ -87,6 +88,7 @@ impl Op {
             | Op::LightPdf
             | Op::Ambient
             | Op::Texture { .. }
+            | Op::Attribute { .. }
             | Op::Trace { .. }
             | Op::Occlusion { .. }
             | Op::If { .. }
@@ -183,7 +185,7 @@ impl Program {
     }
 
     /// Drops values listed in no block, renumbers the arena in evaluation order (so handles
-    /// are dense and operands precede users), and removes textures no op reads.
+    /// are dense and operands precede users), and removes textures no op reads (the attribute table stays: its slots are stable).
     pub fn compact(&mut self) {
         let order = self.listed();
         let mut new_index: Vec<Option<Value>> = vec![None; self.exprs.len()];
@@ -228,5 +230,8 @@ impl Program {
             }
         }
         self.textures = kept;
+        // The attribute table is kept as it is (dead entries too): a slot names the same
+        // attribute in every optimized form of a program, so a renderer that resolved the
+        // slots of one form serves them all. `Needs::attributes` lists the live ones.
     }
 }

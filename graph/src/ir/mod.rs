@@ -638,6 +638,19 @@ pub enum Op {
         /// Alpha (float) instead of color.
         alpha: bool,
     },
+    /// The value of a named per-vertex (or per-object) attribute of the shaded geometry —
+    /// a primvar such as a mesh's vertex colours — interpolated at the hit: attribute `slot`
+    /// (index into `Program::attributes`, which gives its name and the expr's type: float,
+    /// vec2, vec3, color, vec4 or color4), or `default` (same type) where the hit's geometry
+    /// has no such attribute or no renderer is asking. Evaluated by the runtime's one lookup
+    /// (`shadenet_runtime::attribute`) through the renderer's services; varying, never
+    /// folded, never hoisted.
+    Attribute {
+        /// Index into `Program::attributes`.
+        slot: u32,
+        /// The value where the geometry lacks the attribute (the expr's type).
+        default: Value,
+    },
     /// Radiance (color) arriving at the shaded point along `dir` (a vec3, world space,
     /// normalized by the runtime): the renderer's scene traces a ray from the fragment's `P`
     /// (it offsets the origin itself) as a ray of type `ray_type` at depth `raydepth + 1` and
@@ -700,6 +713,7 @@ impl Op {
             Op::Ambient => "ambient".into(),
             Op::Proj(..) => "proj".into(),
             Op::Texture { .. } => "texture".into(),
+            Op::Attribute { slot, .. } => format!("attribute {slot}"),
             Op::Loop { .. } => "loop".into(),
             Op::LoopVar(k) => format!("loop.var {k}"),
         }
@@ -735,6 +749,7 @@ impl Op {
             Op::If { cond, .. } => f(*cond),
             Op::Illuminance { p, .. } => f(*p),
             Op::Proj(r, _) => f(*r),
+            Op::Attribute { default, .. } => f(*default),
             Op::Texture { uv, derivs, .. } => {
                 f(*uv);
                 if let Some([dx, dy]) = derivs {
@@ -791,6 +806,25 @@ pub struct ParamDecl {
     pub default: ConstValue,
 }
 
+/// A named attribute a program reads ([`Op::Attribute`]): what the renderer resolves once
+/// per program and geometry (a mesh's attribute of this name, or none), so that no hit
+/// compares names.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct AttributeDecl {
+    /// The attribute's name as the geometry spells it (`COLOR_0`, `TEXCOORD_1`, `Cd` …).
+    pub name: String,
+    /// The type it is read as: float, vec2, vec3, color, vec4 or color4.
+    pub ty: Type,
+}
+
+/// The types an [`Op::Attribute`] can read (floats of 1 to 4 components).
+pub fn is_attribute_type(ty: Type) -> bool {
+    matches!(
+        ty,
+        Type::Float | Type::Vec2 | Type::Vec3 | Type::Color | Type::Vec4 | Type::Color4
+    )
+}
+
 /// One material output: a named value, optionally the part of it that belongs to one render
 /// component. An output name with component parts has, as its total ("beauty"), the sum of
 /// its parts.
@@ -831,9 +865,26 @@ pub struct Program {
     /// Texture files, by index (paths as the network gave them, made absolute by the loader
     /// when the network came from a file), each with its color space.
     pub textures: Vec<TextureFile>,
+    /// Named geometry attributes read by [`Op::Attribute`], by slot.
+    pub attributes: Vec<AttributeDecl>,
 }
 
 impl Program {
+    /// The slot of attribute `name` read as `ty`, added to `Program::attributes` when new.
+    pub fn attribute_slot(&mut self, name: &str, ty: Type) -> u32 {
+        let decl = AttributeDecl {
+            name: name.to_string(),
+            ty,
+        };
+        match self.attributes.iter().position(|a| *a == decl) {
+            Some(i) => i as u32,
+            None => {
+                self.attributes.push(decl);
+                (self.attributes.len() - 1) as u32
+            }
+        }
+    }
+
     /// Makes the relative paths of the texture table relative to `dir` (the folder of the
     /// file the program came from).
     pub fn resolve_textures(&mut self, dir: &std::path::Path) {
@@ -962,6 +1013,7 @@ fn rate_block(program: &Program, block: &Block, rates: &mut [Rate], carried: &mu
             | Op::LightPdf
             | Op::Ambient
             | Op::Trace { .. }
+            | Op::Attribute { .. }
             | Op::Occlusion { .. } => Rate::Varying,
             Op::Illuminance { .. } => Rate::Varying,
             Op::LoopVar(k) => carried

@@ -69,6 +69,8 @@
 //! - `param "NAME" TYPE = LITERAL`: one line per uniform parameter, in index order;
 //! - `texture "FILE" [COLORSPACE]`: one line per texture-table entry, in index order (the
 //!   color space, a [`ColorSpace`] name, is omitted when it is `auto`);
+//! - `attribute "NAME" TYPE`: one line per attribute-table entry (`Program::attributes`),
+//!   in index order;
 //! - the values of the top-level block (below);
 //! - `output NAME %v` or `output NAME[COMPONENT] %v`: the outputs, in order.
 //!
@@ -100,6 +102,7 @@
 //! | `light.L`, `light.Cl`, `light.visible`, `light.pdf`, `ambient` | [`Op::LightL`], [`Op::LightCl`], [`Op::LightVisible`], [`Op::LightPdf`], [`Op::Ambient`] |
 //! | `proj %r, 0` | [`Op::Proj`] |
 //! | `texture #0 %uv`, `texture.alpha #0 trilinear clamp mirror %uv, %dudx, %dvdx` | [`Op::Texture`] (index into the texture table; then the filter if not `anisotropic`, the u and v wrap modes if not both `periodic`, uv and its optional derivatives ∂uv/∂x, ∂uv/∂y) |
+//! | `attribute #0 %default` | [`Op::Attribute`] (index into the attribute table; the default where the geometry lacks it) |
 //! | `trace reflection %d` or `trace reflection %d, %pdf` | [`Op::Trace`] (the ray type by name, [`super::ray_type_name`], or `#K` for any other code `K`; the optional second operand is the BSDF sample's density) |
 //! | `occlusion %n, %samples, %maxdist` | [`Op::Occlusion`] |
 //!
@@ -133,8 +136,9 @@
 //! the parser rejects.
 
 use super::{
-    BinOp, Block, ColorSpace, Expr, Filter, Intrinsic, Op, Output, ParamDecl, Program, Sampling,
-    Space, Stream, TextureFile, UnOp, Value, Wrap, XformKind, ray_type_from_name, ray_type_name,
+    AttributeDecl, BinOp, Block, ColorSpace, Expr, Filter, Intrinsic, Op, Output, ParamDecl,
+    Program, Sampling, Space, Stream, TextureFile, UnOp, Value, Wrap, XformKind,
+    ray_type_from_name, ray_type_name,
 };
 use crate::types::{ConstValue, Type, fmt_float};
 use std::collections::HashMap;
@@ -271,6 +275,9 @@ impl<W: fmt::Write> Printer<'_, W> {
                 cs => writeln!(self.out, "  texture {:?} {}", t.path, cs.name())?,
             }
         }
+        for a in &p.attributes {
+            writeln!(self.out, "  attribute {:?} {}", a.name, a.ty)?;
+        }
         if !p.prelude.body.is_empty() || !p.prelude.yields.is_empty() {
             writeln!(self.out, "  prelude {{")?;
             self.block(&p.prelude, 2)?;
@@ -400,6 +407,9 @@ impl<W: fmt::Write> Printer<'_, W> {
                     s += &format!(", {}, {}", self.val(*dx), self.val(*dy));
                 }
                 s
+            }
+            Op::Attribute { slot, default } => {
+                format!("attribute #{slot} {}", self.val(*default))
             }
             Op::Trace { dir, ray_type, pdf } => {
                 let ty = match ray_type_name(*ray_type) {
@@ -990,6 +1000,15 @@ impl Parser {
                     }
                     self.prog.textures.push(file);
                 }
+                Tok::Ident(w) if top && w == "attribute" => {
+                    self.next();
+                    let t = self.next();
+                    let Tok::Str(name) = t.tok.clone() else {
+                        return Err(Self::expected(&t, "an attribute name (a quoted string)"));
+                    };
+                    let ty = self.ty()?;
+                    self.prog.attributes.push(AttributeDecl { name, ty });
+                }
                 Tok::Ident(w) if top && w == "prelude" => {
                     self.next();
                     self.expect_punct('{')?;
@@ -1296,6 +1315,14 @@ impl Parser {
                     alpha: word == "texture.alpha",
                 }
             }
+            "attribute" => {
+                self.expect_punct('#')?;
+                let slot = self.index("an attribute index")?;
+                Op::Attribute {
+                    slot,
+                    default: self.operand()?,
+                }
+            }
             "light.L" => Op::LightL,
             "light.Cl" => Op::LightCl,
             "light.visible" => Op::LightVisible,
@@ -1588,6 +1615,10 @@ mod tests {
                 sampling: *sampling,
                 alpha: *alpha,
             },
+            Op::Attribute { slot, default } => Op::Attribute {
+                slot: *slot,
+                default: m(*default),
+            },
             Op::Trace { dir, ray_type, pdf } => Op::Trace {
                 dir: m(*dir),
                 ray_type: *ray_type,
@@ -1627,6 +1658,7 @@ mod tests {
             prelude: remap_block(&p.prelude, &m),
             body: remap_block(&p.body, &m),
             textures: p.textures.clone(),
+            attributes: p.attributes.clone(),
             outputs: p
                 .outputs
                 .iter()

@@ -90,6 +90,16 @@ pub enum ValidationError {
         /// `Program::textures.len()`.
         count: usize,
     },
+    /// `attribute` with a slot past `Program::attributes`.
+    #[error("{value:?} reads attribute {index}, but the program has {count}")]
+    AttributeIndex {
+        /// The value.
+        value: Value,
+        /// The slot.
+        index: u32,
+        /// `Program::attributes.len()`.
+        count: usize,
+    },
     /// A prelude value that is not uniform (it reads the fragment, lights, the component
     /// mask or a texture, or is a region) or that reads a value of the top-level block.
     #[error("{value:?} cannot be in the prelude: {reason}")]
@@ -307,6 +317,7 @@ pub fn validate(p: &Program) -> Result<(), ValidationError> {
             }
             Op::Trace { .. } | Op::Occlusion { .. } => Some("it asks the scene for rays"),
             Op::Texture { .. } => Some("it reads a texture"),
+            Op::Attribute { .. } => Some("it reads the geometry's attributes"),
             Op::If { .. } | Op::Illuminance { .. } | Op::Loop { .. } | Op::Proj(..) => {
                 Some("it is a region")
             }
@@ -532,6 +543,29 @@ impl Validator<'_> {
                     }
                 }
                 Some(if *alpha { Type::Float } else { Type::Color })
+            }
+            Op::Attribute { slot, default } => {
+                let Some(decl) = p.attributes.get(*slot as usize) else {
+                    return Err(ValidationError::AttributeIndex {
+                        value,
+                        index: *slot,
+                        count: p.attributes.len(),
+                    });
+                };
+                if !super::is_attribute_type(decl.ty) {
+                    return Err(ill(format!(
+                        "attribute {:?} is read as a {}; attributes are floats, vectors and colors",
+                        decl.name, decl.ty
+                    )));
+                }
+                let t = self.operand(value, *default)?;
+                if t != decl.ty {
+                    return Err(ill(format!(
+                        "attribute {:?} is a {} but its default is a {t}",
+                        decl.name, decl.ty
+                    )));
+                }
+                Some(decl.ty)
             }
             Op::Transform { arg, .. } => {
                 let t = self.operand(value, *arg)?;

@@ -7,6 +7,7 @@
 //! computes (the formulas of the MaterialX specification); it must not parse documents or
 //! resolve nodedefs. The lowerings themselves are in [`super::atoms_lower`].
 
+use super::atoms_geom as geom;
 use super::atoms_lower as l;
 use super::atoms_matrix as mx;
 use super::atoms_pbr as pbr;
@@ -145,6 +146,8 @@ const ATOMS: &[Atom] = &[
     a("bitangent", "space", l::bitangent),
     a("texcoord", "", l::texcoord),
     a("time", "", l::time),
+    a("geomcolor", "index", geom::geomcolor),
+    a("geompropvalue", "geomprop default", geom::geompropvalue),
     // procedural
     a("ramplr", "valuel valuer texcoord", l::ramplr),
     a("ramptb", "valuet valueb texcoord", l::ramptb),
@@ -239,8 +242,10 @@ pub fn missing_reason(nd: &NodeDefElem) -> &'static str {
         }
     } else {
         match nd.node.as_str() {
-            "geomcolor" | "geompropvalue" | "geompropvalueuniform" => {
-                "no per-vertex attribute streams in the shading context yet"
+            "geompropvalueuniform" => {
+                "a string-valued geometry property is per object, and strings never reach the \
+                 IR (they are compile-time inputs only): resolving it when the material \
+                 compiles would give every object that shares the material the same string"
             }
             "frame" => "no frame number in the shading context yet",
             "flake2d" | "flake3d" => "no flake noise intrinsic yet",

@@ -98,6 +98,7 @@ enum Key {
     Ambient,
     Proj(Value, u8),
     Texture(u32, Value, Option<[Value; 2]>, Sampling, bool),
+    Attribute(u32, Value),
 }
 
 /// A constant by exact bits (the type, kept beside the key, tells vectors from colors).
@@ -264,6 +265,8 @@ impl Numbering<'_> {
                 *sampling,
                 *alpha,
             ),
+            // The fragment's attribute: the same slot and default give the same value.
+            Op::Attribute { slot, default } => Key::Attribute(*slot, r(default)),
             Op::LoopVar(k) => Key::LoopVar(self.loop_, *k),
             Op::If { .. } | Op::Illuminance { .. } | Op::Loop { .. } => return None,
         })

@@ -2,11 +2,12 @@
 //!
 //! The renderer computes only the streams listed here (no tangents if nothing reads `dPdu`
 //! or `dPdv`, no ray differentials if nothing reads `dPdx`/`dPdy`), sets up only the listed
-//! space transforms, and the runtime loads only the listed textures. `trace` and `occlusion`
+//! space transforms, resolves and interpolates only the listed geometry attributes, and the
+//! runtime loads only the listed textures. `trace` and `occlusion`
 //! say whether the material asks the scene for secondary rays at all (a renderer without
 //! them, or a pass that wants none, can tell).
 
-use crate::ir::{Intrinsic, Op, Program, Space, Stream, TextureFile};
+use crate::ir::{AttributeDecl, Intrinsic, Op, Program, Space, Stream, TextureFile};
 use std::collections::BTreeSet;
 use std::fmt;
 
@@ -31,6 +32,10 @@ pub struct Needs {
     pub occlusion: bool,
     /// Uniform parameters still read.
     pub params: usize,
+    /// Geometry attributes read by live [`Op::Attribute`] ops (after optimization: only
+    /// live ones), by name and type, sorted: the renderer resolves and interpolates only
+    /// these.
+    pub attributes: Vec<AttributeDecl>,
 }
 
 impl Needs {
@@ -50,6 +55,7 @@ pub fn analyze(p: &Program) -> Needs {
     let mut n = Needs::default();
     let mut params = BTreeSet::new();
     let mut textures = BTreeSet::new();
+    let mut attributes = BTreeSet::new();
     for v in p.listed() {
         match p.op(v) {
             Op::Stream(s) => {
@@ -68,6 +74,11 @@ pub fn analyze(p: &Program) -> Needs {
             Op::Texture { texture, .. } => {
                 textures.insert(*texture);
             }
+            Op::Attribute { slot, .. } => {
+                if let Some(a) = p.attributes.get(*slot as usize) {
+                    attributes.insert(a.clone());
+                }
+            }
             Op::Illuminance { .. } => n.lights = true,
             Op::Ambient => n.ambient = true,
             Op::Trace { .. } => n.trace = true,
@@ -79,6 +90,7 @@ pub fn analyze(p: &Program) -> Needs {
         }
     }
     n.params = params.len();
+    n.attributes = attributes.into_iter().collect();
     n.textures = textures
         .into_iter()
         .filter_map(|t| p.textures.get(t as usize).cloned())
@@ -125,6 +137,15 @@ impl fmt::Display for Needs {
             f,
             "       textures: {}",
             list(self.textures.iter().map(|t| t.path.as_str()).collect())
-        )
+        )?;
+        if self.attributes.is_empty() {
+            return Ok(());
+        }
+        let attributes: Vec<String> = self
+            .attributes
+            .iter()
+            .map(|a| format!("{}:{}", a.name, a.ty))
+            .collect();
+        writeln!(f, "       attributes: {}", attributes.join(" "))
     }
 }

@@ -10,9 +10,11 @@
 use glam::Vec3;
 use shadenet_graph::ops::math;
 
+mod attributes;
 mod gltf_scene;
 mod obj;
 
+pub use attributes::{AttributeMap, attribute_at, resolve_attributes};
 pub use gltf_scene::load_gltf;
 pub use obj::load_obj;
 
@@ -34,6 +36,35 @@ pub struct Mesh {
     pub uvs: Option<Vec<[f32; 2]>>,
     /// Triangles, as vertex indices.
     pub triangles: Vec<[u32; 3]>,
+    /// Named per-vertex attributes (primvars) beyond normals and uv: what
+    /// `Op::Attribute` reads, interpolated at the hit like uv. The built-in shapes have
+    /// none.
+    pub attributes: Vec<VertexAttribute>,
+}
+
+/// One named per-vertex attribute of a mesh (see `docs/scene-format.md`, "Vertex
+/// attributes", for the names the loaders give).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct VertexAttribute {
+    /// The name shaders ask for (`COLOR_0`, `TEXCOORD_1`, `TANGENT`, `_NAME` …).
+    pub name: String,
+    /// Floats per vertex, 1 to 4.
+    pub components: usize,
+    /// `components` floats per vertex, vertex after vertex.
+    pub values: Vec<f32>,
+}
+
+impl VertexAttribute {
+    /// The value at vertex `i` (its `components` floats).
+    pub fn at(&self, i: usize) -> &[f32] {
+        &self.values[i * self.components..(i + 1) * self.components]
+    }
+}
+
+/// `a·b0 + b·b1 + c·b2`, component by component: the one barycentric interpolation of
+/// vertex data (positions, normals, uv and named attributes alike).
+pub fn interpolate<const N: usize>(v: [[f32; N]; 3], bary: [f32; 3]) -> [f32; N] {
+    std::array::from_fn(|k| v[0][k] * bary[0] + v[1][k] * bary[1] + v[2][k] * bary[2])
 }
 
 impl Mesh {
@@ -72,6 +103,9 @@ impl Mesh {
         if self.positions.iter().flatten().any(|x| !x.is_finite()) {
             return Err("a vertex position is not finite".into());
         }
+        for a in &self.attributes {
+            check_attribute(a, n)?;
+        }
         if let Some(x) = self
             .positions
             .iter()
@@ -84,6 +118,34 @@ impl Mesh {
         }
         Ok(self)
     }
+}
+
+/// An attribute's width, length and values: 1 to 4 finite floats per vertex.
+fn check_attribute(a: &VertexAttribute, vertices: usize) -> Result<(), String> {
+    let name = &a.name;
+    if !(1..=4).contains(&a.components) {
+        return Err(format!(
+            "attribute `{name}` has {} components per vertex; 1 to 4 are supported",
+            a.components
+        ));
+    }
+    if a.values.len() != vertices * a.components {
+        return Err(format!(
+            "attribute `{name}` has {} values, not {} ({vertices} vertices × {})",
+            a.values.len(),
+            vertices * a.components,
+            a.components
+        ));
+    }
+    if let Some(i) = a.values.iter().position(|x| !x.is_finite()) {
+        return Err(format!(
+            "attribute `{name}`: component {} of vertex {} is not finite ({})",
+            i % a.components,
+            i / a.components,
+            a.values[i]
+        ));
+    }
+    Ok(())
 }
 
 /// The square [−1, 1]² in the plane z = 0, facing +z, uv from (0, 0) at (−1, −1).

@@ -1,11 +1,16 @@
 //! The Wavefront OBJ loader: `tobj` parses; this file checks the face indices first (tobj 4
 //! overflows on out-of-range relative indices) and gathers the models into one mesh.
 
-use super::Mesh;
+use super::{Mesh, VertexAttribute};
 use shadenet_runtime::input::{self, FileKind};
 use std::path::Path;
 
-/// Loads every object of a Wavefront OBJ file (triangulated; normals and uv when present).
+/// The attribute name of an OBJ file's vertex colours (`v x y z r g b`): glTF's name of
+/// the first colour set, which MaterialX `geomcolor` index 0 reads.
+pub const OBJ_COLOR_NAME: &str = "COLOR_0";
+
+/// Loads every object of a Wavefront OBJ file (triangulated; normals, uv and vertex colours
+/// (`v x y z r g b`, as attribute [`OBJ_COLOR_NAME`]) when every vertex has them).
 pub fn load_obj(path: &Path) -> Result<Mesh, String> {
     if !path.exists() {
         return Err("no such file".into());
@@ -29,11 +34,14 @@ pub fn load_obj(path: &Path) -> Result<Mesh, String> {
     let mut out = Mesh::default();
     let mut all_normals = true;
     let mut all_uvs = true;
+    let mut all_colors = true;
     for m in &models {
         let nv = m.mesh.positions.len() / 3;
         all_normals &= m.mesh.normals.len() == nv * 3;
         all_uvs &= m.mesh.texcoords.len() == nv * 2;
+        all_colors &= m.mesh.vertex_color.len() == nv * 3;
     }
+    let mut colors = Vec::new();
     if all_normals {
         out.normals = Some(Vec::new());
     }
@@ -51,6 +59,9 @@ pub fn load_obj(path: &Path) -> Result<Mesh, String> {
         if let Some(uv) = &mut out.uvs {
             uv.extend(mesh.texcoords.chunks_exact(2).map(|c| [c[0], c[1]]));
         }
+        if all_colors {
+            colors.extend(&mesh.vertex_color);
+        }
         out.triangles.extend(
             mesh.indices
                 .chunks_exact(3)
@@ -59,6 +70,14 @@ pub fn load_obj(path: &Path) -> Result<Mesh, String> {
     }
     if out.triangles.is_empty() {
         return Err("the file has no triangles".into());
+    }
+    // The `v x y z r g b` extension: the mesh's first colour set.
+    if all_colors {
+        out.attributes.push(VertexAttribute {
+            name: OBJ_COLOR_NAME.into(),
+            components: 3,
+            values: colors,
+        });
     }
     out.check()
 }
@@ -180,5 +199,32 @@ mod tests {
         // Relative indices in range are fine.
         std::fs::write(&bad, format!("{quad}f -3/-3/-1 -2/-2/-1 -1/-1/-1\n")).unwrap();
         assert_eq!(load_obj(&bad).unwrap().triangles.len(), 1);
+    }
+
+    /// `v x y z r g b` gives attribute `COLOR_0` (3 components per vertex); a NaN colour is
+    /// an error naming the attribute and vertex; files without colours have no attributes.
+    #[test]
+    fn obj_vertex_colours_become_color_0() {
+        let dir = std::env::temp_dir().join(format!("shadenet-obj-vc-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("vc.obj");
+        std::fs::write(&p, "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nf 1 2 3\n").unwrap();
+        let m = load_obj(&p).unwrap();
+        assert_eq!(m.attributes.len(), 1);
+        let a = &m.attributes[0];
+        assert_eq!((a.name.as_str(), a.components), (OBJ_COLOR_NAME, 3));
+        assert_eq!(a.values, [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
+        std::fs::write(
+            &p,
+            "v 0 0 0 1 0 0\nv 1 0 0 nan 1 0\nv 0 1 0 0 0 1\nf 1 2 3\n",
+        )
+        .unwrap();
+        let e = load_obj(&p).unwrap_err();
+        assert!(
+            e.contains("attribute `COLOR_0`: component 0 of vertex 1 is not finite"),
+            "{e}"
+        );
+        std::fs::write(&p, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        assert!(load_obj(&p).unwrap().attributes.is_empty());
     }
 }

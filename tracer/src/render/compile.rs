@@ -4,6 +4,7 @@
 
 use super::error::RenderError;
 use super::stats::RenderStats;
+use crate::geometry::{AttributeMap, resolve_attributes};
 use crate::passes::{
     Components, KNOWN_COMPONENTS, OverrideKind, PassKind, RayMatch, RuleAction, action_for,
     program_mask,
@@ -31,6 +32,9 @@ pub(super) struct Specialized {
     pub(super) object_space: bool,
     /// The output parts the film reads.
     pub(super) parts: Vec<Part>,
+    /// Per mesh (indexed like `Scene::meshes`), where each slot of the program's attribute
+    /// table finds its values; empty when the program reads no attribute.
+    pub(super) attributes: Arc<Vec<AttributeMap>>,
 }
 
 impl Specialized {
@@ -93,6 +97,7 @@ impl Specialized {
             differentials: needs.differentials(),
             object_space: needs.spaces.contains(&Space::Object),
             parts,
+            attributes: Arc::new(Vec::new()),
         })
     }
 }
@@ -218,8 +223,9 @@ pub(super) fn compile_materials(
     components: &Components,
     stats: &mut RenderStats,
     differentials: &mut bool,
-) -> Result<Vec<Vec<Specialized>>, RenderError> {
+) -> Result<(Vec<Vec<Specialized>>, Vec<String>), RenderError> {
     let mut shaders = Vec::new();
+    let mut warnings = Vec::new();
     for (m, program) in scene.materials.iter().zip(programs) {
         // One specialization per distinct mask, seeing the ray types of every action
         // that produces it.
@@ -243,7 +249,15 @@ pub(super) fn compile_materials(
                 ..Specialization::default()
             };
             let (p, report) = opt::run(program, &spec);
-            let sp = Specialized::new(&p, mask, &report.needs, backend, components, &m.name)?;
+            let mut sp = Specialized::new(&p, mask, &report.needs, backend, components, &m.name)?;
+            sp.attributes = Arc::new(resolve_attributes(
+                &p.attributes,
+                &report.needs.attributes,
+                &scene.meshes,
+                &scene.mesh_names,
+                &m.name,
+                &mut warnings,
+            ));
             *differentials |= sp.differentials;
             stats.shaders += 1;
             compiled.push((mask, sp));
@@ -259,7 +273,7 @@ pub(super) fn compile_materials(
             .collect();
         shaders.push(per);
     }
-    Ok(shaders)
+    Ok((shaders, warnings))
 }
 
 /// The override shaders the passes and the rules use, compiled.

@@ -125,7 +125,7 @@ impl Renderer {
             let Some((action, prep)) = self.camera_hit(ray, layout, sample, stats) else {
                 continue;
             };
-            let mut push = |sp: &Specialized, apply: Apply| {
+            let mut push = |sp: &'a Specialized, apply: Apply| {
                 let instance = prep.surface.instance as usize;
                 let env = if sp.object_space {
                     instance
@@ -146,7 +146,7 @@ impl Renderer {
                     sample: s,
                     apply,
                     frag: self.fragment(sp, ray, &prep),
-                    hit: self.services(ray, &prep, stats),
+                    hit: self.services(sp, ray, &prep, stats),
                 });
             };
             match action {

@@ -70,6 +70,8 @@ mod sobol;
 mod stats;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_attributes;
 mod trace;
 
 /// The ray differentials live with the camera that starts them; re-exported here, where

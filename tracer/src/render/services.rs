@@ -2,12 +2,14 @@
 //! (`occluded`) and ambient occlusion, started from a hit with a robust offset and carrying
 //! its differentials; a batch's services hand each fragment its own. It owns no shading.
 
+use super::compile::Specialized;
 use super::pixel::hash3;
 use super::setup::Renderer;
 use super::stats::{Stage, TileStats};
 use super::trace::{HitDiffs, Prepared, RayState};
 use crate::accel::orthonormal;
 use crate::camera::RayDiffs;
+use crate::geometry::{AttributeMap, Mesh, attribute_at};
 use crate::passes::RayMatch;
 use glam::Vec3;
 use shadenet_graph::ops::math;
@@ -26,6 +28,19 @@ pub(super) struct HitServices<'a> {
     pub(super) d_in: Vec3,
     pub(super) diffs: Option<HitDiffs>,
     pub(super) seed: u32,
+    /// Where the shader being run finds its named attributes at this hit (`None`: it
+    /// reads none, or these services belong to no hit).
+    pub(super) attrs: Option<HitAttributes<'a>>,
+}
+
+/// The named attributes of one hit for one shader: its slots resolved on the hit's mesh,
+/// the triangle's vertices and the barycentrics.
+#[derive(Clone, Copy)]
+pub(super) struct HitAttributes<'a> {
+    pub(super) map: &'a AttributeMap,
+    pub(super) mesh: &'a Mesh,
+    pub(super) verts: [u32; 3],
+    pub(super) bary: [f32; 3],
 }
 
 impl HitServices<'_> {
@@ -90,6 +105,20 @@ impl HitServices<'_> {
 }
 
 impl SceneServices for HitServices<'_> {
+    fn attribute(&self, slot: u32, out: &mut [f32]) -> bool {
+        let Some(h) = &self.attrs else {
+            return false;
+        };
+        let Some(Some(i)) = h.map.get(slot as usize) else {
+            return false;
+        };
+        let Some(a) = h.mesh.attributes.get(*i as usize) else {
+            return false;
+        };
+        attribute_at(a, h.verts, h.bary, out);
+        true
+    }
+
     fn trace(
         &self,
         origin: [f32; 3],
@@ -211,6 +240,7 @@ impl<'a> BatchServices<'a> {
             n_facing: Vec3::ZERO,
             d_in: Vec3::ZERO,
             diffs: None,
+            attrs: None,
             seed: hash3(
                 origin[0].to_bits(),
                 origin[1].to_bits(),
@@ -256,13 +286,24 @@ impl SceneServices for BatchServices<'_> {
 }
 
 impl Renderer {
+    /// The services of a prepared hit for shader `sp` (which names the attributes it
+    /// reads).
     pub(super) fn services<'a>(
         &'a self,
+        sp: &'a Specialized,
         ray: &RayState,
         prep: &Prepared,
         stats: &'a TileStats,
     ) -> HitServices<'a> {
+        let mesh = self.scene.instances[prep.surface.instance as usize].mesh;
+        let attrs = sp.attributes.get(mesh).map(|map| HitAttributes {
+            map,
+            mesh: &self.scene.meshes[mesh],
+            verts: self.accel.vertices(prep.prim),
+            bary: prep.bary,
+        });
         HitServices {
+            attrs,
             r: self,
             stats,
             p: prep.surface.p,

@@ -129,11 +129,11 @@ impl Renderer {
         stats.triangles = accel.triangle_count();
 
         let t = Instant::now();
-        let (components, emission, warnings) = scene_components(&scene, &programs)?;
+        let (components, emission, mut warnings) = scene_components(&scene, &programs)?;
         let s = &scene.settings;
         let (actions, table) = action_table(s);
         let mut differentials = false;
-        let shaders = compile_materials(
+        let (shaders, attribute_warnings) = compile_materials(
             &scene,
             &programs,
             &actions,
@@ -142,6 +142,7 @@ impl Renderer {
             &mut stats,
             &mut differentials,
         )?;
+        warnings.extend(attribute_warnings);
         let overrides = compile_overrides(
             s,
             &table,

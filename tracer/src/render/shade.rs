@@ -28,7 +28,7 @@ impl Renderer {
         stats: &TileStats,
     ) {
         let frag = self.fragment(sp, ray, prep);
-        let services = self.services(ray, prep, stats);
+        let services = self.services(sp, ray, prep, stats);
         let env = &self.envs[prep.surface.instance as usize];
         let ctx = ShadeCtx {
             frag,

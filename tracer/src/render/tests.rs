@@ -117,6 +117,7 @@ fn services<'a>(r: &'a Renderer, stats: &'a TileStats, p: Vec3, n: Vec3) -> HitS
         d_in: -n,
         diffs: None,
         seed: 7,
+        attrs: None,
     }
 }
 
@@ -397,13 +398,15 @@ scale = 0.4
                 continue;
             };
             let prep = r.prepare(&state, &hit, false);
-            let want = r.services(&state, &prep, &stats).occlusion(
-                prep.surface.p.to_array(),
-                prep.n_facing.to_array(),
-                32,
-                0.8,
-                state.seed,
-            );
+            let want = r
+                .services(&r.shaders[0][0], &state, &prep, &stats)
+                .occlusion(
+                    prep.surface.p.to_array(),
+                    prep.n_facing.to_array(),
+                    32,
+                    0.8,
+                    state.seed,
+                );
             assert_eq!(occ.at(i, 0).to_bits(), want.to_bits(), "pixel ({x}, {y})");
             hits += 1;
             if want > 0.0 && want < 1.0 {

@@ -49,6 +49,9 @@ pub(super) struct Prepared {
     pub(super) n_facing: Vec3,
     pub(super) material: usize,
     pub(super) diffs: Option<HitDiffs>,
+    /// The hit's triangle and barycentrics: where named attributes are interpolated.
+    pub(super) prim: u32,
+    pub(super) bary: [f32; 3],
 }
 
 /// One-sided quad hit distance (from the emitting side).
@@ -209,6 +212,8 @@ impl Renderer {
             n_facing,
             material,
             diffs,
+            prim: hit.prim,
+            bary: hit.bary,
         }
     }
 }
