@@ -8,19 +8,11 @@ mod common;
 use common::*;
 use shadenet::graph::ir::Program;
 use shadenet::graph::opt::{self, Specialization};
-use shadenet::lang::{Dialect, Options, SourceMap, lower, parse_str};
+use shadenet::lang::Dialect;
 use shadenet::runtime::Backend;
 
 fn compile(src: &str, dialect: Dialect) -> Result<Program, String> {
-    let mut sources = SourceMap::new();
-    let name = if dialect == Dialect::Rsl {
-        "t.sl"
-    } else {
-        "t.osl"
-    };
-    let parsed = parse_str(&mut sources, name, src, &Options::new(dialect))
-        .map_err(|d| d.render(&sources))?;
-    lower::compile(&parsed, None).map_err(|d| d.render(&sources))
+    compile_shader(src, dialect)
 }
 
 /// Output `name` at texture coordinate `u`, f64 and f32 equal (small integers).

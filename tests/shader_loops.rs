@@ -5,14 +5,11 @@
 mod common;
 use common::*;
 use shadenet::graph::ir::{LOOP_ITERATION_LIMIT, Op, Program};
-use shadenet::lang::{Dialect, Options, SourceMap, lower, parse_str};
+use shadenet::lang::Dialect;
 
 /// Compiles RSL `src`'s first shader; `Err` is the rendered diagnostics.
 fn compile(src: &str) -> Result<Program, String> {
-    let mut sources = SourceMap::new();
-    let parsed = parse_str(&mut sources, "t.sl", src, &Options::new(Dialect::Rsl))
-        .map_err(|d| d.render(&sources))?;
-    lower::compile(&parsed, None).map_err(|d| d.render(&sources))
+    compile_shader(src, Dialect::Rsl)
 }
 
 /// `Ci` of `src` at texture coordinate `s` (= u), in f64 and f32 (both checked).

@@ -9,20 +9,12 @@ mod common;
 use common::*;
 use shadenet::graph::ir::Program;
 use shadenet::graph::opt::{self, Specialization};
-use shadenet::lang::{Dialect, Options, SourceMap, lower, parse_str};
+use shadenet::lang::Dialect;
 use shadenet::runtime::{Backend, Interpreter, ShadeCtx, ShadeEnv, Transform};
 
 /// Compiles `src`'s first shader in `dialect`; `Err` is the rendered diagnostics.
 fn compile_in(src: &str, dialect: Dialect) -> Result<Program, String> {
-    let mut sources = SourceMap::new();
-    let name = if dialect == Dialect::Osl {
-        "t.osl"
-    } else {
-        "t.sl"
-    };
-    let parsed = parse_str(&mut sources, name, src, &Options::new(dialect))
-        .map_err(|d| d.render(&sources))?;
-    lower::compile(&parsed, None).map_err(|d| d.render(&sources))
+    compile_shader(src, dialect)
 }
 
 fn compile(src: &str) -> Result<Program, String> {

@@ -11,15 +11,12 @@ use shadenet::graph::compile_json;
 use shadenet::graph::nodes::{LightDesc, LightKind};
 use shadenet::graph::ops::osl_noise;
 use shadenet::graph::opt::{self, Specialization};
-use shadenet::lang::{Dialect, Options, SourceMap, lower, parse_str};
+use shadenet::lang::Dialect;
 use shadenet::runtime::Backend;
 
 /// Compiles OSL `src`'s first shader; `Err` is the rendered diagnostics.
 fn compile(src: &str) -> Result<shadenet::graph::ir::Program, String> {
-    let mut sources = SourceMap::new();
-    let parsed = parse_str(&mut sources, "t.osl", src, &Options::new(Dialect::Osl))
-        .map_err(|d| d.render(&sources))?;
-    lower::compile(&parsed, None).map_err(|d| d.render(&sources))
+    compile_shader(src, Dialect::Osl)
 }
 
 fn point(pos: [f64; 3], i: f64) -> LightDesc {

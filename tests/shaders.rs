@@ -10,15 +10,12 @@ use common::*;
 use shadenet::graph::nodes::{LightDesc, LightKind};
 use shadenet::graph::opt::{self, Specialization};
 use shadenet::graph::{NodeLibrary, compile_json};
-use shadenet::lang::{Dialect, Options, SourceMap, lower, parse_str};
+use shadenet::lang::Dialect;
 use shadenet::runtime::Backend;
 
 /// Compiles RSL `src`'s first shader; `Err` is the rendered diagnostics.
 fn compile(src: &str) -> Result<shadenet::graph::ir::Program, String> {
-    let mut sources = SourceMap::new();
-    let parsed = parse_str(&mut sources, "t.sl", src, &Options::new(Dialect::Rsl))
-        .map_err(|d| d.render(&sources))?;
-    lower::compile(&parsed, None).map_err(|d| d.render(&sources))
+    compile_shader(src, Dialect::Rsl)
 }
 
 fn point(pos: [f64; 3], i: f64) -> LightDesc {

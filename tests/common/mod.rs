@@ -237,3 +237,18 @@ pub fn render_interp_and_jit(name: &str, spp: u32, res: (u32, u32)) -> [shadenet
 pub fn beauty_bits(f: &shadenet::tracer::Film) -> Vec<u32> {
     f.layers[0].data.iter().map(|x| x.to_bits()).collect()
 }
+
+/// Compiles the first shader of `src` (a source in `dialect`, named `t.sl` or `t.osl` in
+/// messages) to its IR program; `Err` is the rendered diagnostics.
+pub fn compile_shader(src: &str, dialect: shadenet::lang::Dialect) -> Result<Program, String> {
+    use shadenet::lang::{Dialect, Options, SourceMap, lower, parse_str};
+    let mut sources = SourceMap::new();
+    let name = if dialect == Dialect::Osl {
+        "t.osl"
+    } else {
+        "t.sl"
+    };
+    let parsed = parse_str(&mut sources, name, src, &Options::new(dialect))
+        .map_err(|d| d.render(&sources))?;
+    lower::compile(&parsed, None).map_err(|d| d.render(&sources))
+}
