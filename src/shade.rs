@@ -220,6 +220,9 @@ impl RowPackets {
             packet.i[1] = [iy; LANES];
             packet.uv[1] = [v; LANES];
             packet.seed = std::array::from_fn(|lane| y * w + x_of(p, lane));
+            for (k, r) in packet.rand.iter_mut().enumerate() {
+                *r = std::array::from_fn(|lane| grid_rand(x_of(p, lane), y, k as u32));
+            }
         }
         &self.frags
     }

@@ -167,11 +167,14 @@ pub fn fractal(
         b.add(n, o)
     };
     // The first fading octave's frequency and amplitude (powers), in a region no lane of a
-    // packet that keeps every octave enters; the next ones by products.
+    // packet that keeps every octave enters; the next ones by products. The powers are
+    // `exp(k·ln x)`: the logarithms of uniform parameters are hoisted, and the region pays
+    // one `exp` each (a `pow` was a quarter of a filtered fBm's time).
     let first = b.if_(
         fades,
         |b| {
-            let freq = b.binary(BinOp::Pow, lacunarity, kf);
+            let e = b.mul(kf, ln_lac);
+            let freq = b.unary(UnOp::Exp, e);
             vec![freq, signed_power(b, gain, kf)]
         },
         |b| vec![b.float(1.0), b.float(1.0)],
@@ -205,12 +208,19 @@ pub fn fractal(
     switch(b, scale, acc, sum)
 }
 
-/// `gainⁱ` for a float `i ≥ 0` holding an integer: `|gain|ⁱ` with the sign of `gain` where
-/// `i` is odd.
+/// `gainⁱ` for a float `i ≥ 0` holding an integer: `|gain|ⁱ = exp(i·ln|gain|)` with the
+/// sign of `gain` where `i` is odd; exactly 1 for `i = 0` and, for a zero gain, 0 after.
 fn signed_power(b: &mut Builder, gain: Value, i: Value) -> Value {
     let g = b.unary(UnOp::Abs, gain);
-    let a = b.binary(BinOp::Pow, g, i);
+    let lg = b.unary(UnOp::Log, g);
+    let e = b.mul(i, lg);
+    let a = b.unary(UnOp::Exp, e);
     let zero = b.float(0.0);
+    let (one, none) = (b.float(1.0), b.binary(BinOp::Eq, g, zero));
+    let a = b.select(none, zero, a);
+    // `x⁰ = 1` for every x (an infinite or NaN gain too, as `pow` says).
+    let first = b.binary(BinOp::Eq, i, zero);
+    let a = b.select(first, one, a);
     let neg = b.binary(BinOp::Lt, gain, zero);
     let half = b.float(0.5);
     let h = b.mul(i, half);
