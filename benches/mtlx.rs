@@ -89,7 +89,12 @@ fn steps(lib: &Library, name: &str, text: &str) -> (usize, usize, usize, [Durati
     let net = mtlx::network(name, text, lib, &Selection::default()).expect("translates");
     let t1 = Instant::now();
     let linked = shadenet::graph::link::link(&net, lib.atoms()).expect("links");
-    let program = shadenet::graph::lower::lower(&linked, lib.atoms()).expect("lowers");
+    let mut program = shadenet::graph::lower::lower(&linked, lib.atoms()).expect("lowers");
+    // The example documents name their files relative to their folder (maps.mtlx).
+    program.resolve_textures(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/materials"
+    )));
     let t2 = Instant::now();
     let spec = Specialization::default();
     let (optimized, report) = opt::run(&program, &spec);
