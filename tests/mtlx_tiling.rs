@@ -253,9 +253,10 @@ fn params(falloff: f64) -> Params {
     }
 }
 
-/// A 16×16 texture of distinct colours, and its runtime texture for the reference.
-fn tile_texture() -> (String, Texture) {
-    let file = png("tile", 16, 16, |x, y| {
+/// A 16×16 texture of distinct colours in its own file `name` (tests run in parallel: a
+/// shared file raced), and its runtime texture for the reference.
+fn tile_texture(name: &str) -> (String, Texture) {
+    let file = png(name, 16, 16, |x, y| {
         [
             (x * 16) as u8,
             (y * 16) as u8,
@@ -292,7 +293,7 @@ const UVS: [[f32; 2]; 6] = [
 /// falloff, at points in and far outside [0, 1]².
 #[test]
 fn hextiledimage_matches_materialx() {
-    let (file, tex) = tile_texture();
+    let (file, tex) = tile_texture("tile-image");
     for falloff in [0.5, 0.3] {
         let body = format!(
             r#"<hextiledimage name="img" type="color4">
@@ -375,7 +376,7 @@ fn rotate(v: [f64; 3], a: [f64; 3], angle: f64) -> [f64; 3] {
 /// Gram–Schmidt steps count.
 #[test]
 fn hextilednormalmap_matches_materialx() {
-    let (file, tex) = tile_texture();
+    let (file, tex) = tile_texture("tile-normal");
     let n = unit([0.2, -0.1, 1.0]);
     let t = unit([1.0, 0.3, 0.0]);
     let b = unit(cross(n, t));
