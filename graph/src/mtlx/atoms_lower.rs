@@ -331,7 +331,8 @@ pub fn transformnormal(b: &mut Builder, inp: &NodeInputs) -> Out {
     transform(b, inp, XformKind::Normal)
 }
 
-fn radians(b: &mut Builder, deg: Value) -> Value {
+/// `deg` in radians.
+pub(super) fn radians(b: &mut Builder, deg: Value) -> Value {
     let k = b.float(std::f64::consts::PI / 180.0);
     b.mul(deg, k)
 }

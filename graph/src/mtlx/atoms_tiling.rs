@@ -9,7 +9,8 @@
 //! a filtered lookup would. This module owns these formulas; it must not decide which
 //! nodedef uses them (the table in [`super::atoms`] does).
 
-use super::atoms_lower::{image_lookup, texture_file};
+use super::atoms_lower::{image_lookup, radians, texture_file};
+use crate::closure::math::{scale as scale3, vec3};
 use crate::ir::{BinOp, Builder, Filter, Sampling, UnOp, Value, Wrap};
 use crate::nodes::{LowVal, NodeInputs};
 use crate::types::Type;
@@ -21,15 +22,6 @@ const FLOAT_EPS: f64 = 1e-8;
 
 fn one(v: Value) -> Out {
     Ok(vec![LowVal::plain(v)])
-}
-
-fn vec3(b: &mut Builder, x: Value, y: Value, z: Value) -> Value {
-    b.construct(Type::Vec3, &[x, y, z])
-}
-
-fn scale3(b: &mut Builder, v: Value, s: Value) -> Value {
-    let s = b.splat(Type::Vec3, s);
-    b.mul(v, s)
 }
 
 /// `heighttonormal` (`mx_heighttonormal_vector3`): the tangent-space normal of the height
@@ -46,14 +38,14 @@ pub fn heighttonormal(b: &mut Builder, inp: &NodeInputs) -> Out {
     let sobel = b.float(1.0 / 16.0);
     let s = inp.get("scale");
     let k = b.mul(s, sobel);
-    let axis = |b: &mut Builder, k_: Value, i: usize| {
+    let axis = |b: &mut Builder, i: usize| {
         let u = b.extract(dtc[i], 0);
         let v = b.extract(dtc[i], 1);
-        let hh = b.mul(dh[i], k_);
+        let hh = b.mul(dh[i], k);
         vec3(b, u, v, hh)
     };
-    let t = axis(b, k, 0);
-    let bt = axis(b, k, 1);
+    let t = axis(b, 0);
+    let bt = axis(b, 1);
     let n = b.binary(BinOp::Cross, t, bt);
     let len2 = b.dot(n, n);
     let eps2 = b.float(FLOAT_EPS * FLOAT_EPS);
@@ -84,8 +76,7 @@ fn hash(b: &mut Builder, x: Value, y: Value) -> [Value; 2] {
     let p = vec3(b, x, y, x);
     let k = b.vec3([0.1031, 0.1030, 0.0973]);
     let p = b.mul(p, k);
-    let fl = b.unary(UnOp::Floor, p);
-    let p = b.sub(p, fl);
+    let p = b.unary(UnOp::Fract, p);
     let [p0, p1, p2] = [0, 1, 2].map(|i| b.extract(p, i));
     let rot = vec3(b, p1, p2, p0);
     let c = b.vec3([33.33, 33.33, 33.33]);
@@ -97,15 +88,6 @@ fn hash(b: &mut Builder, x: Value, y: Value) -> [Value; 2] {
     let (a0, a1) = (b.add(p0, p1), b.add(p0, p2));
     let (r0, r1) = (b.mul(a0, p2), b.mul(a1, p1));
     [r0, r1].map(|r| b.unary(UnOp::Fract, r))
-}
-
-/// MaterialX's `mix(lo, hi, t)` of floats: `lo·(1 − t) + hi·t`.
-fn lerp(b: &mut Builder, lo: Value, hi: Value, t: Value) -> Value {
-    let one_ = b.float(1.0);
-    let omt = b.sub(one_, t);
-    let l = b.mul(lo, omt);
-    let h = b.mul(hi, t);
-    b.add(l, h)
 }
 
 /// The ranges and amounts of the randomization, each `(amount, range.x, range.y)`.
@@ -165,28 +147,26 @@ fn tiles(b: &mut Builder, coord: Value, j: &Jitter) -> Tiles {
     let (bxn, byn) = (b.add(bx, ns), b.add(by, ns));
     let ids = [(bxs, bys), (bxs, byn), (bxn, bys)];
     let seed = b.float(0.12345);
-    let deg = b.float(std::f64::consts::PI / 180.0);
-    let (r_lo, r_hi) = (b.mul(j.rotation[1], deg), b.mul(j.rotation[2], deg));
+    let (r_lo, r_hi) = (radians(b, j.rotation[1]), radians(b, j.rotation[2]));
     let half = b.float(0.5);
-    let ks = b.float(sqrt3_2);
     let mut coords = [zero; 3];
     let mut rotations = [zero; 3];
     for (i, (ix, iy)) in ids.into_iter().enumerate() {
         // The tile's centre.
         let hy = b.mul(iy, half);
         let ctrx = b.add(ix, hy);
-        let ctrx = b.div(ctrx, ks);
+        let ctrx = b.div(ctrx, k);
         let ctry = b.div(iy, t2);
-        let ctry = b.div(ctry, ks);
+        let ctry = b.div(ctry, k);
         let (hx_, hy_) = (b.add(ix, seed), b.add(iy, seed));
         let [rx, ry] = hash(b, hx_, hy_);
         let rxa = b.mul(rx, j.rotation[0]);
-        let rot = lerp(b, r_lo, r_hi, rxa);
-        let sc = lerp(b, j.scale[1], j.scale[2], ry);
-        let sc = lerp(b, one_, sc, j.scale[0]);
+        let rot = b.mix(r_lo, r_hi, rxa);
+        let sc = b.mix(j.scale[1], j.scale[2], ry);
+        let sc = b.mix(one_, sc, j.scale[0]);
         let (ox, oy) = (b.mul(rx, j.offset[0]), b.mul(ry, j.offset[0]));
-        let ox = lerp(b, j.offset[1], j.offset[2], ox);
-        let oy = lerp(b, j.offset[1], j.offset[2], oy);
+        let ox = b.mix(j.offset[1], j.offset[2], ox);
+        let oy = b.mix(j.offset[1], j.offset[2], oy);
         // Rotated and scaled about the centre, then offset.
         let (dx, dy) = (b.sub(cx, ctrx), b.sub(cy, ctry));
         let (c, sn) = (b.unary(UnOp::Cos, rot), b.unary(UnOp::Sin, rot));
@@ -230,12 +210,15 @@ fn gain(b: &mut Builder, x: Value, r: Value) -> Value {
 }
 
 /// `mx_hextile_compute_blend_weights`: `lum·w⁷` normalized, then through Schlick's gain
-/// and normalized again where `falloff ≠ 0.5`.
+/// and normalized again where `falloff ≠ 0.5`. `w⁷` is `w⁴·w²·w` (three products where a
+/// `pow` per weight cost more than the rest of the blend).
 fn blend_weights(b: &mut Builder, lum: [Value; 3], w: [Value; 3], falloff: Value) -> [Value; 3] {
-    let seven = b.float(7.0);
     let raw: [Value; 3] = [0, 1, 2].map(|i| {
-        let p = b.binary(BinOp::Pow, w[i], seven);
-        b.mul(lum[i], p)
+        let w2 = b.mul(w[i], w[i]);
+        let w4 = b.mul(w2, w2);
+        let w6 = b.mul(w4, w2);
+        let w7 = b.mul(w6, w[i]);
+        b.mul(lum[i], w7)
     });
     let w = normalized(b, raw);
     let gained = [0, 1, 2].map(|i| gain(b, w[i], falloff));
@@ -297,7 +280,7 @@ pub fn hextiledimage(b: &mut Builder, inp: &NodeInputs) -> Out {
     let one_ = b.float(1.0);
     let lum = rgb.map(|c| {
         let l = b.dot(c, coeffs);
-        lerp(b, one_, l, contrast)
+        b.mix(one_, l, contrast)
     });
     let falloff = inp.get("falloff");
     let w = blend_weights(b, lum, tiles.weights, falloff);
@@ -398,7 +381,7 @@ pub fn hextilednormalmap(b: &mut Builder, inp: &NodeInputs) -> Out {
     }
     let falloff = inp.get("falloff");
     let w = blend_weights(b, [one_; 3], tiles.weights, falloff);
-    let (zero, one_) = (b.float(0.0), b.float(1.0));
+    let zero = b.float(0.0);
     let mut gg = b.zero(Type::Vec3);
     for (ni, wi) in normals.iter().zip(w) {
         let wi = b.clamp(wi, zero, one_);
