@@ -168,15 +168,20 @@ fn square_wave_integral(b: &mut Builder, t: Value) -> Value {
     b.sub(one, a)
 }
 
-/// OSL's `filterwidth(x)` of a float: `√(∂x/∂x_screen² + ∂x/∂y_screen²)`, 0 where `x` has no
-/// derivatives (a constant, or no ray differentials).
+/// OSL's `filterwidth(x)` of a float (or, per component, of a vector or colour):
+/// `√(∂x/∂x_screen² + ∂x/∂y_screen²)`, 0 where `x` has no derivatives (a constant, or no
+/// ray differentials).
 pub fn filter_width(b: &mut Builder, x: Value) -> Value {
     match b.derivs(x) {
         Some([dx, dy]) => {
-            let one = b.float(1.0);
-            footprint_width(b, dx, dy, one)
+            let (xx, yy) = (b.mul(dx, dx), b.mul(dy, dy));
+            let sum = b.add(xx, yy);
+            b.unary(UnOp::Sqrt, sum)
         }
-        None => b.float(0.0),
+        None => {
+            let ty = b.ty(x);
+            b.zero(ty)
+        }
     }
 }
 

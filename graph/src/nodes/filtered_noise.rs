@@ -50,17 +50,9 @@ pub fn point_width(b: &mut Builder, q: Value, scale: Value) -> Option<Value> {
 /// The weight of an octave at `x = f·w`: `1 − smoothstep(FADE[0], FADE[1], x)`, exactly 1
 /// below the band and 0 above it.
 fn weight(b: &mut Builder, x: Value) -> Value {
-    let lo = b.float(FADE[0]);
-    let span = b.float(FADE[1] - FADE[0]);
-    let d = b.sub(x, lo);
-    let t = b.div(d, span);
-    let (zero, one) = (b.float(0.0), b.float(1.0));
-    let t = b.clamp(t, zero, one);
-    let (two, three) = (b.float(2.0), b.float(3.0));
-    let tt = b.mul(two, t);
-    let k = b.sub(three, tt);
-    let t2 = b.mul(t, t);
-    let s = b.mul(t2, k);
+    let (lo, hi) = (b.float(FADE[0]), b.float(FADE[1]));
+    let s = super::math::smoothstep_scalar(b, &[lo, hi, x]);
+    let one = b.float(1.0);
     b.sub(one, s)
 }
 

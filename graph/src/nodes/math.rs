@@ -604,7 +604,7 @@ fn componentwise(
 }
 
 /// Scalar smoothstep (`a = [edge0, edge1, x]`), a hard step where the edges are equal.
-fn smoothstep_scalar(b: &mut Builder, a: &[Value]) -> Value {
+pub(crate) fn smoothstep_scalar(b: &mut Builder, a: &[Value]) -> Value {
     let (e0, e1, x) = (a[0], a[1], a[2]);
     let num = b.sub(x, e0);
     let den = b.sub(e1, e0);

@@ -7,6 +7,7 @@
 
 use super::{Ty, Val};
 use shadenet_graph::ir::{BinOp, Builder, UnOp, Value};
+use shadenet_graph::nodes::filtered::filter_width;
 
 /// `[∂x/∂x_screen, ∂x/∂y_screen]`, zeros of `x`'s type where it has none.
 fn both(b: &mut Builder, x: Value) -> [Value; 2] {
@@ -17,14 +18,6 @@ fn both(b: &mut Builder, x: Value) -> [Value; 2] {
             [b.zero(ty), b.zero(ty)]
         }
     }
-}
-
-/// `√(Dx² + Dy²)`, per component of a triple (OSL's `filterwidth`).
-fn width(b: &mut Builder, x: Value) -> Value {
-    let [dx, dy] = both(b, x);
-    let (xx, yy) = (b.mul(dx, dx), b.mul(dy, dy));
-    let s = b.add(xx, yy);
-    b.unary(UnOp::Sqrt, s)
 }
 
 /// stdosl.h's `aastep(edge, s, dedge, ds)`: the share of `[s − w/2, s + w/2]`, `w =
@@ -55,7 +48,7 @@ pub(crate) fn builtin(b: &mut Builder, name: &str, vs: &[(Value, Ty, bool)]) -> 
             let d = both(b, *x);
             out(d[usize::from(name == "Dy")], *t)
         }
-        ("filterwidth", [(x, t, _)]) if num(*t) => out(width(b, *x), *t),
+        ("filterwidth", [(x, t, _)]) if num(*t) => out(filter_width(b, *x), *t),
         ("area", [(p, t, _)]) if t.is_geometric() => {
             let [dx, dy] = both(b, *p);
             let c = b.binary(BinOp::Cross, dx, dy);
@@ -67,10 +60,10 @@ pub(crate) fn builtin(b: &mut Builder, name: &str, vs: &[(Value, Ty, bool)]) -> 
             let (edge, s) = (args[0].0, args[1].0);
             let dedge = match args.len() {
                 4 => args[2].0,
-                _ => width(b, edge),
+                _ => filter_width(b, edge),
             };
             let ds = match args.len() {
-                2 => width(b, s),
+                2 => filter_width(b, s),
                 _ => args[args.len() - 1].0,
             };
             out(aastep(b, edge, s, dedge, ds), Ty::Float)
