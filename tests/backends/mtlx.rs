@@ -176,9 +176,10 @@ fn every_materialx_atom() {
 /// whose size is not a multiple of 4.
 #[test]
 fn every_example_material() {
-    let Some(lib) = library() else {
+    // The libraries are found as `shadenet shade` finds them (skipped or failed without).
+    if library().is_none() {
         return;
-    };
+    }
     let (w, h) = (23, 17);
     let frags: Vec<Fragment> = (0..h)
         .flat_map(|y| (0..w).map(move |x| shadenet::shade::grid_fragment(x, y, w, h)))
@@ -193,13 +194,10 @@ fn every_example_material() {
     paths.sort();
     assert!(paths.len() >= 12, "{} example documents", paths.len());
     for path in paths {
-        let text = std::fs::read_to_string(&path).unwrap();
         let name = path.file_name().unwrap().to_string_lossy().into_owned();
-        let mut c = mx::compile(&name, &text, lib, &Selection::default())
+        // As `shadenet shade` loads a document: its files relative to it (maps.mtlx).
+        let c = shadenet::mtlx::compile_mtlx(&path, &Default::default())
             .unwrap_or_else(|e| panic!("{name}: {}", shadenet::graph::error_chain(&e)));
-        // Files are named relative to the document (maps.mtlx's texture).
-        c.program
-            .resolve_textures(path.parent().expect("in a folder"));
         let (p, _) = opt::run(&c.program, &Specialization::default());
         // The GPU refuses geometry attributes (those materials run on the CPU): it is
         // checked to say so, and left out.
