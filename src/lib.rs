@@ -25,6 +25,7 @@ pub mod render;
 pub mod scene_lights;
 pub mod shade;
 pub mod shader;
+pub mod specialize;
 
 pub use shadenet_graph as graph;
 pub use shadenet_jit as jit;

@@ -8,7 +8,7 @@ use shadenet_graph::Compiled;
 use shadenet_graph::mtlx::{self, Library, MtlxError, Selection};
 use shadenet_graph::network::Network;
 use shadenet_runtime::input::{FileKind, InputError, read_to_string};
-use std::collections::HashMap;
+use std::collections::{BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, OnceLock};
 
@@ -156,6 +156,19 @@ pub fn mtlx_network(
     let net =
         mtlx::network(&path.display().to_string(), &text, lib, selection).map_err(Box::new)?;
     Ok((net, lib))
+}
+
+/// Reads a `.mtlx` file and names the uniform geometric properties its selected
+/// string-valued `geompropvalueuniform` nodes read ([`mtlx::uniform_geomprops`]).
+pub fn mtlx_geomprops(
+    path: &Path,
+    libraries: Option<&Path>,
+    selection: &Selection,
+) -> Result<BTreeSet<String>, MtlxLoadError> {
+    let text = read_to_string(path, FileKind::Text, "MaterialX document")?;
+    let lib = library(&locate(libraries)?)?;
+    let file = path.display().to_string();
+    Ok(mtlx::uniform_geomprops(&file, &text, lib, selection).map_err(Box::new)?)
 }
 
 /// Reads a `.mtlx` file and says which lobes of its selected material(s) are left after

@@ -273,6 +273,7 @@ pub fn compile_material(
             let selection = shadenet_graph::mtlx::Selection {
                 material: material.clone(),
                 output: output.clone(),
+                geomprops: m.geomprops.clone(),
             };
             let (net, lib) = crate::mtlx::mtlx_network(file, mtlx_libraries, &selection)
                 .map_err(|e| fail(error_chain(&e)))?;
@@ -417,6 +418,14 @@ pub fn prepare(
     backend: &dyn ShaderBackend,
     mtlx_libraries: Option<&Path>,
 ) -> Result<(Renderer, Vec<CompiledMaterial>), SetupError> {
+    let mut scene = scene;
+    crate::specialize::by_geomprops(&mut scene, mtlx_libraries).map_err(|e| {
+        SetupError::Material {
+            material: e.material,
+            source_name: e.source_name,
+            message: e.message,
+        }
+    })?;
     let compiled = scene
         .materials
         .iter()
@@ -431,7 +440,6 @@ pub fn prepare(
         })
         .collect::<Result<Vec<_>, _>>()?;
     let programs = compiled.iter().map(|c| c.program.clone()).collect();
-    let mut scene = scene;
     // Light programs run on the interpreter for renders on the interpreter, else compiled by
     // the JIT (the GPU back end's host steps sample lights on the CPU).
     let jit = backend.name() != "interp";

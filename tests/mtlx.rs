@@ -795,7 +795,18 @@ fn stdlib_coverage_is_the_documented_figure() {
     let count = |f: &dyn Fn(&Status) -> bool| rows.iter().filter(|r| f(&r.status)).count();
     let native = count(&|s| *s == Status::Native);
     let graph = count(&|s| *s == Status::ViaNodegraph);
-    assert_eq!((rows.len(), native, graph), (693, 480, 198));
+    let folded = count(&|s| *s == Status::Folded);
+    assert_eq!((rows.len(), native, graph, folded), (693, 480, 198, 6));
+    let geometric: Vec<&coverage::Row> = rows.iter().filter(|r| r.group == "geometric").collect();
+    assert_eq!(geometric.len(), 20);
+    for r in geometric {
+        assert!(
+            !matches!(r.status, Status::Unsupported(_)),
+            "{}: {:?}",
+            r.nodedef,
+            r.status
+        );
+    }
     for nd in [
         "ND_tiledimage_color3",
         "ND_triplanarprojection_vector4",

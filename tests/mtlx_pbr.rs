@@ -236,6 +236,7 @@ fn materials_are_selected_by_name() {
     let sel = |m: &str| Selection {
         material: Some(m.into()),
         output: None,
+        ..Default::default()
     };
     let Some(c) = compile_sel(&body, &sel("Other")) else {
         return;
@@ -428,6 +429,7 @@ fn a_chosen_material_is_not_stopped_by_another_materials_nodes() {
     let pick = |m: &str| Selection {
         material: Some(m.to_string()),
         output: None,
+        ..Default::default()
     };
     let Some(ok) = compile_sel(&body, &pick("M")) else {
         return;

@@ -48,6 +48,7 @@ impl Options {
             selection: shadenet::graph::mtlx::Selection {
                 material: self.material.clone(),
                 output: self.output.clone(),
+                ..Default::default()
             },
         }
     }

@@ -262,6 +262,19 @@ pub(crate) struct SourceArgs {
     /// outputs) or `nodegraph/output` (default: every output).
     #[arg(long, value_name = "NAME")]
     pub(crate) mtlx_output: Option<String>,
+    /// A uniform geometric property of the shaded geometry, NAME=VALUE, which a .mtlx
+    /// document's string-valued `geompropvalueuniform` nodes read (a scene gives them per
+    /// instance: `geomprops = { NAME = "VALUE" }`); repeatable.
+    #[arg(long = "geomprop", value_name = "NAME=VALUE", value_parser = geomprop)]
+    pub(crate) geomprops: Vec<(String, String)>,
+}
+
+/// Parses `--geomprop NAME=VALUE`.
+fn geomprop(s: &str) -> std::result::Result<(String, String), String> {
+    match s.split_once('=') {
+        Some((n, v)) if !n.is_empty() => Ok((n.to_string(), v.to_string())),
+        _ => Err(format!("`{s}`: expected NAME=VALUE")),
+    }
 }
 
 impl SourceArgs {
@@ -271,6 +284,7 @@ impl SourceArgs {
             selection: shadenet::graph::mtlx::Selection {
                 material: self.material.clone(),
                 output: self.mtlx_output.clone(),
+                geomprops: self.geomprops.iter().cloned().collect(),
             },
         }
     }

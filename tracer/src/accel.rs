@@ -402,6 +402,7 @@ mod tests {
                 mesh: 0,
                 material: 0,
                 transform: m,
+                geomprops: Default::default(),
             }],
         )
     }

@@ -374,6 +374,11 @@ pub struct InstanceSpec {
     /// translate/rotate/scale.
     #[serde(default)]
     pub matrix: Option<Vec<f64>>,
+    /// Uniform string-valued geometric properties of this object (name → value), which
+    /// MaterialX `geompropvalueuniform` string and filename nodes read: its material is
+    /// compiled once per distinct set of the values it reads.
+    #[serde(default)]
+    pub geomprops: BTreeMap<String, String>,
 }
 
 /// `[[lights]]`.
@@ -541,6 +546,10 @@ pub struct MaterialRef {
     pub source: MaterialSource,
     /// `(node, input, value)` overrides to apply to the network before linking.
     pub overrides: Vec<(String, String, serde_json::Value)>,
+    /// The uniform geometric properties this compile of the material is specialized for
+    /// (a MaterialX material's string-valued `geompropvalueuniform` nodes read them); empty
+    /// as the scene names it.
+    pub geomprops: BTreeMap<String, String>,
 }
 
 /// The camera, resolved.
@@ -659,6 +668,8 @@ pub struct Instance {
     pub material: usize,
     /// Object → world.
     pub transform: DMat4,
+    /// Uniform string-valued geometric properties ([`InstanceSpec::geomprops`]).
+    pub geomprops: BTreeMap<String, String>,
 }
 
 /// A quad light's face, for rays that see it.
@@ -916,6 +927,7 @@ fn resolve_materials(
             name: name.clone(),
             source,
             overrides,
+            geomprops: BTreeMap::new(),
         });
     }
     Ok(materials)
@@ -1006,6 +1018,7 @@ fn resolve_instances(
             mesh,
             material,
             transform,
+            geomprops: inst.geomprops.clone(),
         });
     }
     Ok(instances)

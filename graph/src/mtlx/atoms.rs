@@ -223,6 +223,19 @@ pub fn lowering(nd: &NodeDefElem) -> Option<LowerFn> {
     (ports_ok && (row.matrix || !has_matrix(nd))).then_some(row.lower)
 }
 
+/// The node categories folded into their readers ([`super::strings`]) when their output is a string or a filename.
+pub const FOLDED: [&str; 3] = ["constant", "dot", "geompropvalueuniform"];
+
+/// Whether a nodedef is a compile-time string node of [`FOLDED`].
+pub fn is_folded(nd: &NodeDefElem) -> bool {
+    FOLDED.contains(&nd.node.as_str()) && nd.outputs.len() == 1 && is_string(&nd.outputs[0].ty)
+}
+
+/// Whether a MaterialX type is a string type (`string`, `filename`).
+pub fn is_string(ty: &str) -> bool {
+    matches!(ty, "string" | "filename")
+}
+
 /// Why a nodedef with neither a nodegraph nor a lowering is unsupported (for coverage).
 pub fn missing_reason(nd: &NodeDefElem) -> &'static str {
     if is_closure_def(nd) {
@@ -242,11 +255,6 @@ pub fn missing_reason(nd: &NodeDefElem) -> &'static str {
         }
     } else {
         match nd.node.as_str() {
-            "geompropvalueuniform" => {
-                "a string-valued geometry property is per object, and strings never reach the \
-                 IR (they are compile-time inputs only): resolving it when the material \
-                 compiles would give every object that shares the material the same string"
-            }
             "frame" => "no frame number in the shading context yet",
             "flake2d" | "flake3d" => "no flake noise intrinsic yet",
             _ => "no lowering in the atom table yet",

@@ -156,3 +156,11 @@ pub enum MtlxError {
         source: LinkErrors,
     },
 }
+
+/// An error in the document at `at`.
+pub fn doc_err(at: &Pos, msg: String) -> MtlxError {
+    MtlxError::Document {
+        at: at.clone(),
+        msg,
+    }
+}

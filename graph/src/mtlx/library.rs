@@ -32,6 +32,8 @@ pub enum Impl<'a> {
     Graph(&'a Graph),
     /// By one of our atoms.
     Atom,
+    /// Folded when the document compiles: a string node ([`super::strings`]).
+    Folded,
     /// Neither: the reason.
     None(&'static str),
 }
@@ -148,6 +150,9 @@ impl Library {
         }
         if self.atoms.get(&nd.name).is_some() {
             return Impl::Atom;
+        }
+        if atoms::is_folded(nd) {
+            return Impl::Folded;
         }
         Impl::None(atoms::missing_reason(nd))
     }

@@ -25,8 +25,10 @@ pub mod channels;
 pub mod coverage;
 pub mod document;
 pub mod error;
+pub mod iface;
 pub mod library;
 pub mod resolve;
+pub mod strings;
 pub mod translate;
 pub mod value;
 
@@ -34,6 +36,8 @@ pub use document::{Document, parse};
 pub use error::{MtlxError, Pos};
 pub use library::Library;
 pub use translate::{Selection, to_network};
+
+use std::collections::BTreeSet;
 
 use crate::closure::probe::LobeStat;
 use crate::lower::{Compiled, LowerOptions, lower_with};
@@ -49,6 +53,18 @@ pub fn network(
 ) -> Result<Network, MtlxError> {
     let doc = parse(file, text)?;
     to_network(&doc, lib, sel)
+}
+
+/// Parses a document's text and names the uniform geometric properties its selected
+/// string-valued `geompropvalueuniform` nodes read ([`translate::uniform_geomprops`]).
+pub fn uniform_geomprops(
+    file: &str,
+    text: &str,
+    lib: &Library,
+    sel: &Selection,
+) -> Result<BTreeSet<String>, MtlxError> {
+    let doc = parse(file, text)?;
+    translate::uniform_geomprops(&doc, lib, sel)
 }
 
 /// Parses, translates, links and lowers a document's text.

@@ -9,29 +9,30 @@
 //! (the atoms do) nor link (the linker does).
 
 use super::atoms::geomprop_node;
+use super::atoms::is_string;
 use super::document::{Document, Graph, Input, NodeDefElem, NodeElem};
-use super::error::{MtlxError, Pos};
+use super::error::{MtlxError, Pos, doc_err};
+use super::iface::{Iface, interface_value};
 use super::library::{Impl, Library};
 use super::resolve::Defs;
+use super::strings::{Fold, Folded};
 use super::value::{MxType, classify, literal, unsupported_reason};
 use crate::network::{CompoundInput, CompoundSpec, Network, NodeSpec};
 use serde_json::{Map, Value as Json};
 use std::borrow::Cow;
-use std::collections::{HashMap, HashSet};
+use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
 
-/// Which part of a document to shade.
+/// Which part of a document to shade, and for which geometry.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Selection {
     /// A material by name; only the nodes and nodegraphs it reaches are translated.
     pub material: Option<String>,
     /// An output: a top-level `<output>`, a nodegraph (all its outputs) or `graph/output`.
     pub output: Option<String>,
-}
-
-/// The interface a scope's `interfacename`s refer to.
-struct Iface<'a> {
-    graph: &'a str,
-    inputs: &'a [Input],
+    /// The uniform string-valued geometric properties of the geometry the material is
+    /// bound to (name → value), which `geompropvalueuniform` string and filename nodes read;
+    /// a property not given takes the node's `default` (see [`super::strings`]).
+    pub geomprops: BTreeMap<String, String>,
 }
 
 struct Tr<'a> {
@@ -39,18 +40,22 @@ struct Tr<'a> {
     compounds: Vec<CompoundSpec>,
     done: HashSet<String>,
     stack: Vec<String>,
+    /// The selection's geometric properties.
+    geomprops: &'a BTreeMap<String, String>,
+    /// The geometric properties the translated nodes read.
+    props: BTreeSet<String>,
+}
+
+/// What one scope's nodes are: each translated node's nodedef (for output names and types)
+/// and each folded string node's value.
+struct Scope<'a> {
+    types: HashMap<&'a str, &'a NodeDefElem>,
+    strings: Folded,
 }
 
 /// The compound name of a document nodegraph without a nodedef.
 fn graph_compound(name: &str) -> String {
     format!("nodegraph {name}")
-}
-
-fn doc_err(at: &Pos, msg: String) -> MtlxError {
-    MtlxError::Document {
-        at: at.clone(),
-        msg,
-    }
 }
 
 impl<'a> Tr<'a> {
@@ -82,6 +87,14 @@ impl<'a> Tr<'a> {
         match self.implementation(nd) {
             Impl::Graph(g) => self.compound(nd, g)?,
             Impl::Atom => {}
+            // Folded in `fold_strings` before nodes get here.
+            Impl::Folded => {
+                return Err(MtlxError::Unsupported {
+                    at: node.pos.clone(),
+                    node: node.name.clone(),
+                    msg: format!("{} is a compile-time string node out of place", nd.name),
+                });
+            }
             Impl::None(reason) => {
                 return Err(MtlxError::Unsupported {
                     at: node.pos.clone(),
@@ -151,8 +164,8 @@ impl<'a> Tr<'a> {
             graph: &g.name,
             inputs: &nd.inputs,
         };
-        let (nodes, types) = self.scope(&g.nodes, Some(&iface))?;
-        let outputs = self.graph_outputs(g, &nd.outputs, &iface, &types)?;
+        let (nodes, sc) = self.scope(&g.nodes, Some(&iface))?;
+        let outputs = self.graph_outputs(g, &nd.outputs, &iface, &sc)?;
         let mut spec = CompoundSpec {
             name: nd.name.clone(),
             doc: None,
@@ -170,32 +183,34 @@ impl<'a> Tr<'a> {
         Ok(())
     }
 
-    /// Resolves and translates the nodes of one scope; returns them and each node's
-    /// nodedef (for output names and types).
+    /// Resolves and translates the nodes of one scope (string nodes folded); returns them
+    /// and what each node is.
     fn scope(
         &mut self,
         all: &'a [NodeElem],
         iface: Option<&Iface>,
-    ) -> Result<(Vec<NodeSpec>, HashMap<&'a str, &'a NodeDefElem>), MtlxError> {
+    ) -> Result<(Vec<NodeSpec>, Scope<'a>), MtlxError> {
         // Top-level nodes of closure kinds not built yet (volume, displacement and light
         // shaders) are left out: they are reported only when selected.
         let nodes: Vec<&'a NodeElem> = all
             .iter()
             .filter(|n| iface.is_some() || classify(&n.ty) != MxType::Closure)
             .collect();
+        let (strings, nodes) = Fold {
+            defs: &self.defs,
+            geomprops: self.geomprops,
+            props: &mut self.props,
+            iface,
+        }
+        .split(nodes)?;
         let mut types = HashMap::new();
         for &n in &nodes {
-            let nd = self.usable(n)?;
-            if types.insert(n.name.as_str(), nd).is_some() {
-                return Err(doc_err(
-                    &n.pos,
-                    format!("node name `{}` is used twice", n.name),
-                ));
-            }
+            types.insert(n.name.as_str(), self.usable(n)?);
         }
+        let sc = Scope { types, strings };
         let mut out = Vec::new();
         for &n in &nodes {
-            let nd = types[n.name.as_str()];
+            let nd = sc.types[n.name.as_str()];
             let mut spec = NodeSpec {
                 name: n.name.clone(),
                 ty: nd.name.clone(),
@@ -219,7 +234,7 @@ impl<'a> Tr<'a> {
                     // A displacement or volume shader input: not built, ignored (DESIGN §12).
                     continue;
                 }
-                let v = self.input_value(&n.name, i, &di.ty, iface, &types, &mut out)?;
+                let v = self.input_value(&n.name, i, &di.ty, iface, &sc, &mut out)?;
                 if let Some(v) = v {
                     spec.inputs.insert(i.name.clone(), v);
                 }
@@ -240,7 +255,7 @@ impl<'a> Tr<'a> {
             }
             out.push(spec);
         }
-        Ok((out, types))
+        Ok((out, sc))
     }
 
     /// The network value of one input: a literal, a connection, `$interface`, or `None`
@@ -251,29 +266,32 @@ impl<'a> Tr<'a> {
         i: &Input,
         ty: &str,
         iface: Option<&Iface>,
-        types: &HashMap<&str, &NodeDefElem>,
+        sc: &Scope,
         extra: &mut Vec<NodeSpec>,
     ) -> Result<Option<Json>, MtlxError> {
         let MxType::Value(t) = classify(ty) else {
             return Err(doc_err(&i.pos, unsupported_reason(ty)));
         };
         if let Some(name) = &i.interfacename {
-            let found = iface.is_some_and(|f| f.inputs.iter().any(|x| &x.name == name));
-            if !found {
-                return Err(MtlxError::Interface {
+            return interface_value(node, i, name, iface).map(Some);
+        }
+        if let Some(n) = &i.nodename
+            && let Some((v, src_ty)) = sc.strings.get(n.as_str())
+        {
+            if src_ty != ty {
+                return Err(MtlxError::TypeMismatch {
                     at: i.pos.clone(),
                     node: node.to_string(),
                     input: i.name.clone(),
-                    name: name.clone(),
-                    graph: iface
-                        .map_or("(none: a top-level node)", |f| f.graph)
-                        .to_string(),
+                    expected: ty.to_string(),
+                    source_name: n.clone(),
+                    found: src_ty.clone(),
                 });
             }
-            return Ok(Some(Json::String(format!("${name}"))));
+            return Ok(Some(v.clone()));
         }
         let (src, src_ty) = if let Some(n) = &i.nodename {
-            let Some(sd) = types.get(n.as_str()) else {
+            let Some(sd) = sc.types.get(n.as_str()) else {
                 return Err(doc_err(
                     &i.pos,
                     format!(
@@ -362,10 +380,13 @@ impl<'a> Tr<'a> {
         g: &Graph,
         decls: &[Input],
         iface: &Iface,
-        types: &HashMap<&str, &NodeDefElem>,
+        sc: &Scope,
     ) -> Result<Vec<(String, String, Vec<NodeSpec>)>, MtlxError> {
         let mut res = Vec::new();
         for d in decls {
+            if is_string(&d.ty) {
+                return Err(string_output(&g.pos, &format!("{}.{}", g.name, d.name)));
+            }
             let Some(o) = g.outputs.iter().find(|o| o.name == d.name) else {
                 return Err(doc_err(
                     &g.pos,
@@ -374,7 +395,7 @@ impl<'a> Tr<'a> {
             };
             let mut extra = Vec::new();
             let holder = format!("{}_output", o.name);
-            let v = self.input_value(&holder, o, &d.ty, Some(iface), types, &mut extra)?;
+            let v = self.input_value(&holder, o, &d.ty, Some(iface), sc, &mut extra)?;
             let conn = match v {
                 Some(Json::String(c)) if !c.starts_with('$') => c,
                 v => {
@@ -395,6 +416,18 @@ impl<'a> Tr<'a> {
         }
         Ok(res)
     }
+}
+
+/// A string-typed output asked for: strings are compile-time values, never shaded.
+fn string_output(at: &Pos, name: &str) -> MtlxError {
+    doc_err(
+        at,
+        format!(
+            "output `{name}` is a string: strings are compile-time values (file names, \
+             property names), folded into the inputs that read them, and cannot be shaded \
+             or leave a nodegraph"
+        ),
+    )
 }
 
 /// Compound inputs from interface declarations (defaults from their values).
@@ -496,6 +529,26 @@ fn material_output(doc: &Document, name: &str) -> Result<Map<String, Json>, Mtlx
 /// Translates a document into a network for the selection; the compounds it needs are
 /// included, the atoms are [`Library::atoms`].
 pub fn to_network(doc: &Document, lib: &Library, sel: &Selection) -> Result<Network, MtlxError> {
+    translate(doc, lib, sel).map(|(net, _)| net)
+}
+
+/// The names of the uniform geometric properties that the selection's string-valued
+/// `geompropvalueuniform` nodes read: a renderer compiles the material once per distinct
+/// set of their values among the objects it is bound to.
+pub fn uniform_geomprops(
+    doc: &Document,
+    lib: &Library,
+    sel: &Selection,
+) -> Result<BTreeSet<String>, MtlxError> {
+    translate(doc, lib, sel).map(|(_, props)| props)
+}
+
+/// [`to_network`], and the geometric properties read ([`uniform_geomprops`]).
+fn translate(
+    doc: &Document,
+    lib: &Library,
+    sel: &Selection,
+) -> Result<(Network, BTreeSet<String>), MtlxError> {
     // With a material chosen, only what it reaches is translated: another material's
     // unsupported node must not fail this one.
     let keep = chosen_material(doc, sel).map(|m| reachable(doc, m));
@@ -519,6 +572,8 @@ pub fn to_network(doc: &Document, lib: &Library, sel: &Selection) -> Result<Netw
         compounds: Vec::new(),
         done: HashSet::new(),
         stack: Vec::new(),
+        geomprops: &sel.geomprops,
+        props: BTreeSet::new(),
     };
     let mut nodes = Vec::new();
     for g in doc.graphs.iter().filter(wanted) {
@@ -526,8 +581,8 @@ pub fn to_network(doc: &Document, lib: &Library, sel: &Selection) -> Result<Netw
             graph: &g.name,
             inputs: &g.inputs,
         };
-        let (inner, types) = tr.scope(&g.nodes, Some(&iface))?;
-        let outputs = tr.graph_outputs(g, &g.outputs, &iface, &types)?;
+        let (inner, sc) = tr.scope(&g.nodes, Some(&iface))?;
+        let outputs = tr.graph_outputs(g, &g.outputs, &iface, &sc)?;
         let mut spec = CompoundSpec {
             name: graph_compound(&g.name),
             doc: None,
@@ -546,20 +601,21 @@ pub fn to_network(doc: &Document, lib: &Library, sel: &Selection) -> Result<Netw
             inputs: Map::new(),
         });
     }
-    let (top_nodes, types) = tr.scope(&top, None)?;
+    let (top_nodes, sc) = tr.scope(&top, None)?;
     let outputs = match &sel.material {
         Some(m) => material_output(doc, m)?,
-        None => select_outputs(&tr, doc, sel, &types, &mut nodes)?,
+        None => select_outputs(&tr, doc, sel, &sc, &mut nodes)?,
     };
     nodes.extend(top_nodes);
     tr.helpers(&nodes)?;
-    Ok(Network {
+    let net = Network {
         name: None,
         version: 1,
         nodes,
         outputs,
         compounds: tr.compounds,
-    })
+    };
+    Ok((net, tr.props))
 }
 
 /// The material a selection names, if the document has it (a missing one is reported by
@@ -601,7 +657,7 @@ fn select_outputs(
     tr: &Tr,
     doc: &Document,
     sel: &Selection,
-    types: &HashMap<&str, &NodeDefElem>,
+    sc: &Scope,
     extra: &mut Vec<NodeSpec>,
 ) -> Result<Map<String, Json>, MtlxError> {
     let mut all: Vec<(String, String, &Input)> = Vec::new();
@@ -670,8 +726,11 @@ fn select_outputs(
                 ty: o.ty.clone(),
             });
         }
+        if is_string(&o.ty) {
+            return Err(string_output(&o.pos, name));
+        }
         let conn = if graph.is_empty() {
-            match tr.input_value(name, o, &o.ty, None, types, extra)? {
+            match tr.input_value(name, o, &o.ty, None, sc, extra)? {
                 Some(Json::String(c)) => c,
                 _ => {
                     return Err(doc_err(
