@@ -111,6 +111,9 @@ impl<'a> Lower<'a> {
             }
         }
         let name = callee.name.as_str();
+        if self.dialect == Dialect::Osl && name == "getattribute" {
+            return self.getattribute(b, vals, args, span);
+        }
         if let Some(def) = self.struct_def(name) {
             if let Some(v) = self.construct_struct(b, def, &vals) {
                 return v;

@@ -177,11 +177,14 @@ impl<'a> Lower<'a> {
             ExprKind::Member { base, field } if self.dialect == crate::Dialect::Osl => {
                 self.member(b, base, field)
             }
+            ExprKind::InitList(items) if self.dialect == crate::Dialect::Osl => {
+                self.init_list(b, items, e.span)
+            }
             ExprKind::Member { .. } | ExprKind::InitList(_) => {
                 self.error(
-                    "struct fields and initialiser lists are not built yet (arrays and structs: issues 21 and 22)",
+                    "RSL has no structs: a `{…}` list initialises an array in its declaration",
                     e.span,
-                    "not built yet",
+                    "not here",
                 );
                 Self::poison(b, Ty::Float)
             }
@@ -672,7 +675,10 @@ impl<'a> Lower<'a> {
             }
             Val::StructVar(s) => {
                 let v = match arith_of(op) {
-                    _ if op == AssignOp::Set => self.expr(b, value),
+                    _ if op == AssignOp::Set => match self.struct_def(&s) {
+                        Some(def) => self.expr_for_struct(b, value, def),
+                        None => self.expr(b, value),
+                    },
                     // `s op= x`: the struct's overloaded operator, then stored.
                     Some(bin) => {
                         let old = self.read_var(&id.name).unwrap_or(Val::Str(String::new()));

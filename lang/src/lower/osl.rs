@@ -47,6 +47,7 @@ pub(crate) const NAMES: &[&str] = &[
     "filterwidth",
     "area",
     "aastep",
+    "getattribute",
 ];
 
 /// RSL builtins that OSL does not have (or has as closures: `diffuse`, `phong`).
@@ -70,7 +71,6 @@ const UNBUILT: &[(&str, &str)] = &[
         "error",
         "side effects (printf, format, warning, error) are not built yet",
     ),
-    ("getattribute", "attributes are not built yet"),
     ("raytype", "ray types are not readable by shaders yet"),
     (
         "splineinverse",
@@ -141,8 +141,9 @@ impl<'a> Lower<'a> {
             .collect()
     }
 
-    /// OSL's shader globals. `time` is 0 (the renderer has no motion); `Ci` starts as the
-    /// empty closure.
+    /// OSL's shader globals. `time` is the fragment's time (the stream MaterialX's `time`
+    /// node reads; the renderer has no motion, so `dtime` is 0 and `dPdtime` zero); `Ci`
+    /// starts as the empty closure.
     pub(crate) fn osl_globals(&mut self, b: &mut Builder) {
         let set = |me: &mut Self, name: &str, val: Val| {
             me.scopes[0].insert(
@@ -186,18 +187,26 @@ impl<'a> Lower<'a> {
                 },
             );
         }
-        for name in ["time", "dtime"] {
-            let v = b.float(0.0);
-            set(
-                self,
-                name,
-                Val::V {
-                    v,
-                    ty: Ty::Float,
-                    varying: false,
-                },
-            );
-        }
+        let time = b.stream(Stream::Time);
+        set(
+            self,
+            "time",
+            Val::V {
+                v: time,
+                ty: Ty::Float,
+                varying: true,
+            },
+        );
+        let v = b.float(0.0);
+        set(
+            self,
+            "dtime",
+            Val::V {
+                v,
+                ty: Ty::Float,
+                varying: false,
+            },
+        );
         let v = b.zero(Type::Vec3);
         set(
             self,
@@ -249,7 +258,7 @@ impl<'a> Lower<'a> {
             && let Some(def) = self.struct_def(&n.name)
         {
             let v = match &p.default {
-                Some(d) => self.expr(b, d),
+                Some(d) => self.expr_for_struct(b, d, def),
                 None => self.struct_zero(b, def, 0),
             };
             let v = match v {
