@@ -1034,3 +1034,64 @@ fn brace_initialisers_build_structs() {
         assert!(err.contains(want), "{src}\n→ {err}");
     }
 }
+
+/// `texture`'s optional arguments become the lookup's sampling, colour space and alpha
+/// (the IR's texture ops say which), strings compare as the constants they are, and an
+/// option not built, a wrap mode that is none, or a lone token are errors naming them.
+#[test]
+fn texture_options_and_string_comparisons() {
+    let src = r#"
+        shader s(output color c = 0, output float a = 0, string mode = "constant")
+        {
+            float al[2] = { 0, 0 };
+            c = texture("t.png", u, v, "swrap", mode, "twrap", "mirror", "interp", "closest",
+                        "colorspace", "srgb_texture", "alpha", al[1], "subimage", "",
+                        "missingcolor", color(1), "missingalpha", 0.5);
+            a = al[1];
+        }"#;
+    let p = compile(src).unwrap();
+    assert_eq!(p.textures.len(), 1);
+    assert_eq!(p.textures[0].path, "t.png");
+    assert_eq!(
+        p.textures[0].colorspace,
+        shadenet::graph::ir::ColorSpace::SrgbTexture
+    );
+    let text = p.to_string();
+    assert!(
+        text.contains("= texture #0 closest black mirror %"),
+        "{text}"
+    );
+    assert!(
+        text.contains("= texture.alpha #0 closest black mirror %"),
+        "{text}"
+    );
+    let eq = compile(
+        r#"shader s(output float eq = 0, string mode = "constant") {
+               eq = (mode == "constant") + 2 * (mode != "clamp") + 4 * ("a" == "b");
+           }"#,
+    )
+    .unwrap();
+    let o = run_program(&eq, &plane_fragment(), &[], u32::MAX);
+    check(&o, "eq", &[3.0], 0.0);
+    for (src, want) in [
+        (
+            "shader s(output color c = 0) { c = texture(\"t.png\", u, v, \"blur\", 0.1); }",
+            "`texture` option \"blur\" is not built",
+        ),
+        (
+            "shader s(output color c = 0) { c = texture(\"t.png\", u, v, \"swrap\", \"wobble\"); }",
+            "`texture` option \"swrap\": a wrap mode",
+        ),
+        (
+            "shader s(output color c = 0) { c = texture(\"t.png\", u, v, \"swrap\"); }",
+            "pairs of a token string and a value",
+        ),
+        (
+            "shader s(output color c = 0) { c = texture(\"t.png\", u, v, \"subimage\", \"diffuse\"); }",
+            "named subimages (layers) are not built",
+        ),
+    ] {
+        let err = compile(src).unwrap_err();
+        assert!(err.contains(want), "{src}\n→ {err}");
+    }
+}

@@ -463,6 +463,14 @@ impl<'a> Lower<'a> {
         if matches!(l, Val::Struct(..)) || matches!(r, Val::Struct(..)) {
             return self.operator(b, op.as_str(), vec![(l, lspan), (r, rspan)], span);
         }
+        // Strings are compile-time values: comparing two is a constant.
+        if let (Val::Str(x), Val::Str(y), BinaryOp::Eq | BinaryOp::Ne) = (&l, &r, op) {
+            return Val::V {
+                v: b.boolean((x == y) == (op == BinaryOp::Eq)),
+                ty: Ty::Bool,
+                varying: false,
+            };
+        }
         let (a, ta, va) = self.plain(b, l, lspan);
         let (c, tc, vc) = self.plain(b, r, rspan);
         let varying = va || vc;

@@ -31,6 +31,7 @@ mod returns;
 mod spline;
 mod stmt;
 mod structs;
+mod texture_opts;
 mod unroll;
 
 use crate::ast::{self, Item, ShaderKind};

@@ -254,8 +254,8 @@ impl<'a> Lower<'a> {
     }
 
     /// The arguments of a call of `callee` that it may assign: those passed for an
-    /// `output` parameter of any of the user function's overloads that take as many, and
-    /// `getattribute`'s last.
+    /// `output` parameter of any of the user function's overloads that take as many,
+    /// `getattribute`'s last, and `texture`'s `"alpha"` value.
     fn output_args<'e>(&self, callee: &str, args: &'e [Expr]) -> Vec<&'e Expr> {
         let mut out: Vec<&Expr> = Vec::new();
         if let Some(defs) = self.functions.get(callee) {
@@ -268,6 +268,14 @@ impl<'a> Lower<'a> {
             }
         } else if callee == "getattribute" && self.dialect == crate::Dialect::Osl {
             out.extend(args.last());
+        } else if callee == "texture" && self.dialect == crate::Dialect::Osl {
+            // The value after an `"alpha"` token.
+            let alpha = args
+                .iter()
+                .skip(3)
+                .step_by(2)
+                .position(|a| matches!(&a.kind, ExprKind::Str(s) if s == "alpha"));
+            out.extend(alpha.and_then(|k| args.get(3 + 2 * k + 1)));
         }
         out
     }
