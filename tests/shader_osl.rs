@@ -1095,3 +1095,39 @@ fn texture_options_and_string_comparisons() {
         assert!(err.contains(want), "{src}\n→ {err}");
     }
 }
+
+/// OSL's triple forms of `smoothstep` (edges triples or floats) and `atan2` work per
+/// component, as MaterialX's `smoothstep` and `atan2` of a vector3 use them.
+#[test]
+fn smoothstep_and_atan2_of_triples() {
+    let p = compile(
+        r#"shader s(output vector a = 0, output color b = 0, output vector c = 0) {
+               a = smoothstep(vector(0), vector(1, 1, 4), vector(0.5, -1, 2));
+               b = smoothstep(0, 1, color(0.25, 1.5, 0));
+               c = atan2(vector(1, 0, -1), vector(1, 1, 1));
+           }"#,
+    )
+    .unwrap();
+    let o = run_program(&p, &plane_fragment(), &[], u32::MAX);
+    check(&o, "a", &[0.5, 0.0, 0.5], 1e-7);
+    check(&o, "b", &[0.15625, 1.0, 0.0], 1e-7);
+    let q = std::f64::consts::FRAC_PI_4;
+    check(&o, "c", &[q, 0.0, -q], 1e-6);
+}
+
+/// `==` and `!=` of two triples compare every component (MaterialX's `normalmap` tests
+/// `value == vector(0.0)`).
+#[test]
+fn triples_compare_by_every_component() {
+    let p = compile(
+        r#"shader s(vector w = vector(1, 2, 3), output float a = 0) {
+               a = (w == vector(1, 2, 3)) + 2 * (w != vector(1, 2, 4))
+                   + 4 * (w == point(1, 0, 3)) + 8 * (color(1) != color(1));
+           }"#,
+    )
+    .unwrap();
+    let o = run_program(&p, &plane_fragment(), &[], u32::MAX);
+    check(&o, "a", &[3.0], 0.0);
+    let err = compile("shader s(output float a = 0) { a = vector(1) < vector(2); }").unwrap_err();
+    assert!(err.contains("not a vector and a vector"), "{err}");
+}

@@ -631,7 +631,7 @@ fn accepts(param: &ast::Param, v: &Val, exact: bool) -> bool {
 }
 
 /// `smoothstep(e0, e1, x)`: 0 below `e0`, 1 above `e1`, the cubic `3t² − 2t³` between.
-fn smoothstep(b: &mut Builder, e0: Value, e1: Value, x: Value) -> Value {
+pub(crate) fn smoothstep(b: &mut Builder, e0: Value, e1: Value, x: Value) -> Value {
     let d = b.sub(x, e0);
     let w = b.sub(e1, e0);
     let t = b.div(d, w);

@@ -530,10 +530,26 @@ impl<'a> Lower<'a> {
                     _ => (a, c, ta, tc),
                 };
                 let number = |t: Ty| matches!(t, Ty::Float | Ty::Int);
+                // OSL's `==`/`!=` of two triples: every component equal (or not).
+                if matches!(op, BinaryOp::Eq | BinaryOp::Ne)
+                    && ta.is_triple()
+                    && (ta == tc || (ta.is_geometric() && tc.is_geometric()))
+                {
+                    let mut all = b.boolean(true);
+                    for k in 0..3 {
+                        let (x, y) = (b.extract(a, k), b.extract(c, k));
+                        let e = b.binary(BinOp::Eq, x, y);
+                        all = b.binary(BinOp::And, all, e);
+                    }
+                    if op == BinaryOp::Ne {
+                        all = b.unary(shadenet_graph::ir::UnOp::Not, all);
+                    }
+                    return out(all, Ty::Bool);
+                }
                 if !number(ta) || ta != tc {
                     self.error(
                         format!(
-                            "comparisons are built for floats only, not a {} and a {}",
+                            "comparisons are built for floats (and `==`, `!=` of triples) only, not a {} and a {}",
                             ta.name(),
                             tc.name()
                         ),
