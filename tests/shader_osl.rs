@@ -1131,3 +1131,28 @@ fn triples_compare_by_every_component() {
     let err = compile("shader s(output float a = 0) { a = vector(1) < vector(2); }").unwrap_err();
     assert!(err.contains("not a vector and a vector"), "{err}");
 }
+
+/// `transformc` between `"rgb"` and `"hsv"` is the colour conversion RSL's `color "hsv"`
+/// uses (there and back is the colour), of any triple; another space is an error naming it.
+#[test]
+fn transformc_converts_between_rgb_and_hsv() {
+    let p = compile(
+        r#"shader s(output color h = 0, output vector back = 0, output color same = 0) {
+               h = transformc("rgb", "hsv", color(1, 0, 0));
+               back = transformc("hsv", "rgb", transformc("rgb", "hsv", vector(0.2, 0.4, 0.8)));
+               same = transformc("hsv", "hsv", color(0.1, 0.2, 0.3));
+           }"#,
+    )
+    .unwrap();
+    let o = run_program(&p, &plane_fragment(), &[], u32::MAX);
+    check(&o, "h", &[0.0, 1.0, 1.0], 1e-7);
+    check(&o, "back", &[0.2, 0.4, 0.8], 1e-6);
+    check(&o, "same", &[0.1, 0.2, 0.3], 1e-7);
+    let err =
+        compile("shader s(output color c = 0) { c = transformc(\"rgb\", \"XYZ\", color(1)); }")
+            .unwrap_err();
+    assert!(
+        err.contains("`transformc` from \"rgb\" to \"XYZ\": only \"rgb\" and \"hsv\" are built"),
+        "{err}"
+    );
+}

@@ -48,6 +48,7 @@ pub(crate) const NAMES: &[&str] = &[
     "area",
     "aastep",
     "getattribute",
+    "transformc",
 ];
 
 /// RSL builtins that OSL does not have (or has as closures: `diffuse`, `phong`).
@@ -301,6 +302,9 @@ impl<'a> Lower<'a> {
         }
         if let Some(v) = int_builtin(b, name, args) {
             return Some(v);
+        }
+        if name == "transformc" {
+            return Some(self.transformc(b, args, span));
         }
         let vs = super::numbers(b, args)?;
         let varying = vs.iter().any(|v| v.2);
@@ -675,6 +679,64 @@ pub(crate) fn declare_outputs(b: &mut Builder, outputs: Vec<(String, Val)>) {
                 shadenet_graph::lower::declare_output(b, &name, &low);
             }
             _ => {}
+        }
+    }
+}
+
+impl<'a> Lower<'a> {
+    /// `transformc(from, to, c)`: colour `c` (or any triple, as a colour) from colour
+    /// space `from` to `to`, both `"rgb"` or `"hsv"` (OSL's names; the same space is the
+    /// identity); other spaces are an error naming them.
+    fn transformc(&mut self, b: &mut Builder, args: &[(Val, Span)], span: Span) -> Val {
+        let [
+            (Val::Str(from), _),
+            (Val::Str(to), _),
+            (Val::V { v, ty, varying }, _),
+        ] = args
+        else {
+            self.error(
+                "`transformc` takes (string from, string to, color c)",
+                span,
+                "wrong arguments",
+            );
+            return Self::poison(b, Ty::Color);
+        };
+        if !ty.is_triple() {
+            self.error(
+                format!(
+                    "`transformc` converts a color, not {}",
+                    super::an(ty.name())
+                ),
+                span,
+                "not a color",
+            );
+            return Self::poison(b, Ty::Color);
+        }
+        let space = |s: &str| match s {
+            "rgb" | "RGB" => Some(false),
+            "hsv" => Some(true),
+            _ => None,
+        };
+        let (Some(from_hsv), Some(to_hsv)) = (space(from), space(to)) else {
+            self.error(
+                format!(
+                    "`transformc` from \"{from}\" to \"{to}\": only \"rgb\" and \"hsv\" are built"
+                ),
+                span,
+                "not built yet",
+            );
+            return Self::poison(b, Ty::Color);
+        };
+        let c = b.retype(Type::Color, *v);
+        let c = match (from_hsv, to_hsv) {
+            (false, true) => b.call(Intrinsic::RgbToHsv, &[c]),
+            (true, false) => b.call(Intrinsic::HsvToRgb, &[c]),
+            _ => c,
+        };
+        Val::V {
+            v: c,
+            ty: Ty::Color,
+            varying: *varying,
         }
     }
 }
