@@ -62,7 +62,7 @@ fn genosl_implementations_compile() {
 }
 
 /// How many compile today (a floor: raise it as more is built).
-const MIN_COMPILED: usize = 502;
+const MIN_COMPILED: usize = 504;
 
 /// A MaterialX document of one node of nodedef `nd` with `values` set, its output `out`.
 fn one_node_document(
@@ -252,7 +252,7 @@ fn genosl_agrees_with_our_atoms() {
 }
 
 /// How many agree today (a floor: raise it as more is built).
-const MIN_AGREEING: usize = 438;
+const MIN_AGREEING: usize = 440;
 
 /// The nodedef whose MaterialX OSL and GLSL implementations disagree (see the test).
 const MATERIALX_INCONSISTENT: &str = "ND_transformmatrix_vector3M4";

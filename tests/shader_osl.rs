@@ -1156,3 +1156,35 @@ fn transformc_converts_between_rgb_and_hsv() {
         "{err}"
     );
 }
+
+/// A triple's components are assigned by name (`v.x = …`, `c.g += …`), also inside `if`
+/// regions and loops (MaterialX's Worley noise of a vector3 keeps its three distances so).
+#[test]
+fn triple_components_are_assigned_by_name() {
+    let p = compile(
+        r#"struct S { vector w; };
+           shader s(output vector a = 0, output color c = 0, output vector f = 0) {
+               vector d = vector(9);
+               for (int i = 0; i < 3; i++) {
+                   float x = 3 - i;
+                   if (x < d.x) { d.z = d.y; d.y = d.x; d.x = x; }
+               }
+               a = d;
+               c = color(0.5);
+               if (u > 0.5) c.g += 1;
+               S s;
+               s.w = vector(1, 2, 3);
+               s.w.y = 7;
+               f = s.w;
+           }"#,
+    )
+    .unwrap();
+    for (u, g) in [(0.25, 0.5), (0.75, 1.5)] {
+        let mut fr = plane_fragment();
+        fr.uv = [u, 0.5];
+        let o = run_program(&p, &fr, &[], u32::MAX);
+        check(&o, "a", &[1.0, 2.0, 3.0], 0.0);
+        check(&o, "c", &[0.5, g, 0.5], 0.0);
+        check(&o, "f", &[1.0, 7.0, 3.0], 0.0);
+    }
+}

@@ -680,6 +680,20 @@ impl<'a> Lower<'a> {
         {
             return self.assign_field(b, op, (&id, target), value, span);
         }
+        // `v.x`, `c.g` … of a triple variable (or field): its component, as `v[0]`.
+        if let ExprKind::Member { base, field } = &target.kind
+            && let Some(id) = super::structs::place(base)
+            && matches!(self.lookup(&id.name).map(|v| &v.val), Some(Val::V { ty, .. }) if ty.is_triple())
+            && let Some(k) = match field.name.as_str() {
+                "x" | "r" => Some(0),
+                "y" | "g" => Some(1),
+                "z" | "b" => Some(2),
+                _ => None,
+            }
+        {
+            let rhs = super::arrays::Rhs::Expr(op, value);
+            return self.assign_component(b, (&id, k), rhs, span);
+        }
         let ExprKind::Ident(id) = &target.kind else {
             self.error(
                 "only variables, array elements and components can be assigned",

@@ -215,9 +215,16 @@ impl<'a> Lower<'a> {
                     if let ExprKind::Index { base, .. } = t {
                         t = &base.kind;
                     }
-                    let Some(id) = super::structs::place_of(t) else {
+                    let Some(mut id) = super::structs::place_of(t) else {
                         continue;
                     };
+                    // `v.x` of a triple variable changes `v`.
+                    if self.lookup(&id.name).is_none()
+                        && let ExprKind::Member { base, .. } = t
+                        && let Some(v) = super::structs::place(base)
+                    {
+                        id = v;
+                    }
                     if !names.iter().any(|n| n.name == id.name) {
                         names.push(id);
                     }
