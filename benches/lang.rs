@@ -97,20 +97,25 @@ fn group_steps(path: &Path) -> ([Duration; 4], (usize, usize)) {
 
 /// MaterialX's `genosl` implementations that compile (issue 22's figure: all of them
 /// through the front end, the optimizer and the JIT in ≤ 1 s on one thread), when the
-/// MaterialX libraries are found: (the module's source, the shaders' names, the folder).
-fn genosl_module() -> Option<(String, Vec<String>, PathBuf)> {
+/// MaterialX libraries are found: (the module's source, the shaders' names, the folder,
+/// the implementations).
+type GenOslModule = (String, Vec<String>, PathBuf, Vec<shadenet::genosl::GenOsl>);
+
+/// [`GenOslModule`] of the libraries found, if any.
+fn genosl_module() -> Option<GenOslModule> {
     let dir = shadenet::mtlx::locate(None).ok()?;
     let lib = shadenet::mtlx::library(&dir).ok()?;
     let impls = shadenet::genosl::compiling(&dir, lib).ok()?;
     let (src, names) = shadenet::genosl::module_source(&impls, lib);
-    Some((src, names.into_iter().map(|(_, s)| s).collect(), dir))
+    Some((src, names.into_iter().map(|(_, s)| s).collect(), dir, impls))
 }
 
 /// Compiles every shader of the module: (parse, lower all, JIT all — which optimizes).
-fn genosl_steps((src, names, dir): &(String, Vec<String>, PathBuf)) -> [Duration; 3] {
+fn genosl_steps((src, names, dir, impls): &GenOslModule) -> [Duration; 3] {
     let t0 = Instant::now();
     let mut sources = SourceMap::new();
-    let parsed = shadenet::genosl::parse_module(dir, src, &mut sources).expect("the module parses");
+    let parsed =
+        shadenet::genosl::parse_module(dir, impls, src, &mut sources).expect("the module parses");
     let t1 = Instant::now();
     let programs: Vec<_> = names
         .iter()

@@ -20,11 +20,21 @@ use std::path::{Path, PathBuf};
 /// The library folders holding `genosl` implementations.
 const FOLDERS: &[&str] = &["stdlib/genosl", "pbrlib/genosl"];
 
-/// What MaterialX's OSL generator defines before every shader.
+/// What MaterialX's OSL generator defines before every shader (its type definitions
+/// included: a `filename` is a `textureresource`, the file's name and colour space).
 const PREAMBLE: &str = "#define M_FLOAT_EPS 1e-8\n\
     #define BSDF closure color\n#define EDF closure color\n#define VDF closure color\n\
     #define surfaceshader closure color\n#define volumeshader closure color\n\
-    #define lightshader closure color\n#define material closure color\n";
+    #define lightshader closure color\n#define material closure color\n\
+    struct textureresource { string filename; string colorspace; };\n";
+
+/// The tokens MaterialX's OSL generator substitutes in the implementations' source text
+/// before compiling it, and their values. `$fileTransformUv` names the file defining
+/// `mx_transform_uv`: the generator takes `mx_transform_uv_vflip.osl` when its option
+/// `fileTextureVerticalFlip` is set, and we always do: our OSL `texture(f, s, t)` reads
+/// `(s, 1 − t)` (OSL's `t` runs down the image) while MaterialX's `v` runs up it, so
+/// `t = 1 − v` reads the texel our native image atoms read at `(u, v)`.
+pub const TOKENS: &[(&str, &str)] = &[("$fileTransformUv", "mx_transform_uv_vflip.osl")];
 
 /// One `genosl` implementation and the folder its file is relative to.
 #[derive(Clone, Debug)]
@@ -121,6 +131,7 @@ fn osl_value(mx: &str, value: &str) -> Option<String> {
         }
         "matrix44" => format!("matrix({})", list()),
         "string" => format!("{value:?}"),
+        "filename" => format!("textureresource({value:?}, \"\")"),
         _ => return None,
     })
 }
@@ -250,6 +261,7 @@ fn zero(ty: &str) -> String {
         "vector4" => "vector4(0, 0, 0, 0)".into(),
         "matrix" => "matrix(0)".into(),
         "string" => "\"\"".into(),
+        "textureresource" => "textureresource(\"\", \"\")".into(),
         _ => "0".into(),
     }
 }
@@ -287,6 +299,9 @@ pub fn compile_with(
 ) -> Result<shadenet_graph::ir::Program, String> {
     let src = shader_source_with(g, nd, values)?;
     let mut sources = shadenet_lang::SourceMap::new();
+    if let Some(file) = &g.imp.file {
+        substitute_tokens(&mut sources, &g.dir.join(file))?;
+    }
     let options = options(libraries, Some(&g.dir));
     let name = format!("mx_{}.osl", nd.name);
     let parsed = shadenet_lang::parse_str(&mut sources, &name, &src, &options)
@@ -339,15 +354,41 @@ pub fn module_source(impls: &[GenOsl], lib: &Library) -> (String, Vec<(String, S
     (src, names)
 }
 
-/// Parses [`module_source`] once (include folders as [`compile`]'s).
+/// Parses [`module_source`] once (include folders as [`compile`]'s; the implementations'
+/// files of `impls` with the generator's tokens substituted).
 pub fn parse_module(
     libraries: &Path,
+    impls: &[GenOsl],
     source: &str,
     sources: &mut shadenet_lang::SourceMap,
 ) -> Result<shadenet_lang::Parsed, String> {
+    for g in impls {
+        if let Some(file) = &g.imp.file {
+            substitute_tokens(sources, &g.dir.join(file))?;
+        }
+    }
     let options = options(libraries, None);
     shadenet_lang::parse_str(sources, "mx_genosl_module.osl", source, &options)
         .map_err(|d| d.render(sources))
+}
+
+/// Loads the file at `path` into `sources` with the generator's [`TOKENS`] substituted, when
+/// it holds one (the front end then reads it from `sources` where it is included, as it
+/// does every file already there).
+fn substitute_tokens(sources: &mut shadenet_lang::SourceMap, path: &Path) -> Result<(), String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    if !TOKENS.iter().any(|(t, _)| text.contains(t)) {
+        return Ok(());
+    }
+    let canon = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    if sources.find(&canon).is_some() {
+        return Ok(());
+    }
+    let text = TOKENS
+        .iter()
+        .fold(text, |t, (token, value)| t.replace(token, value));
+    sources.add(canon, text);
+    Ok(())
 }
 
 /// The front end's options for MaterialX's OSL: OSL, and the include folders of

@@ -53,7 +53,7 @@ fn genosl_implementations_compile() {
     let mut by_count: Vec<_> = reasons.iter().collect();
     by_count.sort_by_key(|(_, v)| std::cmp::Reverse(v.len()));
     for (why, nds) in by_count {
-        eprintln!("  {:4}  {why}  (e.g. {})", nds.len(), nds[0]);
+        eprintln!("  {:4}  {why}  ({})", nds.len(), nds.join(", "));
     }
     assert!(
         ok >= MIN_COMPILED,
@@ -62,7 +62,7 @@ fn genosl_implementations_compile() {
 }
 
 /// How many compile today (a floor: raise it as more is built).
-const MIN_COMPILED: usize = 467;
+const MIN_COMPILED: usize = 504;
 
 /// A MaterialX document of one node of nodedef `nd` with `values` set, its output `out`.
 fn one_node_document(
@@ -252,7 +252,7 @@ fn genosl_agrees_with_our_atoms() {
 }
 
 /// How many agree today (a floor: raise it as more is built).
-const MIN_AGREEING: usize = 415;
+const MIN_AGREEING: usize = 440;
 
 /// The nodedef whose MaterialX OSL and GLSL implementations disagree (see the test).
 const MATERIALX_INCONSISTENT: &str = "ND_transformmatrix_vector3M4";
@@ -269,8 +269,8 @@ fn one_module_compiles_as_many() {
     let impls = shadenet::genosl::compiling(&dir, lib).unwrap();
     let (src, names) = shadenet::genosl::module_source(&impls, lib);
     let mut sources = shadenet::lang::SourceMap::new();
-    let parsed =
-        shadenet::genosl::parse_module(&dir, &src, &mut sources).unwrap_or_else(|e| panic!("{e}"));
+    let parsed = shadenet::genosl::parse_module(&dir, &impls, &src, &mut sources)
+        .unwrap_or_else(|e| panic!("{e}"));
     let ok = names
         .iter()
         .filter(|(_, shader)| shadenet::lang::lower::compile(&parsed, Some(shader)).is_ok())

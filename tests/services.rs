@@ -1194,6 +1194,141 @@ fn attributes_agree_across_interpreter_jit_scalar_and_batch() {
     }
 }
 
+/// [`ATTRIBUTES`]' slots asked whether they are found ([`ir::Op::AttributeFound`]): 1 or
+/// 0 per slot, then slot 2's value with its default.
+const ATTRIBUTES_FOUND: &str = "program \"found\" {
+  attribute \"_temp\" float
+  attribute \"TEXCOORD_1\" vec2
+  attribute \"COLOR_0\" color
+  attribute \"COLOR_1\" color4
+  %0 = const 1.0 : float
+  %1 = const 0.0 : float
+  %2 = attribute.found #0 : bool
+  %3 = select %2, %0, %1 : float
+  %4 = attribute.found #1 : bool
+  %5 = select %4, %0, %1 : float
+  %6 = attribute.found #2 : bool
+  %7 = select %6, %0, %1 : float
+  %8 = attribute.found #3 : bool
+  %9 = select %8, %0, %1 : float
+  %10 = const (-4.0, -5.0, -6.0) : color
+  %11 = attribute #2 %10 : color
+  output a %3
+  output b %5
+  output c %7
+  output d %9
+  output v %11
+}
+";
+
+/// `attribute.found` prints and parses, validates its slot, and is true on the
+/// interpreter, the JIT's scalar entry and its batch entry exactly where `attribute` gives
+/// the scene's value (not where the scene has none, gives a non-finite value, or there is
+/// no scene); the needs list its attributes; the GPU back end refuses it (no attribute
+/// buffers) and the material falls back to a CPU back end.
+#[test]
+fn attribute_found_agrees_with_the_lookup_on_every_back_end() {
+    let p = ir::parse(ATTRIBUTES_FOUND).unwrap();
+    ir::validate(&p).unwrap();
+    assert_eq!(p.to_string(), ATTRIBUTES_FOUND);
+    let bad = ATTRIBUTES_FOUND.replace("attribute.found #3", "attribute.found #4");
+    let e = ir::validate(&ir::parse(&bad).unwrap()).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("reads attribute 4, but the program has 4"),
+        "{e}"
+    );
+    let (o, report) = opt::run(&p, &Specialization::default());
+    assert_eq!(report.needs.attributes.len(), 4);
+    assert!(o.to_string().contains("attribute.found #3"), "{o}");
+    let env = ShadeEnv::default();
+    let frags: Vec<Fragment> = (0..43)
+        .map(|i| Fragment {
+            p: [i as f32, 0.0, 0.0],
+            ..Fragment::default()
+        })
+        .collect();
+    let scene = shadenet_runtime::testing::TaggedScene::with_fragments(frags.len());
+    let interp = shadenet_runtime::InterpBackend
+        .compile_program(&o, Duration::ZERO)
+        .unwrap();
+    let jit = shadenet_jit::JitBackend::new()
+        .compile_program(&o, Duration::ZERO)
+        .unwrap();
+    assert_eq!(jit.info().backend, "jit");
+    let w = jit.width();
+    assert_eq!(w, 7);
+    let mut batch = vec![f32::NAN; w * frags.len()];
+    shadenet_runtime::shade_many_unpacked(&*jit, &env, u32::MAX, Some(&scene), &frags, &mut batch);
+    let widths = [1, 2, 3, 4];
+    let mut founds = 0;
+    for (i, f) in frags.iter().enumerate() {
+        let mut want: Vec<f32> = (0..4u32)
+            .map(|s| {
+                let d = vec![f32::NAN; widths[s as usize]];
+                let got = tagged_attribute(i, s, &d);
+                f32::from(u8::from(!got[0].is_nan()))
+            })
+            .collect();
+        founds += want.iter().filter(|x| **x == 1.0).count();
+        want.extend(tagged_attribute(i, 2, &[-4.0, -5.0, -6.0]));
+        let none = [0.0, 0.0, 0.0, 0.0, -4.0, -5.0, -6.0];
+        for (what, m) in [("interpreter", &interp), ("jit scalar", &jit)] {
+            let mut one = vec![f32::NAN; w];
+            let ctx = ShadeCtx {
+                frag: *f,
+                env: &env,
+                mask: u32::MAX,
+                scene: scene.fragment(i),
+            };
+            m.shade(&ctx, &mut one);
+            assert_eq!(one, want, "fragment {i}: {what}");
+            let ctx = ShadeCtx { scene: None, ..ctx };
+            m.shade(&ctx, &mut one);
+            assert_eq!(one, none, "fragment {i}: {what} without a scene");
+        }
+        assert_eq!(
+            batch[i * w..(i + 1) * w],
+            want[..],
+            "fragment {i}: jit batch"
+        );
+    }
+    assert!(
+        founds > 40 && founds < 4 * 43,
+        "found {founds} of {}",
+        4 * 43
+    );
+    // The GPU has no attribute buffers: it refuses the op, naming why (and with its
+    // fallback, the material runs on the CPU back end it falls back to).
+    if shadenet_gpu::testing::device_or_skip("attribute_found (GPU)").is_some() {
+        let gpu = || {
+            shadenet_gpu::GpuBackend::new(
+                shadenet_gpu::GpuOptions::default(),
+                std::sync::Arc::new(shadenet_runtime::InterpBackend),
+            )
+            .unwrap()
+        };
+        let strict = gpu().without_fallback();
+        let err = strict
+            .compile_program(&o, Duration::ZERO)
+            .err()
+            .expect("the GPU refuses attribute ops")
+            .to_string();
+        assert!(err.contains("attribute"), "{err}");
+        let m = gpu().compile_program(&o, Duration::ZERO).unwrap();
+        assert_eq!(m.info().backend, "interp");
+        let mut one = vec![f32::NAN; w];
+        let ctx = ShadeCtx {
+            frag: frags[1],
+            env: &env,
+            mask: u32::MAX,
+            scene: scene.fragment(1),
+        };
+        m.shade(&ctx, &mut one);
+        assert_eq!(one[..4], [1.0, 1.0, 1.0, 0.0]);
+    }
+}
+
 /// The needs list an attribute only while a live op reads it; a program without attribute
 /// ops has an empty table and needs none (it prints and compiles as before: no `attribute`
 /// line), and the table's slots survive optimization.

@@ -829,3 +829,362 @@ fn derivative_builtins_read_the_footprint() {
     );
     check(&o, "s", &[1.0, 1.0, 1.0], 0.0);
 }
+
+/// A mesh with named attributes for [`getattribute_reads_the_geometry`]: each of the
+/// program's attribute slots resolved by name, as a renderer resolves them.
+struct Primvars {
+    /// The program's attribute table's values here (`None`: the mesh lacks it).
+    slots: Vec<Option<Vec<f32>>>,
+}
+
+impl Primvars {
+    fn new(p: &shadenet::graph::ir::Program, have: &[(&str, &[f32])]) -> Primvars {
+        let slots = p
+            .attributes
+            .iter()
+            .map(|a| {
+                have.iter()
+                    .find(|(n, _)| *n == a.name)
+                    .map(|(_, v)| v.to_vec())
+            })
+            .collect();
+        Primvars { slots }
+    }
+}
+
+impl shadenet::runtime::SceneServices for Primvars {
+    fn trace(&self, _: [f32; 3], _: [f32; 3], _: i32, _: i32, _: f32) -> [f32; 3] {
+        [0.0; 3]
+    }
+    fn occluded(&self, _: [f32; 3], _: [f32; 3]) -> bool {
+        false
+    }
+    fn occlusion(&self, _: [f32; 3], _: [f32; 3], _: u32, _: f32, _: u32) -> f32 {
+        1.0
+    }
+    fn attribute(&self, slot: u32, out: &mut [f32]) -> bool {
+        match &self.slots[slot as usize] {
+            Some(v) => {
+                for (o, x) in out.iter_mut().zip(v) {
+                    *o = *x;
+                }
+                true
+            }
+            None => false,
+        }
+    }
+}
+
+/// `getattribute(name, value)` reads the shaded geometry's attributes (the IR's attribute
+/// ops): 1 and the value where the mesh has the name, 0 and the output unchanged where it
+/// has not or no renderer asks; into floats, ints (truncated), triples and float arrays;
+/// `"color"` is colour set `COLOR_0`, `"time"` the fragment's time; a string output is never
+/// found; called under a varying condition the output changes only there. The
+/// interpreter (f32) and the JIT agree. Other forms are errors naming the call.
+#[test]
+fn getattribute_reads_the_geometry() {
+    let src = r#"
+        shader s(output float a = 0, output float fa = 0, output color c = 0,
+                 output float k = 0, output float fk = 0, output color arr = 0,
+                 output float t = 0, output float m = 0, output float st = 0,
+                 string name = "x")
+        {
+            a = -1;
+            fa = getattribute("temperature", a);
+            if (getattribute("color", c) == 0) c = color(9);
+            int n = 5;
+            fk = getattribute("count", n);
+            k = n;
+            float w[3] = { -1, -2, -3 };
+            getattribute("weights", w);
+            arr = color(w[0], w[1], w[2]);
+            getattribute("time", t);
+            m = 4;
+            if (u > 0.5) getattribute("mask", m);
+            st = getattribute("label", name) + 10;
+        }"#;
+    let p = compile(src).unwrap();
+    let names: Vec<&str> = p.attributes.iter().map(|a| a.name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["temperature", "COLOR_0", "count", "weights", "mask"]
+    );
+    let have: &[(&str, &[f32])] = &[
+        ("temperature", &[310.5]),
+        ("COLOR_0", &[0.25, 0.5, 0.75]),
+        ("count", &[7.9]),
+        ("weights", &[1.0, 2.0, 3.0]),
+        ("mask", &[0.5]),
+    ];
+    let full = Primvars::new(&p, have);
+    let empty = Primvars::new(&p, &[]);
+    let jit = shadenet::jit::JitBackend::new()
+        .compile_program(&p, std::time::Duration::ZERO)
+        .unwrap();
+    assert_eq!(jit.info().backend, "jit");
+    let interp = shadenet::runtime::InterpBackend
+        .compile_program(&p, std::time::Duration::ZERO)
+        .unwrap();
+    let env = shadenet::runtime::ShadeEnv::default();
+    for (scene, u, want) in [
+        (
+            &full,
+            0.75,
+            [
+                310.5, 1.0, 0.25, 0.5, 0.75, 7.0, 1.0, 1.0, 2.0, 3.0, 2.5, 0.5, 10.0,
+            ],
+        ),
+        (
+            &full,
+            0.25,
+            [
+                310.5, 1.0, 0.25, 0.5, 0.75, 7.0, 1.0, 1.0, 2.0, 3.0, 2.5, 4.0, 10.0,
+            ],
+        ),
+        (
+            &empty,
+            0.75,
+            [
+                -1.0, 0.0, 9.0, 9.0, 9.0, 5.0, 0.0, -1.0, -2.0, -3.0, 2.5, 4.0, 10.0,
+            ],
+        ),
+    ] {
+        let mut f = plane_fragment();
+        f.uv = [u, 0.5];
+        f.time = 2.5;
+        for m in [&interp, &jit] {
+            let mut out = vec![f32::NAN; m.width()];
+            let ctx = shadenet::runtime::ShadeCtx {
+                frag: f,
+                env: &env,
+                mask: u32::MAX,
+                scene: Some(scene),
+            };
+            m.shade(&ctx, &mut out);
+            assert_eq!(out, want, "{} at u = {u}", m.info().backend);
+        }
+    }
+    for (src, want) in [
+        (
+            "shader s(output float a = 0) { getattribute(\"obj\", \"x\", a); }",
+            "`getattribute` of a named object is not built",
+        ),
+        (
+            "shader s(output float a = 0) { float x[3]; getattribute(\"x\", 1, a); }",
+            "one element of an array attribute",
+        ),
+        (
+            "shader s(output float a = 0) { matrix m = 1; a = getattribute(\"x\", m); }",
+            "not into a matrix",
+        ),
+        (
+            "shader s(output float a = 0) { a = getattribute(\"x\", 2); }",
+            "is an `output` parameter: pass a variable",
+        ),
+    ] {
+        let err = compile(src).unwrap_err();
+        assert!(err.contains(want), "{src}\n→ {err}");
+    }
+}
+
+/// OSL's `{ … }` compound initialisers build a struct where one is expected: a declaration,
+/// an assignment to a struct variable or output, a `return` (early or last), a struct
+/// parameter's default, nested for a struct field; the wrong count, and a list where no
+/// struct or array is expected, are errors.
+#[test]
+fn brace_initialisers_build_structs() {
+    let src = r#"
+        struct V2 { float x; float y; };
+        struct C4 { color rgb; float a; };
+        struct Pair { V2 p; float k; };
+        V2 make(float x) { if (x > 5) return { x, 1 }; return { x, 2 }; }
+        C4 tint(float a) { return { color(a, 0, 1), a }; }
+        shader s(V2 d = { 3, 4 }, output V2 o = { 1, 2 }, output color c = 0,
+                 output color e = 0)
+        {
+            V2 v = { 5, 6 };
+            Pair pr = { { 7, 8 }, 9 };
+            if (u > 0.5) o = { d.x, v.y };
+            V2 m = make(u * 10);
+            C4 t = tint(0.5);
+            c = color(pr.p.x + pr.p.y, pr.k, m.y);
+            e = color(t.rgb[0], t.a, m.x);
+        }"#;
+    let p = compile(src).unwrap();
+    for (u, o, my) in [(0.25, [1.0, 2.0], 2.0), (0.75, [3.0, 6.0], 1.0)] {
+        let mut f = plane_fragment();
+        f.uv = [u, 0.5];
+        let out = run_program(&p, &f, &[], u32::MAX);
+        check(&out, "o.x", &[o[0]], 0.0);
+        check(&out, "o.y", &[o[1]], 0.0);
+        check(&out, "c", &[15.0, 9.0, my], 0.0);
+        check(&out, "e", &[0.5, 0.5, f64::from(u) * 10.0], 1e-6);
+    }
+    for (src, want) in [
+        (
+            "struct V2 { float x; float y; }; shader s() { V2 v = { 1, 2, 3 }; }",
+            "struct `V2` is made of its 2 fields in order: this list has 3",
+        ),
+        (
+            "shader s(output float a = 0) { a = { 1, 2 }; }",
+            "a `{…}` list initialises an array in its declaration, or a struct where one is expected",
+        ),
+    ] {
+        let err = compile(src).unwrap_err();
+        assert!(err.contains(want), "{src}\n→ {err}");
+    }
+}
+
+/// `texture`'s optional arguments become the lookup's sampling, colour space and alpha
+/// (the IR's texture ops say which), strings compare as the constants they are, and an
+/// option not built, a wrap mode that is none, or a lone token are errors naming them.
+#[test]
+fn texture_options_and_string_comparisons() {
+    let src = r#"
+        shader s(output color c = 0, output float a = 0, string mode = "constant")
+        {
+            float al[2] = { 0, 0 };
+            c = texture("t.png", u, v, "swrap", mode, "twrap", "mirror", "interp", "closest",
+                        "colorspace", "srgb_texture", "alpha", al[1], "subimage", "",
+                        "missingcolor", color(1), "missingalpha", 0.5);
+            a = al[1];
+        }"#;
+    let p = compile(src).unwrap();
+    assert_eq!(p.textures.len(), 1);
+    assert_eq!(p.textures[0].path, "t.png");
+    assert_eq!(
+        p.textures[0].colorspace,
+        shadenet::graph::ir::ColorSpace::SrgbTexture
+    );
+    let text = p.to_string();
+    assert!(
+        text.contains("= texture #0 closest black mirror %"),
+        "{text}"
+    );
+    assert!(
+        text.contains("= texture.alpha #0 closest black mirror %"),
+        "{text}"
+    );
+    let eq = compile(
+        r#"shader s(output float eq = 0, string mode = "constant") {
+               eq = (mode == "constant") + 2 * (mode != "clamp") + 4 * ("a" == "b");
+           }"#,
+    )
+    .unwrap();
+    let o = run_program(&eq, &plane_fragment(), &[], u32::MAX);
+    check(&o, "eq", &[3.0], 0.0);
+    for (src, want) in [
+        (
+            "shader s(output color c = 0) { c = texture(\"t.png\", u, v, \"blur\", 0.1); }",
+            "`texture` option \"blur\" is not built",
+        ),
+        (
+            "shader s(output color c = 0) { c = texture(\"t.png\", u, v, \"swrap\", \"wobble\"); }",
+            "`texture` option \"swrap\": a wrap mode",
+        ),
+        (
+            "shader s(output color c = 0) { c = texture(\"t.png\", u, v, \"swrap\"); }",
+            "pairs of a token string and a value",
+        ),
+        (
+            "shader s(output color c = 0) { c = texture(\"t.png\", u, v, \"subimage\", \"diffuse\"); }",
+            "named subimages (layers) are not built",
+        ),
+    ] {
+        let err = compile(src).unwrap_err();
+        assert!(err.contains(want), "{src}\n→ {err}");
+    }
+}
+
+/// OSL's triple forms of `smoothstep` (edges triples or floats) and `atan2` work per
+/// component, as MaterialX's `smoothstep` and `atan2` of a vector3 use them.
+#[test]
+fn smoothstep_and_atan2_of_triples() {
+    let p = compile(
+        r#"shader s(output vector a = 0, output color b = 0, output vector c = 0) {
+               a = smoothstep(vector(0), vector(1, 1, 4), vector(0.5, -1, 2));
+               b = smoothstep(0, 1, color(0.25, 1.5, 0));
+               c = atan2(vector(1, 0, -1), vector(1, 1, 1));
+           }"#,
+    )
+    .unwrap();
+    let o = run_program(&p, &plane_fragment(), &[], u32::MAX);
+    check(&o, "a", &[0.5, 0.0, 0.5], 1e-7);
+    check(&o, "b", &[0.15625, 1.0, 0.0], 1e-7);
+    let q = std::f64::consts::FRAC_PI_4;
+    check(&o, "c", &[q, 0.0, -q], 1e-6);
+}
+
+/// `==` and `!=` of two triples compare every component (MaterialX's `normalmap` tests
+/// `value == vector(0.0)`).
+#[test]
+fn triples_compare_by_every_component() {
+    let p = compile(
+        r#"shader s(vector w = vector(1, 2, 3), output float a = 0) {
+               a = (w == vector(1, 2, 3)) + 2 * (w != vector(1, 2, 4))
+                   + 4 * (w == point(1, 0, 3)) + 8 * (color(1) != color(1));
+           }"#,
+    )
+    .unwrap();
+    let o = run_program(&p, &plane_fragment(), &[], u32::MAX);
+    check(&o, "a", &[3.0], 0.0);
+    let err = compile("shader s(output float a = 0) { a = vector(1) < vector(2); }").unwrap_err();
+    assert!(err.contains("not a vector and a vector"), "{err}");
+}
+
+/// `transformc` between `"rgb"` and `"hsv"` is the colour conversion RSL's `color "hsv"`
+/// uses (there and back is the colour), of any triple; another space is an error naming it.
+#[test]
+fn transformc_converts_between_rgb_and_hsv() {
+    let p = compile(
+        r#"shader s(output color h = 0, output vector back = 0, output color same = 0) {
+               h = transformc("rgb", "hsv", color(1, 0, 0));
+               back = transformc("hsv", "rgb", transformc("rgb", "hsv", vector(0.2, 0.4, 0.8)));
+               same = transformc("hsv", "hsv", color(0.1, 0.2, 0.3));
+           }"#,
+    )
+    .unwrap();
+    let o = run_program(&p, &plane_fragment(), &[], u32::MAX);
+    check(&o, "h", &[0.0, 1.0, 1.0], 1e-7);
+    check(&o, "back", &[0.2, 0.4, 0.8], 1e-6);
+    check(&o, "same", &[0.1, 0.2, 0.3], 1e-7);
+    let err =
+        compile("shader s(output color c = 0) { c = transformc(\"rgb\", \"XYZ\", color(1)); }")
+            .unwrap_err();
+    assert!(
+        err.contains("`transformc` from \"rgb\" to \"XYZ\": only \"rgb\" and \"hsv\" are built"),
+        "{err}"
+    );
+}
+
+/// A triple's components are assigned by name (`v.x = …`, `c.g += …`), also inside `if`
+/// regions and loops (MaterialX's Worley noise of a vector3 keeps its three distances so).
+#[test]
+fn triple_components_are_assigned_by_name() {
+    let p = compile(
+        r#"struct S { vector w; };
+           shader s(output vector a = 0, output color c = 0, output vector f = 0) {
+               vector d = vector(9);
+               for (int i = 0; i < 3; i++) {
+                   float x = 3 - i;
+                   if (x < d.x) { d.z = d.y; d.y = d.x; d.x = x; }
+               }
+               a = d;
+               c = color(0.5);
+               if (u > 0.5) c.g += 1;
+               S s;
+               s.w = vector(1, 2, 3);
+               s.w.y = 7;
+               f = s.w;
+           }"#,
+    )
+    .unwrap();
+    for (u, g) in [(0.25, 0.5), (0.75, 1.5)] {
+        let mut fr = plane_fragment();
+        fr.uv = [u, 0.5];
+        let o = run_program(&p, &fr, &[], u32::MAX);
+        check(&o, "a", &[1.0, 2.0, 3.0], 0.0);
+        check(&o, "c", &[0.5, g, 0.5], 0.0);
+        check(&o, "f", &[1.0, 7.0, 3.0], 0.0);
+    }
+}

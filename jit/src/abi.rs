@@ -689,6 +689,22 @@ fn attribute_x4(ctx: &CallCtx, imm: u32, a: &[[f32; LANES]; 4], o: &mut [[f32; L
     }
 }
 
+/// Whether geometry attribute `imm & 0xffffff`, read as `imm >> 24` floats, is found: 1
+/// or 0 in `o[0]` (`runtime::interp::attribute_found`, the interpreter's lookup).
+fn attribute_found(ctx: &CallCtx, imm: u32, _: &[f32], o: &mut [f32]) {
+    let n = (imm >> 24).clamp(1, 4) as usize;
+    let found = interp::attribute_found(ctx.scene(), imm & TEXTURE_INDEX_MASK, n);
+    o[0] = if found { 1.0 } else { 0.0 };
+}
+/// The batch form of `attribute_found`: each lane asks its own fragment's services.
+fn attribute_found_x4(ctx: &CallCtx, imm: u32, _: &[[f32; LANES]; 0], o: &mut [[f32; LANES]; 1]) {
+    let n = (imm >> 24).clamp(1, 4) as usize;
+    for (lane, dst) in o[0].iter_mut().enumerate() {
+        let found = interp::attribute_found(ctx.lane_scene(lane), imm & TEXTURE_INDEX_MASK, n);
+        *dst = if found { 1.0 } else { 0.0 };
+    }
+}
+
 /// The illuminance loop's trip count: every light's samples.
 pub fn light_samples(env: &ShadeEnv) -> u32 {
     env.lights.iter().map(lights::sample_count).sum()
@@ -867,6 +883,7 @@ mem_helpers! {
     trace: 8 -> 3 => ctx trace_x4,
     occlusion: 9 -> 1 => ctx occlusion_x4,
     attribute: 4 -> 4 => ctx attribute_x4,
+    attribute_found: 0 -> 1 => ctx attribute_found_x4,
     visible: 6 -> 1 => ctx visible_x4,
     ambient: 0 -> 3,
     matrices: 0 -> 64,

@@ -431,13 +431,17 @@ impl<'a, 'b> Lowerer<'a, 'b> {
     }
 
     /// Whether the block calls a scene helper (`trace`, `occlusion`, `light.visible`,
-    /// `attribute`).
+    /// `attribute`, `attribute.found`).
     fn asks_scene(&self, block: &Block) -> bool {
         let mut asks = false;
         self.p.walk(block, &mut |v| {
             asks |= matches!(
                 self.p.op(v),
-                Op::Trace { .. } | Op::Occlusion { .. } | Op::LightVisible | Op::Attribute { .. }
+                Op::Trace { .. }
+                    | Op::Occlusion { .. }
+                    | Op::LightVisible
+                    | Op::Attribute { .. }
+                    | Op::AttributeFound { .. }
             )
         });
         asks
@@ -953,6 +957,15 @@ impl<'a, 'b> Lowerer<'a, 'b> {
                 let mut got = self.call_mem("sn_attribute", imm, &args, 4);
                 got.truncate(width);
                 Ok(got)
+            }
+            Op::AttributeFound { slot } => {
+                let width = self.p.attributes[*slot as usize].ty.width();
+                let imm = abi::attribute_imm(*slot, width)
+                    .ok_or_else(|| self.unsupported(v, "more than 2^24 attributes"))?;
+                let imm = self.b.ins().iconst(I32, imm as i64);
+                let found = self.call_mem("sn_attribute_found", imm, &[], 1)[0];
+                let zero = self.fconst(0.0);
+                Ok(vec![self.fcmp(FloatCC::NotEqual, found, zero)])
             }
             Op::Occlusion {
                 n,

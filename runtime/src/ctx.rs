@@ -231,7 +231,7 @@ pub trait SceneServices: Send + Sync {
     /// 4, the type's width) interpolated at the hit. `false` (the default) where the
     /// geometry has no such attribute, or for services that belong to no hit: the shader
     /// then uses the attribute op's default. Back ends call it only through
-    /// `shadenet_runtime::interp::attribute_value`.
+    /// `shadenet_runtime::interp::attribute_value` and `attribute_found`.
     fn attribute(&self, slot: u32, out: &mut [f32]) -> bool {
         let _ = (slot, out);
         false

@@ -25,7 +25,8 @@
 //!   that is not positive (or NaN).
 //! - `attribute` calls [`SceneServices::attribute`] through [`attribute_value`] (the JIT's
 //!   helper calls the same function): the scene's value, or the op's default where the
-//!   scene has none, gives a non-finite component, or there is no scene.
+//!   scene has none, gives a non-finite component, or there is no scene; `attribute.found`
+//!   is true exactly where that lookup gives the scene's value ([`attribute_found`]).
 //!
 //! Arguments go to the scene in f32 (the f64 reference rounds them) and its answers are
 //! widened back.
@@ -494,6 +495,10 @@ impl<F: Real> Interpreter<F> {
                 attribute_value(ctx.scene, *slot, d.floats(), floats_mut(&mut v));
                 v
             }
+            Op::AttributeFound { slot } => {
+                let width = self.program.attributes[*slot as usize].ty.width();
+                Val::Bool(attribute_found(ctx.scene, *slot, width))
+            }
             Op::Occlusion {
                 n,
                 samples,
@@ -729,15 +734,29 @@ pub fn attribute_value<F: Real>(
     out: &mut [F],
 ) {
     let n = default.len().min(4);
+    match attribute_lookup(scene, slot, n) {
+        Some(got) => {
+            for (o, x) in out.iter_mut().zip(&got[..n]) {
+                *o = F::from_f64(f64::from(*x));
+            }
+        }
+        None => out[..n].copy_from_slice(&default[..n]),
+    }
+}
+
+/// Whether geometry attribute `slot`, read as `width` floats (1 to 4), is found at the
+/// fragment whose services are `scene`: exactly where [`attribute_value`] gives the
+/// scene's value rather than the default. The one lookup of [`Op::AttributeFound`].
+pub fn attribute_found(scene: Option<&dyn SceneServices>, slot: u32, width: usize) -> bool {
+    attribute_lookup(scene, slot, width.min(4)).is_some()
+}
+
+/// The scene's `n` floats of attribute `slot` (the rest 0), or `None` where there is no
+/// scene, the scene has no such attribute, or a component it gives is not finite.
+fn attribute_lookup(scene: Option<&dyn SceneServices>, slot: u32, n: usize) -> Option<[f32; 4]> {
     let mut got = [0.0f32; 4];
     let found = scene.is_some_and(|s| s.attribute(slot, &mut got[..n]));
-    if found && got[..n].iter().all(|x| x.is_finite()) {
-        for (o, x) in out.iter_mut().zip(&got[..n]) {
-            *o = F::from_f64(f64::from(*x));
-        }
-    } else {
-        out[..n].copy_from_slice(&default[..n]);
-    }
+    (found && got[..n].iter().all(|x| x.is_finite())).then_some(got)
 }
 
 /// The float components of a value, mutably (empty for bool, int and matrices).

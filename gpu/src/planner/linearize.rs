@@ -182,7 +182,7 @@ pub(super) fn linearize(
     // refused, so the material falls back to a CPU back end.
     let mut attribute = None;
     p.walk(&p.body, &mut |v| {
-        if matches!(p.op(v), Op::Attribute { .. }) {
+        if matches!(p.op(v), Op::Attribute { .. } | Op::AttributeFound { .. }) {
             attribute.get_or_insert(v);
         }
     });

@@ -508,6 +508,20 @@ impl Builder {
         self.push(Op::Attribute { slot, default }, Some(ty))
     }
 
+    /// Whether the geometry has attribute `name` read as a `ty` (bool): true exactly where
+    /// [`Builder::attribute`] of that name and type gives the geometry's value
+    /// ([`Op::AttributeFound`]).
+    pub fn attribute_found(&mut self, name: &str, ty: Type) -> Value {
+        if !super::is_attribute_type(ty) {
+            self.fail(format!(
+                "attribute {name:?} cannot be read as a {ty}: attributes are floats, vectors and colors"
+            ));
+            return self.boolean(false);
+        }
+        let slot = self.program.attribute_slot(name, ty);
+        self.push(Op::AttributeFound { slot }, Some(Type::Bool))
+    }
+
     fn build_block(&mut self, f: impl FnOnce(&mut Builder) -> Vec<Value>) -> Block {
         self.blocks.push(Block::default());
         let yields = f(self);

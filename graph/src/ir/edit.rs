@@ -20,6 +20,7 @@ impl Op {
             | Op::LightVisible
             | Op::LightPdf
             | Op::LoopVar(_)
+            | Op::AttributeFound { .. }
             | Op::Ambient => Vec::new(),
             Op::Transform { arg, .. } => vec![arg],
             Op::Unary(_, a) | Op::Extract(a, _) | Op::Splat(a) | Op::Convert(a) => vec![a],
@@ -89,6 +90,7 @@ impl Op {
             | Op::Ambient
             | Op::Texture { .. }
             | Op::Attribute { .. }
+            | Op::AttributeFound { .. }
             | Op::Trace { .. }
             | Op::Occlusion { .. }
             | Op::If { .. }

@@ -651,6 +651,14 @@ pub enum Op {
         /// The value where the geometry lacks the attribute (the expr's type).
         default: Value,
     },
+    /// Whether the hit's geometry has attribute `slot` (bool): true exactly where an
+    /// [`Op::Attribute`] of the same slot gives the geometry's value rather than its
+    /// default (same lookup, same width: the slot's type). OSL's `getattribute` returns it.
+    /// Varying, never folded, never hoisted.
+    AttributeFound {
+        /// Index into `Program::attributes`.
+        slot: u32,
+    },
     /// Radiance (color) arriving at the shaded point along `dir` (a vec3, world space,
     /// normalized by the runtime): the renderer's scene traces a ray from the fragment's `P`
     /// (it offsets the origin itself) as a ray of type `ray_type` at depth `raydepth + 1` and
@@ -714,6 +722,7 @@ impl Op {
             Op::Proj(..) => "proj".into(),
             Op::Texture { .. } => "texture".into(),
             Op::Attribute { slot, .. } => format!("attribute {slot}"),
+            Op::AttributeFound { slot } => format!("attribute.found {slot}"),
             Op::Loop { .. } => "loop".into(),
             Op::LoopVar(k) => format!("loop.var {k}"),
         }
@@ -731,6 +740,7 @@ impl Op {
             | Op::LightVisible
             | Op::LightPdf
             | Op::LoopVar(_)
+            | Op::AttributeFound { .. }
             | Op::Ambient => {}
             Op::Transform { arg, .. } => f(*arg),
             Op::Unary(_, a) | Op::Extract(a, _) | Op::Splat(a) | Op::Convert(a) => f(*a),
@@ -806,7 +816,7 @@ pub struct ParamDecl {
     pub default: ConstValue,
 }
 
-/// A named attribute a program reads ([`Op::Attribute`]): what the renderer resolves once
+/// A named attribute a program reads ([`Op::Attribute`], [`Op::AttributeFound`]): what the renderer resolves once
 /// per program and geometry (a mesh's attribute of this name, or none), so that no hit
 /// compares names.
 #[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -865,7 +875,8 @@ pub struct Program {
     /// Texture files, by index (paths as the network gave them, made absolute by the loader
     /// when the network came from a file), each with its color space.
     pub textures: Vec<TextureFile>,
-    /// Named geometry attributes read by [`Op::Attribute`], by slot.
+    /// Named geometry attributes read by [`Op::Attribute`] and [`Op::AttributeFound`], by
+    /// slot.
     pub attributes: Vec<AttributeDecl>,
 }
 
@@ -1014,6 +1025,7 @@ fn rate_block(program: &Program, block: &Block, rates: &mut [Rate], carried: &mu
             | Op::Ambient
             | Op::Trace { .. }
             | Op::Attribute { .. }
+            | Op::AttributeFound { .. }
             | Op::Occlusion { .. } => Rate::Varying,
             Op::Illuminance { .. } => Rate::Varying,
             Op::LoopVar(k) => carried

@@ -103,6 +103,7 @@
 //! | `proj %r, 0` | [`Op::Proj`] |
 //! | `texture #0 %uv`, `texture.alpha #0 trilinear clamp mirror %uv, %dudx, %dvdx` | [`Op::Texture`] (index into the texture table; then the filter if not `anisotropic`, the u and v wrap modes if not both `periodic`, uv and its optional derivatives ∂uv/∂x, ∂uv/∂y) |
 //! | `attribute #0 %default` | [`Op::Attribute`] (index into the attribute table; the default where the geometry lacks it) |
+//! | `attribute.found #0` | [`Op::AttributeFound`] (whether the geometry has table entry 0) |
 //! | `trace reflection %d` or `trace reflection %d, %pdf` | [`Op::Trace`] (the ray type by name, [`super::ray_type_name`], or `#K` for any other code `K`; the optional second operand is the BSDF sample's density) |
 //! | `occlusion %n, %samples, %maxdist` | [`Op::Occlusion`] |
 //!
@@ -411,6 +412,7 @@ impl<W: fmt::Write> Printer<'_, W> {
             Op::Attribute { slot, default } => {
                 format!("attribute #{slot} {}", self.val(*default))
             }
+            Op::AttributeFound { slot } => format!("attribute.found #{slot}"),
             Op::Trace { dir, ray_type, pdf } => {
                 let ty = match ray_type_name(*ray_type) {
                     Some(name) => name.to_string(),
@@ -1323,6 +1325,12 @@ impl Parser {
                     default: self.operand()?,
                 }
             }
+            "attribute.found" => {
+                self.expect_punct('#')?;
+                Op::AttributeFound {
+                    slot: self.index("an attribute index")?,
+                }
+            }
             "light.L" => Op::LightL,
             "light.Cl" => Op::LightCl,
             "light.visible" => Op::LightVisible,
@@ -1563,6 +1571,7 @@ mod tests {
             | Op::LightVisible
             | Op::LightPdf
             | Op::LoopVar(_)
+            | Op::AttributeFound { .. }
             | Op::Ambient => op.clone(),
             Op::Transform {
                 kind,

@@ -317,7 +317,9 @@ pub fn validate(p: &Program) -> Result<(), ValidationError> {
             }
             Op::Trace { .. } | Op::Occlusion { .. } => Some("it asks the scene for rays"),
             Op::Texture { .. } => Some("it reads a texture"),
-            Op::Attribute { .. } => Some("it reads the geometry's attributes"),
+            Op::Attribute { .. } | Op::AttributeFound { .. } => {
+                Some("it reads the geometry's attributes")
+            }
             Op::If { .. } | Op::Illuminance { .. } | Op::Loop { .. } | Op::Proj(..) => {
                 Some("it is a region")
             }
@@ -566,6 +568,22 @@ impl Validator<'_> {
                     )));
                 }
                 Some(decl.ty)
+            }
+            Op::AttributeFound { slot } => {
+                let Some(decl) = p.attributes.get(*slot as usize) else {
+                    return Err(ValidationError::AttributeIndex {
+                        value,
+                        index: *slot,
+                        count: p.attributes.len(),
+                    });
+                };
+                if !super::is_attribute_type(decl.ty) {
+                    return Err(ill(format!(
+                        "attribute {:?} is read as a {}; attributes are floats, vectors and colors",
+                        decl.name, decl.ty
+                    )));
+                }
+                Some(Type::Bool)
             }
             Op::Transform { arg, .. } => {
                 let t = self.operand(value, *arg)?;

@@ -99,6 +99,7 @@ enum Key {
     Proj(Value, u8),
     Texture(u32, Value, Option<[Value; 2]>, Sampling, bool),
     Attribute(u32, Value),
+    AttributeFound(u32),
 }
 
 /// A constant by exact bits (the type, kept beside the key, tells vectors from colors).
@@ -267,6 +268,7 @@ impl Numbering<'_> {
             ),
             // The fragment's attribute: the same slot and default give the same value.
             Op::Attribute { slot, default } => Key::Attribute(*slot, r(default)),
+            Op::AttributeFound { slot } => Key::AttributeFound(*slot),
             Op::LoopVar(k) => Key::LoopVar(self.loop_, *k),
             Op::If { .. } | Op::Illuminance { .. } | Op::Loop { .. } => return None,
         })

@@ -32,7 +32,7 @@ pub struct Needs {
     pub occlusion: bool,
     /// Uniform parameters still read.
     pub params: usize,
-    /// Geometry attributes read by live [`Op::Attribute`] ops (after optimization: only
+    /// Geometry attributes read by live [`Op::Attribute`] and [`Op::AttributeFound`] ops (after optimization: only
     /// live ones), by name and type, sorted: the renderer resolves and interpolates only
     /// these.
     pub attributes: Vec<AttributeDecl>,
@@ -74,7 +74,7 @@ pub fn analyze(p: &Program) -> Needs {
             Op::Texture { texture, .. } => {
                 textures.insert(*texture);
             }
-            Op::Attribute { slot, .. } => {
+            Op::Attribute { slot, .. } | Op::AttributeFound { slot } => {
                 if let Some(a) = p.attributes.get(*slot as usize) {
                     attributes.insert(a.clone());
                 }

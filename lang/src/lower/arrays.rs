@@ -251,6 +251,29 @@ impl<'a> Lower<'a> {
         rhs: Rhs<'a>,
         span: Span,
     ) -> Val {
+        self.assign_element(b, (id, At::Index(index)), rhs, span)
+    }
+
+    /// `v.x op= value` (`.y`, `.z`, `.r`, `.g`, `.b`) for triple variable `v`: component
+    /// `k`, as `v[k]`.
+    pub(crate) fn assign_component(
+        &mut self,
+        b: &mut Builder,
+        (id, k): (&ast::Ident, usize),
+        rhs: Rhs<'a>,
+        span: Span,
+    ) -> Val {
+        self.assign_element(b, (id, At::Component(k)), rhs, span)
+    }
+
+    /// [`Lower::assign_index`] or [`Lower::assign_component`]: element `at` of `id`.
+    fn assign_element(
+        &mut self,
+        b: &mut Builder,
+        (id, at): (&ast::Ident, At<'a>),
+        rhs: Rhs<'a>,
+        span: Span,
+    ) -> Val {
         let Some(var) = self.lookup(&id.name).cloned() else {
             return self.unknown(b, id, "name");
         };
@@ -266,7 +289,11 @@ impl<'a> Lower<'a> {
                 return Self::poison(b, Ty::Float);
             }
         };
-        let pos = self.position(b, index, len);
+        let pos = match at {
+            At::Index(index) => self.position(b, index, len),
+            At::Component(k) if k < len => Position::Known(k),
+            At::Component(_) => Position::Bad,
+        };
         if matches!(pos, Position::Bad) {
             return Self::poison(b, ty);
         }
@@ -378,6 +405,14 @@ pub(crate) enum Rhs<'a> {
     Expr(AssignOp, &'a Expr),
     /// A value computed elsewhere.
     Val(Val),
+}
+
+/// Which element an assignment writes: an index expression, or a triple's component.
+enum At<'a> {
+    /// `a[index]`.
+    Index(&'a Expr),
+    /// `v.x` … (0, 1 or 2).
+    Component(usize),
 }
 
 /// Where an index points.

@@ -111,6 +111,12 @@ impl<'a> Lower<'a> {
             }
         }
         let name = callee.name.as_str();
+        if self.dialect == Dialect::Osl && name == "getattribute" {
+            return self.getattribute(b, vals, args, span);
+        }
+        if self.dialect == Dialect::Osl && name == "texture" && vals.len() > 3 {
+            return self.osl_texture(b, &vals, args, span);
+        }
         if let Some(def) = self.struct_def(name) {
             if let Some(v) = self.construct_struct(b, def, &vals) {
                 return v;
@@ -625,7 +631,7 @@ fn accepts(param: &ast::Param, v: &Val, exact: bool) -> bool {
 }
 
 /// `smoothstep(e0, e1, x)`: 0 below `e0`, 1 above `e1`, the cubic `3t² − 2t³` between.
-fn smoothstep(b: &mut Builder, e0: Value, e1: Value, x: Value) -> Value {
+pub(crate) fn smoothstep(b: &mut Builder, e0: Value, e1: Value, x: Value) -> Value {
     let d = b.sub(x, e0);
     let w = b.sub(e1, e0);
     let t = b.div(d, w);

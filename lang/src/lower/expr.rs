@@ -177,11 +177,14 @@ impl<'a> Lower<'a> {
             ExprKind::Member { base, field } if self.dialect == crate::Dialect::Osl => {
                 self.member(b, base, field)
             }
+            ExprKind::InitList(items) if self.dialect == crate::Dialect::Osl => {
+                self.init_list(b, items, e.span)
+            }
             ExprKind::Member { .. } | ExprKind::InitList(_) => {
                 self.error(
-                    "struct fields and initialiser lists are not built yet (arrays and structs: issues 21 and 22)",
+                    "RSL has no structs: a `{…}` list initialises an array in its declaration",
                     e.span,
-                    "not built yet",
+                    "not here",
                 );
                 Self::poison(b, Ty::Float)
             }
@@ -460,6 +463,14 @@ impl<'a> Lower<'a> {
         if matches!(l, Val::Struct(..)) || matches!(r, Val::Struct(..)) {
             return self.operator(b, op.as_str(), vec![(l, lspan), (r, rspan)], span);
         }
+        // Strings are compile-time values: comparing two is a constant.
+        if let (Val::Str(x), Val::Str(y), BinaryOp::Eq | BinaryOp::Ne) = (&l, &r, op) {
+            return Val::V {
+                v: b.boolean((x == y) == (op == BinaryOp::Eq)),
+                ty: Ty::Bool,
+                varying: false,
+            };
+        }
         let (a, ta, va) = self.plain(b, l, lspan);
         let (c, tc, vc) = self.plain(b, r, rspan);
         let varying = va || vc;
@@ -519,10 +530,26 @@ impl<'a> Lower<'a> {
                     _ => (a, c, ta, tc),
                 };
                 let number = |t: Ty| matches!(t, Ty::Float | Ty::Int);
+                // OSL's `==`/`!=` of two triples: every component equal (or not).
+                if matches!(op, BinaryOp::Eq | BinaryOp::Ne)
+                    && ta.is_triple()
+                    && (ta == tc || (ta.is_geometric() && tc.is_geometric()))
+                {
+                    let mut all = b.boolean(true);
+                    for k in 0..3 {
+                        let (x, y) = (b.extract(a, k), b.extract(c, k));
+                        let e = b.binary(BinOp::Eq, x, y);
+                        all = b.binary(BinOp::And, all, e);
+                    }
+                    if op == BinaryOp::Ne {
+                        all = b.unary(shadenet_graph::ir::UnOp::Not, all);
+                    }
+                    return out(all, Ty::Bool);
+                }
                 if !number(ta) || ta != tc {
                     self.error(
                         format!(
-                            "comparisons are built for floats only, not a {} and a {}",
+                            "comparisons are built for floats (and `==`, `!=` of triples) only, not a {} and a {}",
                             ta.name(),
                             tc.name()
                         ),
@@ -653,6 +680,20 @@ impl<'a> Lower<'a> {
         {
             return self.assign_field(b, op, (&id, target), value, span);
         }
+        // `v.x`, `c.g` … of a triple variable (or field): its component, as `v[0]`.
+        if let ExprKind::Member { base, field } = &target.kind
+            && let Some(id) = super::structs::place(base)
+            && matches!(self.lookup(&id.name).map(|v| &v.val), Some(Val::V { ty, .. }) if ty.is_triple())
+            && let Some(k) = match field.name.as_str() {
+                "x" | "r" => Some(0),
+                "y" | "g" => Some(1),
+                "z" | "b" => Some(2),
+                _ => None,
+            }
+        {
+            let rhs = super::arrays::Rhs::Expr(op, value);
+            return self.assign_component(b, (&id, k), rhs, span);
+        }
         let ExprKind::Ident(id) = &target.kind else {
             self.error(
                 "only variables, array elements and components can be assigned",
@@ -672,7 +713,10 @@ impl<'a> Lower<'a> {
             }
             Val::StructVar(s) => {
                 let v = match arith_of(op) {
-                    _ if op == AssignOp::Set => self.expr(b, value),
+                    _ if op == AssignOp::Set => match self.struct_def(&s) {
+                        Some(def) => self.expr_for_struct(b, value, def),
+                        None => self.expr(b, value),
+                    },
                     // `s op= x`: the struct's overloaded operator, then stored.
                     Some(bin) => {
                         let old = self.read_var(&id.name).unwrap_or(Val::Str(String::new()));

@@ -17,6 +17,7 @@
 //! it must not hold op semantics (the IR's) nor touch the renderer.
 
 mod arrays;
+mod attributes;
 mod builtins;
 mod closure;
 mod derivs;
@@ -30,6 +31,7 @@ mod returns;
 mod spline;
 mod stmt;
 mod structs;
+mod texture_opts;
 mod unroll;
 
 use crate::ast::{self, Item, ShaderKind};
@@ -493,7 +495,7 @@ impl<'a> Lower<'a> {
         {
             // A struct parameter holds its default (its fields are not program parameters).
             let v = match &p.default {
-                Some(d) => self.expr(b, d),
+                Some(d) => self.expr_for_struct(b, d, def),
                 None => self.struct_zero(b, def, 0),
             };
             if !matches!(&v, Val::Struct(s, _) if *s == def.name.name) {

@@ -47,6 +47,8 @@ pub(crate) const NAMES: &[&str] = &[
     "filterwidth",
     "area",
     "aastep",
+    "getattribute",
+    "transformc",
 ];
 
 /// RSL builtins that OSL does not have (or has as closures: `diffuse`, `phong`).
@@ -70,7 +72,6 @@ const UNBUILT: &[(&str, &str)] = &[
         "error",
         "side effects (printf, format, warning, error) are not built yet",
     ),
-    ("getattribute", "attributes are not built yet"),
     ("raytype", "ray types are not readable by shaders yet"),
     (
         "splineinverse",
@@ -141,8 +142,9 @@ impl<'a> Lower<'a> {
             .collect()
     }
 
-    /// OSL's shader globals. `time` is 0 (the renderer has no motion); `Ci` starts as the
-    /// empty closure.
+    /// OSL's shader globals. `time` is the fragment's time (the stream MaterialX's `time`
+    /// node reads; the renderer has no motion, so `dtime` is 0 and `dPdtime` zero); `Ci`
+    /// starts as the empty closure.
     pub(crate) fn osl_globals(&mut self, b: &mut Builder) {
         let set = |me: &mut Self, name: &str, val: Val| {
             me.scopes[0].insert(
@@ -186,18 +188,26 @@ impl<'a> Lower<'a> {
                 },
             );
         }
-        for name in ["time", "dtime"] {
-            let v = b.float(0.0);
-            set(
-                self,
-                name,
-                Val::V {
-                    v,
-                    ty: Ty::Float,
-                    varying: false,
-                },
-            );
-        }
+        let time = b.stream(Stream::Time);
+        set(
+            self,
+            "time",
+            Val::V {
+                v: time,
+                ty: Ty::Float,
+                varying: true,
+            },
+        );
+        let v = b.float(0.0);
+        set(
+            self,
+            "dtime",
+            Val::V {
+                v,
+                ty: Ty::Float,
+                varying: false,
+            },
+        );
         let v = b.zero(Type::Vec3);
         set(
             self,
@@ -249,7 +259,7 @@ impl<'a> Lower<'a> {
             && let Some(def) = self.struct_def(&n.name)
         {
             let v = match &p.default {
-                Some(d) => self.expr(b, d),
+                Some(d) => self.expr_for_struct(b, d, def),
                 None => self.struct_zero(b, def, 0),
             };
             let v = match v {
@@ -292,6 +302,9 @@ impl<'a> Lower<'a> {
         }
         if let Some(v) = int_builtin(b, name, args) {
             return Some(v);
+        }
+        if name == "transformc" {
+            return Some(self.transformc(b, args, span));
         }
         let vs = super::numbers(b, args)?;
         let varying = vs.iter().any(|v| v.2);
@@ -368,6 +381,26 @@ impl<'a> Lower<'a> {
             }
             ("atan2", [(y, ty, _), (x, tx, _)]) if *ty == Ty::Float && *tx == Ty::Float => {
                 out(b.binary(BinOp::Atan2, *y, *x), Ty::Float)
+            }
+            // OSL's triple forms, per component (edges may be floats).
+            ("atan2", [(y, ty, _), (x, tx, _)]) if ty.is_triple() && ty == tx => {
+                let v = componentwise2(b, *y, *x, *ty, |b, y, x| b.binary(BinOp::Atan2, y, x));
+                out(v, *ty)
+            }
+            ("smoothstep", [(e0, t0, _), (e1, t1, _), (x, tx, _)])
+                if tx.is_triple() && [*t0, *t1].iter().all(|t| t == tx || *t == Ty::Float) =>
+            {
+                let part = |b: &mut Builder, v: Value, t: Ty, k: usize| {
+                    if t == Ty::Float { v } else { b.extract(v, k) }
+                };
+                let c: Vec<Value> = (0..3)
+                    .map(|k| {
+                        let (lo, hi) = (part(b, *e0, *t0, k), part(b, *e1, *t1, k));
+                        let xk = b.extract(*x, k);
+                        super::builtins::smoothstep(b, lo, hi, xk)
+                    })
+                    .collect();
+                out(b.construct(tx.ir(), &c), *tx)
             }
             ("linearstep", [(e0, t0, _), (e1, t1, _), (x, tx, _)])
                 if [*t0, *t1, *tx].iter().all(|t| *t == Ty::Float) =>
@@ -646,6 +679,64 @@ pub(crate) fn declare_outputs(b: &mut Builder, outputs: Vec<(String, Val)>) {
                 shadenet_graph::lower::declare_output(b, &name, &low);
             }
             _ => {}
+        }
+    }
+}
+
+impl<'a> Lower<'a> {
+    /// `transformc(from, to, c)`: colour `c` (or any triple, as a colour) from colour
+    /// space `from` to `to`, both `"rgb"` or `"hsv"` (OSL's names; the same space is the
+    /// identity); other spaces are an error naming them.
+    fn transformc(&mut self, b: &mut Builder, args: &[(Val, Span)], span: Span) -> Val {
+        let [
+            (Val::Str(from), _),
+            (Val::Str(to), _),
+            (Val::V { v, ty, varying }, _),
+        ] = args
+        else {
+            self.error(
+                "`transformc` takes (string from, string to, color c)",
+                span,
+                "wrong arguments",
+            );
+            return Self::poison(b, Ty::Color);
+        };
+        if !ty.is_triple() {
+            self.error(
+                format!(
+                    "`transformc` converts a color, not {}",
+                    super::an(ty.name())
+                ),
+                span,
+                "not a color",
+            );
+            return Self::poison(b, Ty::Color);
+        }
+        let space = |s: &str| match s {
+            "rgb" | "RGB" => Some(false),
+            "hsv" => Some(true),
+            _ => None,
+        };
+        let (Some(from_hsv), Some(to_hsv)) = (space(from), space(to)) else {
+            self.error(
+                format!(
+                    "`transformc` from \"{from}\" to \"{to}\": only \"rgb\" and \"hsv\" are built"
+                ),
+                span,
+                "not built yet",
+            );
+            return Self::poison(b, Ty::Color);
+        };
+        let c = b.retype(Type::Color, *v);
+        let c = match (from_hsv, to_hsv) {
+            (false, true) => b.call(Intrinsic::RgbToHsv, &[c]),
+            (true, false) => b.call(Intrinsic::HsvToRgb, &[c]),
+            _ => c,
+        };
+        Val::V {
+            v: c,
+            ty: Ty::Color,
+            varying: *varying,
         }
     }
 }

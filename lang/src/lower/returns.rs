@@ -92,7 +92,7 @@ impl<'a> Lower<'a> {
             self.set_flag(RETVAL, v);
         }
         if let (Some(def), Some(e)) = (r.structure, e) {
-            let v = self.expr(b, e);
+            let v = self.expr_for_struct(b, e, def);
             if !matches!(&v, Val::Struct(n, _) if *n == def.name.name) {
                 self.error(
                     format!("this function returns a `{}`", def.name.name),

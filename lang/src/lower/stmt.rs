@@ -202,20 +202,32 @@ impl<'a> Lower<'a> {
         let mut names: Vec<ast::Ident> = Vec::new();
         for s in stmts {
             walk_stmt(s, &mut |e| {
-                let target = match &e.kind {
-                    ExprKind::Assign { target, .. } | ExprKind::IncDec { target, .. } => target,
+                let targets = match &e.kind {
+                    ExprKind::Assign { target, .. } | ExprKind::IncDec { target, .. } => {
+                        vec![&**target]
+                    }
+                    ExprKind::Call { callee, args } => self.output_args(&callee.name, args),
                     _ => return,
                 };
-                // The variable an assignment changes: `x`, `a[i]`, `s.f`, `s.f[i]`.
-                let mut t = &target.kind;
-                if let ExprKind::Index { base, .. } = t {
-                    t = &base.kind;
-                }
-                let Some(id) = super::structs::place_of(t) else {
-                    return;
-                };
-                if !names.iter().any(|n| n.name == id.name) {
-                    names.push(id);
+                for target in targets {
+                    // The variable an assignment changes: `x`, `a[i]`, `s.f`, `s.f[i]`.
+                    let mut t = &target.kind;
+                    if let ExprKind::Index { base, .. } = t {
+                        t = &base.kind;
+                    }
+                    let Some(mut id) = super::structs::place_of(t) else {
+                        continue;
+                    };
+                    // `v.x` of a triple variable changes `v`.
+                    if self.lookup(&id.name).is_none()
+                        && let ExprKind::Member { base, .. } = t
+                        && let Some(v) = super::structs::place(base)
+                    {
+                        id = v;
+                    }
+                    if !names.iter().any(|n| n.name == id.name) {
+                        names.push(id);
+                    }
                 }
             });
         }
@@ -246,6 +258,33 @@ impl<'a> Lower<'a> {
                 _ => None,
             })
             .collect()
+    }
+
+    /// The arguments of a call of `callee` that it may assign: those passed for an
+    /// `output` parameter of any of the user function's overloads that take as many,
+    /// `getattribute`'s last, and `texture`'s `"alpha"` value.
+    fn output_args<'e>(&self, callee: &str, args: &'e [Expr]) -> Vec<&'e Expr> {
+        let mut out: Vec<&Expr> = Vec::new();
+        if let Some(defs) = self.functions.get(callee) {
+            for f in defs.iter().filter(|f| f.params.len() == args.len()) {
+                for (p, a) in f.params.iter().zip(args) {
+                    if p.ty.output.is_some() && !out.iter().any(|o| std::ptr::eq(*o, a)) {
+                        out.push(a);
+                    }
+                }
+            }
+        } else if callee == "getattribute" && self.dialect == crate::Dialect::Osl {
+            out.extend(args.last());
+        } else if callee == "texture" && self.dialect == crate::Dialect::Osl {
+            // The value after an `"alpha"` token.
+            let alpha = args
+                .iter()
+                .skip(3)
+                .step_by(2)
+                .position(|a| matches!(&a.kind, ExprKind::Str(s) if s == "alpha"));
+            out.extend(alpha.and_then(|k| args.get(3 + 2 * k + 1)));
+        }
+        out
     }
 
     /// The plain variables that variable `n` is: itself, or an array's elements and a
@@ -664,36 +703,58 @@ impl<'a> Lower<'a> {
         self.loops = outer;
         for (k, val) in outs {
             let Some(e) = arg_exprs.get(k) else { continue };
-            // `f(…, a[i], …)`, `f(…, s.a[i], …)`: the element takes the value.
-            if let ExprKind::Index { base, index } = &e.kind
-                && let Some(id) = super::structs::place(base)
-            {
-                let rhs = super::arrays::Rhs::Val(val);
-                self.assign_index(b, (&id, index), rhs, e.span);
-                continue;
-            }
-            let Some(id) = super::structs::place(e) else {
-                self.error(
-                    format!(
-                        "argument {} of `{}` is an `output` parameter: pass a variable",
-                        k + 1,
-                        f.name.name
-                    ),
-                    e.span,
-                    "not a variable",
-                );
-                continue;
-            };
-            let Some(var) = self.lookup(&id.name).cloned() else {
-                continue;
-            };
-            let val = match (&var.val, val) {
-                (Val::V { ty, .. }, v @ Val::V { .. }) => self.coerce(b, v, *ty, e.span),
-                (_, v) => v,
-            };
-            self.store(&id, val, e.span);
+            self.store_output_arg(b, e, val, (k + 1, &f.name.name));
         }
         v
+    }
+
+    /// The value of a struct-returning function's last `return` expression `last` (a
+    /// `{…}` list builds the return type `def`).
+    fn struct_result(
+        &mut self,
+        b: &mut Builder,
+        last: Option<&'a Expr>,
+        def: Option<&'a ast::StructDef>,
+    ) -> Option<Val> {
+        match (last, def) {
+            (Some(e), Some(def)) => Some(self.expr_for_struct(b, e, def)),
+            (e, _) => e.map(|e| self.expr(b, e)),
+        }
+    }
+
+    /// Stores `val` in the place argument `e` names (argument number `n` of `callee`, an
+    /// `output` parameter): a variable, a field or an element; an error where `e` is none.
+    pub(crate) fn store_output_arg(
+        &mut self,
+        b: &mut Builder,
+        e: &'a Expr,
+        val: Val,
+        (n, callee): (usize, &str),
+    ) {
+        // `f(…, a[i], …)`, `f(…, s.a[i], …)`: the element takes the value.
+        if let ExprKind::Index { base, index } = &e.kind
+            && let Some(id) = super::structs::place(base)
+        {
+            let rhs = super::arrays::Rhs::Val(val);
+            self.assign_index(b, (&id, index), rhs, e.span);
+            return;
+        }
+        let Some(id) = super::structs::place(e) else {
+            self.error(
+                format!("argument {n} of `{callee}` is an `output` parameter: pass a variable"),
+                e.span,
+                "not a variable",
+            );
+            return;
+        };
+        let Some(var) = self.lookup(&id.name).cloned() else {
+            return;
+        };
+        let val = match (&var.val, val) {
+            (Val::V { ty, .. }, v @ Val::V { .. }) => self.coerce(b, v, *ty, e.span),
+            (_, v) => v,
+        };
+        self.store(&id, val, e.span);
     }
 
     /// The body of [`Lower::inline`]: the value and the output parameters' final values
@@ -800,7 +861,7 @@ impl<'a> Lower<'a> {
                 .read_var(super::returns::RETVAL)
                 .unwrap_or_else(|| Self::poison(b, Ty::Float)),
             _ if early_value => Self::poison(b, Ty::Float),
-            _ if struct_ret => match last.map(|e| self.expr(b, e)) {
+            _ if struct_ret => match self.struct_result(b, last, ret_struct) {
                 Some(v @ Val::Struct(..)) => v,
                 _ => {
                     self.error(

@@ -217,9 +217,7 @@ impl<'a> Lower<'a> {
         let value = match &v.init {
             None => self.struct_zero(b, def, 0),
             Some(e) => {
-                self.want_struct = Some(def.name.name.clone());
-                let x = self.expr(b, e);
-                self.want_struct = None;
+                let x = self.expr_for_struct(b, e, def);
                 match x {
                     Val::Struct(ref s, _) if *s == def.name.name => x,
                     other => {
@@ -239,6 +237,64 @@ impl<'a> Lower<'a> {
             }
         };
         self.bind_struct(&v.name, def, value, false);
+    }
+
+    /// Expression `e` where a struct of type `def` is expected (a declaration's initialiser,
+    /// an assignment to a struct variable, a struct's `return`): a `{…}` list is that
+    /// struct's fields in order, and a call prefers the overload that returns it.
+    pub(crate) fn expr_for_struct(
+        &mut self,
+        b: &mut Builder,
+        e: &'a Expr,
+        def: &'a ast::StructDef,
+    ) -> Val {
+        self.want_struct = Some(def.name.name.clone());
+        let x = self.expr(b, e);
+        self.want_struct = None;
+        x
+    }
+
+    /// `{ a, b, … }` (OSL's compound initialiser) where a struct is expected
+    /// ([`Lower::expr_for_struct`]): the struct of its fields in order, each item of a
+    /// struct field itself expected to be one (`{ {a, b}, c }`). Anywhere else it is an
+    /// error: an array's `{…}` is its declaration's ([`super::arrays`]).
+    pub(crate) fn init_list(&mut self, b: &mut Builder, items: &'a [Expr], span: Span) -> Val {
+        let Some(def) = self.want_struct.take().and_then(|n| self.struct_def(&n)) else {
+            self.error(
+                "a `{…}` list initialises an array in its declaration, or a struct where one is expected (declared, assigned, returned)",
+                span,
+                "no struct or array expected here",
+            );
+            return Self::poison(b, Ty::Float);
+        };
+        let fields = self.fields(def);
+        if fields.len() != items.len() {
+            self.error(
+                format!(
+                    "struct `{}` is made of its {} fields in order: this list has {}",
+                    def.name.name,
+                    fields.len(),
+                    items.len()
+                ),
+                span,
+                "wrong number of fields",
+            );
+            return self.struct_zero(b, def, 0);
+        }
+        let mut vals = Vec::new();
+        for ((_, ty, _), item) in fields.into_iter().zip(items) {
+            let inner = match &ty.base {
+                ast::BaseType::Struct(n) => self.struct_def(&n.name),
+                _ => None,
+            };
+            let v = match inner {
+                Some(inner) => self.expr_for_struct(b, item, inner),
+                None => self.expr(b, item),
+            };
+            vals.push((v, item.span));
+        }
+        self.construct_struct(b, def, &vals)
+            .unwrap_or_else(|| Self::poison(b, Ty::Float))
     }
 
     /// `base.f`: a field of a struct value.

@@ -330,6 +330,8 @@ impl Parser<'_> {
                 });
             }
             TokenKind::LParen => return self.paren(),
+            // OSL's compound initialiser as a value (`s = { a, b }`, `return { a, b }`).
+            TokenKind::LBrace if self.dialect == Dialect::Osl => return self.initializer(),
             TokenKind::Keyword(_) if Self::base_type_kw(Some(t.kind)).is_some() => {
                 return self.construct();
             }

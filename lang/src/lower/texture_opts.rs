@@ -1,0 +1,198 @@
+//! OSL's `texture(file, s, t, "name", value, …)`: the optional token–value arguments after
+//! the coordinates, and what each means here. It owns these rules:
+//!
+//! - `"swrap"`, `"twrap"`, `"wrap"` (both): a wrap mode by name — `"periodic"` (and
+//!   `"default"`), `"clamp"`, `"mirror"`, `"black"`, and MaterialX's `"constant"`, which is
+//!   `"black"` (its OSL returns the node's default itself where uv leaves the image, as
+//!   our native image atoms do).
+//! - `"interp"`: `"closest"` reads the nearest texel, `"linear"` bilinear, `"cubic"` and
+//!   `"smartcubic"` the texture system's filtered lookup (its default).
+//! - `"colorspace"`: the file's colour space by MaterialX's names (`""`: by the file's
+//!   format, as without it).
+//! - `"alpha"`: an output float that receives the lookup's alpha.
+//! - `"subimage"`: only `""` (the first image; named layers are not built).
+//! - `"missingcolor"`, `"missingalpha"`: taken (a color, a float) and unused: a file that
+//!   cannot be read is an error when the material loads, so nothing is ever missing at a
+//!   lookup.
+//!
+//! Names and modes are strings, so compile-time values. Any other token is an error naming
+//! it.
+
+use super::{Lower, Ty, Val};
+use crate::ast::Expr;
+use crate::source::Span;
+use shadenet_graph::Type;
+use shadenet_graph::ir::{Builder, ColorSpace, Filter, Sampling, TextureFile, Wrap};
+
+/// The wrap mode an OSL wrap name stands for.
+fn wrap(name: &str) -> Option<Wrap> {
+    Some(match name {
+        "periodic" | "default" => Wrap::Periodic,
+        "clamp" => Wrap::Clamp,
+        "mirror" => Wrap::Mirror,
+        "black" | "constant" => Wrap::Black,
+        _ => return None,
+    })
+}
+
+/// The filter an OSL `"interp"` name stands for.
+fn filter(name: &str) -> Option<Filter> {
+    Some(match name {
+        "closest" => Filter::Closest,
+        "linear" => Filter::Bilinear,
+        "cubic" | "smartcubic" => Filter::Anisotropic,
+        _ => return None,
+    })
+}
+
+/// What the optional arguments of one call ask for.
+struct Options<'a> {
+    sampling: Sampling,
+    colorspace: ColorSpace,
+    /// The expression receiving the alpha, if any, and its argument number (from 1).
+    alpha: Option<(usize, &'a Expr)>,
+}
+
+impl<'a> Lower<'a> {
+    /// `texture(file, s, t, "name", value, …)` with the arguments' values `vals` and
+    /// expressions `args`: the color looked up, the alpha stored where asked.
+    pub(crate) fn osl_texture(
+        &mut self,
+        b: &mut Builder,
+        vals: &[(Val, Span)],
+        args: &'a [Expr],
+        span: Span,
+    ) -> Val {
+        let coords = match vals {
+            [
+                (Val::Str(file), _),
+                (Val::V { v: s, ty: ts, .. }, _),
+                (Val::V { v: t, ty: tt, .. }, _),
+                ..,
+            ] if *ts == Ty::Float && *tt == Ty::Float => Some((file.clone(), *s, *t)),
+            _ => None,
+        };
+        let Some((file, s, t)) = coords else {
+            self.error(
+                "`texture` takes (string file, float s, float t) before its optional arguments",
+                span,
+                "wrong arguments",
+            );
+            return Self::poison(b, Ty::Color);
+        };
+        let Some(o) = self.texture_options(&vals[3..], &args[3..]) else {
+            return Self::poison(b, Ty::Color);
+        };
+        let file = TextureFile {
+            path: file,
+            colorspace: o.colorspace,
+        };
+        let one = b.float(1.0);
+        let v = b.sub(one, t);
+        let uv = b.construct(Type::Vec2, &[s, v]);
+        let index = b.texture_index(&file);
+        let c = b.texture(index, uv, o.sampling, false);
+        if let Some((n, target)) = o.alpha {
+            let a = b.texture(index, uv, o.sampling, true);
+            let a = Val::V {
+                v: a,
+                ty: Ty::Float,
+                varying: true,
+            };
+            self.store_output_arg(b, target, a, (n, "texture"));
+        }
+        Val::V {
+            v: c,
+            ty: Ty::Color,
+            varying: true,
+        }
+    }
+
+    /// The optional token–value pairs `vals` (expressions `args`); `None` after an error.
+    fn texture_options(&mut self, vals: &[(Val, Span)], args: &'a [Expr]) -> Option<Options<'a>> {
+        let mut o = Options {
+            sampling: Sampling::default(),
+            colorspace: ColorSpace::Auto,
+            alpha: None,
+        };
+        let mut ok = true;
+        for (k, pair) in vals.chunks(2).enumerate() {
+            let [(Val::Str(token), at), (value, vat)] = pair else {
+                self.error(
+                    "`texture`'s optional arguments are pairs of a token string and a value",
+                    pair[0].1,
+                    "not a token–value pair",
+                );
+                return None;
+            };
+            let name = match value {
+                Val::Str(s) => Some(s.as_str()),
+                _ => None,
+            };
+            let bad = |me: &mut Self, what: &str| {
+                me.error(
+                    format!("`texture` option \"{token}\": {what}"),
+                    *vat,
+                    "this value",
+                );
+            };
+            match (token.as_str(), name) {
+                ("swrap" | "twrap" | "wrap", Some(n)) => match wrap(n) {
+                    Some(w) => match token.as_str() {
+                        "swrap" => o.sampling.wrap[0] = w,
+                        "twrap" => o.sampling.wrap[1] = w,
+                        _ => o.sampling.wrap = [w; 2],
+                    },
+                    None => {
+                        bad(
+                            self,
+                            "a wrap mode: periodic, clamp, mirror, black or constant",
+                        );
+                        ok = false;
+                    }
+                },
+                ("interp", Some(n)) => match filter(n) {
+                    Some(f) => o.sampling.filter = f,
+                    None => {
+                        bad(self, "closest, linear, cubic or smartcubic");
+                        ok = false;
+                    }
+                },
+                ("colorspace", Some("")) => o.colorspace = ColorSpace::Auto,
+                ("colorspace", Some(n)) => match ColorSpace::parse(n) {
+                    Some(c) => o.colorspace = c,
+                    None => {
+                        bad(self, "a colour space MaterialX names");
+                        ok = false;
+                    }
+                },
+                ("subimage", Some("")) => {}
+                ("subimage", Some(_)) => {
+                    bad(
+                        self,
+                        "named subimages (layers) are not built: the first image is read",
+                    );
+                    ok = false;
+                }
+                ("alpha", None) => o.alpha = args.get(2 * k + 1).map(|e| (2 * k + 5, e)),
+                ("missingcolor", None) if matches!(value, Val::V { ty, .. } if ty.is_triple()) => {}
+                ("missingalpha", None) if matches!(value, Val::V { ty: Ty::Float, .. }) => {}
+                ("swrap" | "twrap" | "wrap" | "interp" | "colorspace" | "subimage", None) => {
+                    bad(self, "a string");
+                    ok = false;
+                }
+                _ => {
+                    self.error(
+                        format!(
+                            "`texture` option \"{token}\" is not built (built: swrap, twrap, wrap, interp, colorspace, alpha, subimage \"\", missingcolor, missingalpha)"
+                        ),
+                        *at,
+                        "this option",
+                    );
+                    ok = false;
+                }
+            }
+        }
+        ok.then_some(o)
+    }
+}
