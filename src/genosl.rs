@@ -8,7 +8,9 @@
 //! read our globals. MaterialX's types map onto ours (`color3` → `color`, `vector3` →
 //! `vector`, `integer` and `boolean` → `int`, `matrix33` and `matrix44` → `matrix`, a
 //! matrix33 being the 4×4 with the 3×3 in its corner, as MaterialX's OSL syntax has it) or
-//! onto the structs of its OSL headers (`color4`, `vector2`, `vector4`).
+//! onto the structs of its OSL headers (`color4`, `vector2`, `vector4`) and of the
+//! generator's preamble (`filename` → `textureresource`). The generator's tokens in the
+//! implementation files ([`TOKENS`]: `$fileTransformUv`) are substituted as it does.
 //!
 //! It owns building these shaders; the language is `shadenet-lang`'s and the nodedefs the
 //! library's ([`crate::mtlx`]).

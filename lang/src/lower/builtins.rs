@@ -333,10 +333,9 @@ impl<'a> Lower<'a> {
                 let (zero, one) = (b.float(0.0), b.float(1.0));
                 out(b.select(below, zero, one), Ty::Float)
             }
-            ("smoothstep", [(e0, t0, _), (e1, t1, _), (x, tx, _)])
-                if float(*t0) && float(*t1) && float(*tx) =>
-            {
-                out(smoothstep(b, *e0, *e1, *x), Ty::Float)
+            ("smoothstep", [e0, e1, x]) => {
+                let osl = self.dialect == Dialect::Osl;
+                out(smoothstep_any(b, osl, *e0, *e1, *x)?, x.1)
             }
             ("radians" | "degrees", [(x, t, _)]) if float(*t) => {
                 let k = if name == "radians" {
@@ -630,8 +629,36 @@ fn accepts(param: &ast::Param, v: &Val, exact: bool) -> bool {
     }
 }
 
+/// `smoothstep` of floats, or (`osl`) OSL's form for a triple `x`, per component, each
+/// edge a triple of its type or a float; `None` for other types.
+fn smoothstep_any(
+    b: &mut Builder,
+    osl: bool,
+    (e0, t0, _): (Value, Ty, bool),
+    (e1, t1, _): (Value, Ty, bool),
+    (x, tx, _): (Value, Ty, bool),
+) -> Option<Value> {
+    if [t0, t1, tx].iter().all(|t| *t == Ty::Float) {
+        return Some(smoothstep(b, e0, e1, x));
+    }
+    if !osl || !tx.is_triple() || ![t0, t1].iter().all(|t| *t == tx || *t == Ty::Float) {
+        return None;
+    }
+    let part = |b: &mut Builder, v: Value, t: Ty, k: usize| {
+        if t == Ty::Float { v } else { b.extract(v, k) }
+    };
+    let c: Vec<Value> = (0..3)
+        .map(|k| {
+            let (lo, hi) = (part(b, e0, t0, k), part(b, e1, t1, k));
+            let xk = b.extract(x, k);
+            smoothstep(b, lo, hi, xk)
+        })
+        .collect();
+    Some(b.construct(tx.ir(), &c))
+}
+
 /// `smoothstep(e0, e1, x)`: 0 below `e0`, 1 above `e1`, the cubic `3t² − 2t³` between.
-pub(crate) fn smoothstep(b: &mut Builder, e0: Value, e1: Value, x: Value) -> Value {
+fn smoothstep(b: &mut Builder, e0: Value, e1: Value, x: Value) -> Value {
     let d = b.sub(x, e0);
     let w = b.sub(e1, e0);
     let t = b.div(d, w);

@@ -535,16 +535,7 @@ impl<'a> Lower<'a> {
                     && ta.is_triple()
                     && (ta == tc || (ta.is_geometric() && tc.is_geometric()))
                 {
-                    let mut all = b.boolean(true);
-                    for k in 0..3 {
-                        let (x, y) = (b.extract(a, k), b.extract(c, k));
-                        let e = b.binary(BinOp::Eq, x, y);
-                        all = b.binary(BinOp::And, all, e);
-                    }
-                    if op == BinaryOp::Ne {
-                        all = b.unary(shadenet_graph::ir::UnOp::Not, all);
-                    }
-                    return out(all, Ty::Bool);
+                    return out(triples_equal(b, op == BinaryOp::Ne, a, c), Ty::Bool);
                 }
                 if !number(ta) || ta != tc {
                     self.error(
@@ -1036,5 +1027,20 @@ impl<'a> Lower<'a> {
         }
         let found = self.overload(&f, &vals, &(None, None));
         self.user_call(b, (&f, found), vals, &[], span)
+    }
+}
+
+/// Whether triples `a` and `c` are equal in every component (`not`: whether they differ).
+fn triples_equal(b: &mut Builder, not: bool, a: Value, c: Value) -> Value {
+    let mut all = b.boolean(true);
+    for k in 0..3 {
+        let (x, y) = (b.extract(a, k), b.extract(c, k));
+        let e = b.binary(BinOp::Eq, x, y);
+        all = b.binary(BinOp::And, all, e);
+    }
+    if not {
+        b.unary(shadenet_graph::ir::UnOp::Not, all)
+    } else {
+        all
     }
 }

@@ -382,26 +382,12 @@ impl<'a> Lower<'a> {
             ("atan2", [(y, ty, _), (x, tx, _)]) if *ty == Ty::Float && *tx == Ty::Float => {
                 out(b.binary(BinOp::Atan2, *y, *x), Ty::Float)
             }
-            // OSL's triple forms, per component (edges may be floats).
+            // OSL's triple form, per component.
             ("atan2", [(y, ty, _), (x, tx, _)]) if ty.is_triple() && ty == tx => {
                 let v = componentwise2(b, *y, *x, *ty, |b, y, x| b.binary(BinOp::Atan2, y, x));
                 out(v, *ty)
             }
-            ("smoothstep", [(e0, t0, _), (e1, t1, _), (x, tx, _)])
-                if tx.is_triple() && [*t0, *t1].iter().all(|t| t == tx || *t == Ty::Float) =>
-            {
-                let part = |b: &mut Builder, v: Value, t: Ty, k: usize| {
-                    if t == Ty::Float { v } else { b.extract(v, k) }
-                };
-                let c: Vec<Value> = (0..3)
-                    .map(|k| {
-                        let (lo, hi) = (part(b, *e0, *t0, k), part(b, *e1, *t1, k));
-                        let xk = b.extract(*x, k);
-                        super::builtins::smoothstep(b, lo, hi, xk)
-                    })
-                    .collect();
-                out(b.construct(tx.ir(), &c), *tx)
-            }
+
             ("linearstep", [(e0, t0, _), (e1, t1, _), (x, tx, _)])
                 if [*t0, *t1, *tx].iter().all(|t| *t == Ty::Float) =>
             {
