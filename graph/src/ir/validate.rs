@@ -3,7 +3,7 @@
 //!
 //! The rules are listed on [`validate`](fn@validate).
 
-use super::{Block, Op, Program, Value, is_traceable_ray_type};
+use super::{AttributeDecl, Block, Op, Program, Value, is_traceable_ray_type};
 use crate::ops;
 use crate::types::Type;
 use std::collections::HashMap;
@@ -263,6 +263,28 @@ pub enum ValidationError {
 
 fn ty_name(t: &Option<Type>) -> &'static str {
     t.map_or("no type", Type::name)
+}
+
+/// The declaration of attribute `slot`, which `value` reads (`attribute` or
+/// `attribute.found`): in range and of a type attributes have.
+fn attribute_decl(p: &Program, value: Value, slot: u32) -> Result<&AttributeDecl, ValidationError> {
+    let Some(decl) = p.attributes.get(slot as usize) else {
+        return Err(ValidationError::AttributeIndex {
+            value,
+            index: slot,
+            count: p.attributes.len(),
+        });
+    };
+    if !super::is_attribute_type(decl.ty) {
+        return Err(ValidationError::IllTyped {
+            value,
+            reason: format!(
+                "attribute {:?} is read as a {}; attributes are floats, vectors and colors",
+                decl.name, decl.ty
+            ),
+        });
+    }
+    Ok(decl)
 }
 
 /// Checks that `p` is well formed: walks the program in evaluation order and returns the
@@ -547,19 +569,7 @@ impl Validator<'_> {
                 Some(if *alpha { Type::Float } else { Type::Color })
             }
             Op::Attribute { slot, default } => {
-                let Some(decl) = p.attributes.get(*slot as usize) else {
-                    return Err(ValidationError::AttributeIndex {
-                        value,
-                        index: *slot,
-                        count: p.attributes.len(),
-                    });
-                };
-                if !super::is_attribute_type(decl.ty) {
-                    return Err(ill(format!(
-                        "attribute {:?} is read as a {}; attributes are floats, vectors and colors",
-                        decl.name, decl.ty
-                    )));
-                }
+                let decl = attribute_decl(p, value, *slot)?;
                 let t = self.operand(value, *default)?;
                 if t != decl.ty {
                     return Err(ill(format!(
@@ -570,19 +580,7 @@ impl Validator<'_> {
                 Some(decl.ty)
             }
             Op::AttributeFound { slot } => {
-                let Some(decl) = p.attributes.get(*slot as usize) else {
-                    return Err(ValidationError::AttributeIndex {
-                        value,
-                        index: *slot,
-                        count: p.attributes.len(),
-                    });
-                };
-                if !super::is_attribute_type(decl.ty) {
-                    return Err(ill(format!(
-                        "attribute {:?} is read as a {}; attributes are floats, vectors and colors",
-                        decl.name, decl.ty
-                    )));
-                }
+                attribute_decl(p, value, *slot)?;
                 Some(Type::Bool)
             }
             Op::Transform { arg, .. } => {
