@@ -145,30 +145,19 @@ pub enum MtlxLoadError {
 
 /// Reads a `.mtlx` file, finds the libraries (`libraries`, else as [`locate`] says) and
 /// translates the selected outputs to a network, to be linked against the returned
-/// library's atoms (the renderer applies a scene's `set` overrides in between).
+/// library's atoms (the renderer applies a scene's `set` overrides in between); and names
+/// the uniform geometric properties its string-valued `geompropvalueuniform` nodes read
+/// ([`mtlx::network_reading`]: the renderer specializes the material by them).
 pub fn mtlx_network(
     path: &Path,
     libraries: Option<&Path>,
     selection: &Selection,
-) -> Result<(Network, &'static Library), MtlxLoadError> {
+) -> Result<(Network, &'static Library, BTreeSet<String>), MtlxLoadError> {
     let text = read_to_string(path, FileKind::Text, "MaterialX document")?;
     let lib = library(&locate(libraries)?)?;
-    let net =
-        mtlx::network(&path.display().to_string(), &text, lib, selection).map_err(Box::new)?;
-    Ok((net, lib))
-}
-
-/// Reads a `.mtlx` file and names the uniform geometric properties its selected
-/// string-valued `geompropvalueuniform` nodes read ([`mtlx::uniform_geomprops`]).
-pub fn mtlx_geomprops(
-    path: &Path,
-    libraries: Option<&Path>,
-    selection: &Selection,
-) -> Result<BTreeSet<String>, MtlxLoadError> {
-    let text = read_to_string(path, FileKind::Text, "MaterialX document")?;
-    let lib = library(&locate(libraries)?)?;
-    let file = path.display().to_string();
-    Ok(mtlx::uniform_geomprops(&file, &text, lib, selection).map_err(Box::new)?)
+    let (net, read) = mtlx::network_reading(&path.display().to_string(), &text, lib, selection)
+        .map_err(Box::new)?;
+    Ok((net, lib, read))
 }
 
 /// Reads a `.mtlx` file and says which lobes of its selected material(s) are left after

@@ -19,6 +19,7 @@ use shadenet_tracer::passes::PassDef;
 use shadenet_tracer::scene::{self, MaterialRef, MaterialSource, Scene, SceneError};
 use shadenet_tracer::shader::{BatchedBackend, InterpBackend, RuntimeBackend, ShaderBackend};
 use shadenet_tracer::{RenderError, Renderer};
+use std::collections::BTreeSet;
 use std::path::{Component, Path, PathBuf};
 use std::sync::Arc;
 
@@ -219,6 +220,10 @@ pub struct CompiledMaterial {
     pub program: Program,
     /// Light nodes in its network (the scene's `[[lights]]` are used instead).
     pub ignored_lights: usize,
+    /// The uniform geometric properties its MaterialX document's string-valued
+    /// `geompropvalueuniform` nodes read (empty for other sources): the renderer compiles
+    /// it once per distinct set of their values ([`crate::specialize`]).
+    pub geomprops: BTreeSet<String>,
 }
 
 /// Reads, overrides, links and lowers one material's network, its closures lit by
@@ -251,6 +256,7 @@ pub fn compile_material(
         return shader_material(m, p, files).map_err(fail);
     }
     let standard;
+    let mut geomprops = BTreeSet::new();
     let (mut network, lib): (Network, &NodeLibrary) = match &m.source {
         MaterialSource::File(p) => {
             let text = files.read(p).map_err(|e| fail(error_chain(&e)))?;
@@ -275,8 +281,9 @@ pub fn compile_material(
                 output: output.clone(),
                 geomprops: m.geomprops.clone(),
             };
-            let (net, lib) = crate::mtlx::mtlx_network(file, mtlx_libraries, &selection)
+            let (net, lib, read) = crate::mtlx::mtlx_network(file, mtlx_libraries, &selection)
                 .map_err(|e| fail(error_chain(&e)))?;
+            geomprops = read;
             (net, lib.atoms())
         }
     };
@@ -296,6 +303,7 @@ pub fn compile_material(
     Ok(CompiledMaterial {
         program,
         ignored_lights: linked.lights.len(),
+        geomprops,
     })
 }
 
@@ -316,6 +324,7 @@ fn shader_material(m: &MaterialRef, path: &Path, files: Files) -> Result<Compile
     Ok(CompiledMaterial {
         program,
         ignored_lights: 0,
+        geomprops: BTreeSet::new(),
     })
 }
 
@@ -419,26 +428,27 @@ pub fn prepare(
     mtlx_libraries: Option<&Path>,
 ) -> Result<(Renderer, Vec<CompiledMaterial>), SetupError> {
     let mut scene = scene;
-    crate::specialize::by_geomprops(&mut scene, mtlx_libraries).map_err(|e| {
-        SetupError::Material {
-            material: e.material,
-            source_name: e.source_name,
-            message: e.message,
-        }
-    })?;
-    let compiled = scene
+    let strategy = scene.settings.light_strategy;
+    let compile = |m: &MaterialRef| compile_material(m, files, scene_dir, mtlx_libraries, strategy);
+    let base = scene
         .materials
         .iter()
-        .map(|m| {
-            compile_material(
-                m,
-                files,
-                scene_dir,
-                mtlx_libraries,
-                scene.settings.light_strategy,
-            )
-        })
+        .map(compile)
         .collect::<Result<Vec<_>, _>>()?;
+    // Materials whose documents read uniform geometric properties: one compile per
+    // distinct set of values among their instances; the compiles above (made without
+    // values) serve the materials and sets that give none.
+    let read: Vec<BTreeSet<String>> = base.iter().map(|c| c.geomprops.clone()).collect();
+    let from = crate::specialize::by_geomprops(&mut scene, &read);
+    let mut compiled = Vec::with_capacity(from.len());
+    for (m, from) in scene.materials.iter().zip(from) {
+        let mut c = match from {
+            Some(k) => base[k].clone(),
+            None => compile(m)?,
+        };
+        c.program.name.clone_from(&m.name);
+        compiled.push(c);
+    }
     let programs = compiled.iter().map(|c| c.program.clone()).collect();
     // Light programs run on the interpreter for renders on the interpreter, else compiled by
     // the JIT (the GPU back end's host steps sample lights on the CPU).

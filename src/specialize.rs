@@ -5,65 +5,31 @@
 //! its instances' values in; instances that agree share one compile.
 //!
 //! This module owns the grouping and the rebinding of instances; it must not compile
-//! (`render::compile_material` does) nor interpret MaterialX (`graph::mtlx` names the
-//! properties a document reads).
+//! (`render::compile_material` does, and says which properties a document reads) nor
+//! interpret MaterialX.
 
-use shadenet_graph::error_chain;
-use shadenet_graph::mtlx::Selection;
-use shadenet_tracer::scene::{MaterialRef, MaterialSource, Scene};
+use shadenet_tracer::scene::{MaterialRef, Scene};
 use std::collections::{BTreeMap, BTreeSet};
-use std::path::Path;
 
-/// A material whose document could not be read to learn the properties it reads.
-#[derive(Debug, thiserror::Error)]
-#[error("material `{material}` ({source_name}): {message}")]
-pub struct SpecializeError {
-    /// The material's key.
-    pub material: String,
-    /// Its document.
-    pub source_name: String,
-    /// What is wrong.
-    pub message: String,
-}
-
-/// Splits each MaterialX material of `scene` that reads uniform geometric properties into
-/// one material per distinct set of its instances' values, each named
-/// `material{name=value, …}`: the first set takes the material's place, the others are
-/// appended and their instances rebound.
+/// Splits each material of `scene` whose document reads uniform geometric properties
+/// (`read[material]`, from compiling it as the scene names it) into one material per
+/// distinct set of its instances' values, each named `material{name=value, …}`: the first
+/// set takes the material's place, the others are appended and their instances rebound.
 /// A property an instance does not give is left out of its set (the node's default).
-pub fn by_geomprops(
-    scene: &mut Scene,
-    mtlx_libraries: Option<&Path>,
-) -> Result<(), SpecializeError> {
-    for mi in 0..scene.materials.len() {
-        let m = &scene.materials[mi];
-        let MaterialSource::Mtlx {
-            file,
-            material,
-            output,
-        } = &m.source
-        else {
-            continue;
-        };
-        let sel = Selection {
-            material: material.clone(),
-            output: output.clone(),
-            ..Default::default()
-        };
-        let read = crate::mtlx::mtlx_geomprops(file, mtlx_libraries, &sel).map_err(|e| {
-            SpecializeError {
-                material: m.name.clone(),
-                source_name: file.display().to_string(),
-                message: error_chain(&e),
-            }
-        })?;
+///
+/// Returns, for each material of the scene after the split, where its compile comes from:
+/// `Some(m)`, the compile of material `m` as the scene named it (the material itself, or a
+/// set that gives no values), or `None`, a compile of its own.
+pub fn by_geomprops(scene: &mut Scene, read: &[BTreeSet<String>]) -> Vec<Option<usize>> {
+    let mut from: Vec<Option<usize>> = (0..scene.materials.len()).map(Some).collect();
+    for (mi, read) in read.iter().enumerate() {
         if read.is_empty() {
             continue;
         }
         let base = scene.materials[mi].clone();
         let mut variants: Vec<BTreeMap<String, String>> = Vec::new();
         for inst in scene.instances.iter_mut().filter(|i| i.material == mi) {
-            let values = values_read(&inst.geomprops, &read);
+            let values = values_read(&inst.geomprops, read);
             let k = match variants.iter().position(|v| *v == values) {
                 Some(k) => k,
                 None => {
@@ -76,6 +42,7 @@ pub fn by_geomprops(
             }
         }
         for (k, values) in variants.into_iter().enumerate() {
+            let source = values.is_empty().then_some(mi);
             let v = MaterialRef {
                 name: variant_name(&base.name, &values),
                 geomprops: values,
@@ -83,12 +50,14 @@ pub fn by_geomprops(
             };
             if k == 0 {
                 scene.materials[mi] = v;
+                from[mi] = source;
             } else {
                 scene.materials.push(v);
+                from.push(source);
             }
         }
     }
-    Ok(())
+    from
 }
 
 /// The instance's values of the properties a material reads.

@@ -51,20 +51,30 @@ pub fn network(
     lib: &Library,
     sel: &Selection,
 ) -> Result<Network, MtlxError> {
+    network_reading(file, text, lib, sel).map(|(net, _)| net)
+}
+
+/// [`network`], and the uniform geometric properties its selected string-valued
+/// `geompropvalueuniform` nodes read ([`translate::translate`]).
+pub fn network_reading(
+    file: &str,
+    text: &str,
+    lib: &Library,
+    sel: &Selection,
+) -> Result<(Network, BTreeSet<String>), MtlxError> {
     let doc = parse(file, text)?;
-    to_network(&doc, lib, sel)
+    translate::translate(&doc, lib, sel)
 }
 
 /// Parses a document's text and names the uniform geometric properties its selected
-/// string-valued `geompropvalueuniform` nodes read ([`translate::uniform_geomprops`]).
+/// string-valued `geompropvalueuniform` nodes read.
 pub fn uniform_geomprops(
     file: &str,
     text: &str,
     lib: &Library,
     sel: &Selection,
 ) -> Result<BTreeSet<String>, MtlxError> {
-    let doc = parse(file, text)?;
-    translate::uniform_geomprops(&doc, lib, sel)
+    network_reading(file, text, lib, sel).map(|(_, props)| props)
 }
 
 /// Parses, translates, links and lowers a document's text.

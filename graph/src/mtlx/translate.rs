@@ -15,7 +15,7 @@ use super::error::{MtlxError, Pos, doc_err};
 use super::iface::{Iface, interface_value};
 use super::library::{Impl, Library};
 use super::resolve::Defs;
-use super::strings::{Fold, Folded};
+use super::strings::{Fold, Folded, folded_value};
 use super::value::{MxType, classify, literal, unsupported_reason};
 use crate::network::{CompoundInput, CompoundSpec, Network, NodeSpec};
 use serde_json::{Map, Value as Json};
@@ -275,20 +275,8 @@ impl<'a> Tr<'a> {
         if let Some(name) = &i.interfacename {
             return interface_value(node, i, name, iface).map(Some);
         }
-        if let Some(n) = &i.nodename
-            && let Some((v, src_ty)) = sc.strings.get(n.as_str())
-        {
-            if src_ty != ty {
-                return Err(MtlxError::TypeMismatch {
-                    at: i.pos.clone(),
-                    node: node.to_string(),
-                    input: i.name.clone(),
-                    expected: ty.to_string(),
-                    source_name: n.clone(),
-                    found: src_ty.clone(),
-                });
-            }
-            return Ok(Some(v.clone()));
+        if let Some(v) = folded_value(&sc.strings, node, i, ty) {
+            return v.map(Some);
         }
         let (src, src_ty) = if let Some(n) = &i.nodename {
             let Some(sd) = sc.types.get(n.as_str()) else {
@@ -532,19 +520,10 @@ pub fn to_network(doc: &Document, lib: &Library, sel: &Selection) -> Result<Netw
     translate(doc, lib, sel).map(|(net, _)| net)
 }
 
-/// The names of the uniform geometric properties that the selection's string-valued
-/// `geompropvalueuniform` nodes read: a renderer compiles the material once per distinct
-/// set of their values among the objects it is bound to.
-pub fn uniform_geomprops(
-    doc: &Document,
-    lib: &Library,
-    sel: &Selection,
-) -> Result<BTreeSet<String>, MtlxError> {
-    translate(doc, lib, sel).map(|(_, props)| props)
-}
-
-/// [`to_network`], and the geometric properties read ([`uniform_geomprops`]).
-fn translate(
+/// [`to_network`], and the names of the uniform geometric properties that the selection's
+/// string-valued `geompropvalueuniform` nodes read: a renderer compiles the material once
+/// per distinct set of their values among the objects it is bound to.
+pub fn translate(
     doc: &Document,
     lib: &Library,
     sel: &Selection,
