@@ -11,7 +11,7 @@
 //! distinct set of the properties it reads ([`super::uniform_geomprops`]).
 
 use super::atoms::is_folded;
-use super::document::{NodeDefElem, NodeElem};
+use super::document::{Input, NodeDefElem, NodeElem};
 use super::error::MtlxError;
 use super::error::doc_err;
 use super::iface::{Iface, interface_value};
@@ -151,18 +151,8 @@ impl<'a> Fold<'a, '_> {
                 ));
             };
             self.fold(&sn.name, pending, folded, path)?;
-            let (v, ty) = &folded[src.as_str()];
-            if ty != want {
-                return Err(MtlxError::TypeMismatch {
-                    at: i.pos.clone(),
-                    node: n.name.clone(),
-                    input: i.name.clone(),
-                    expected: want.to_string(),
-                    source_name: src.clone(),
-                    found: ty.clone(),
-                });
-            }
-            return Ok(v.clone());
+            return folded_value(folded, &n.name, i, want)
+                .unwrap_or_else(|| unreachable!("`{src}` was just folded"));
         }
         if i.nodegraph.is_some() {
             return Err(doc_err(
@@ -176,4 +166,29 @@ impl<'a> Fold<'a, '_> {
         }
         Ok(Json::String(i.value.clone().unwrap_or_default()))
     }
+}
+
+/// The value of the folded node that input `i` of `node` connects to (`nodename`), for an
+/// input of MaterialX type `want`; a type mismatch names both types. `None` where `i`
+/// reads no folded node.
+pub(super) fn folded_value(
+    folded: &Folded,
+    node: &str,
+    i: &Input,
+    want: &str,
+) -> Option<Result<Json, MtlxError>> {
+    let src = i.nodename.as_ref()?;
+    let (v, ty) = folded.get(src.as_str())?;
+    Some(if ty == want {
+        Ok(v.clone())
+    } else {
+        Err(MtlxError::TypeMismatch {
+            at: i.pos.clone(),
+            node: node.to_string(),
+            input: i.name.clone(),
+            expected: want.to_string(),
+            source_name: src.clone(),
+            found: ty.clone(),
+        })
+    })
 }
