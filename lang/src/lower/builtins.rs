@@ -526,9 +526,7 @@ impl<'a> Lower<'a> {
             ] => (*s, *t),
             _ => return None,
         };
-        let one = b.float(1.0);
-        let v = b.sub(one, t);
-        let uv = b.construct(Type::Vec2, &[s, v]);
+        let uv = st_uv(b, s, t);
         let index = b.texture_index(&shadenet_graph::ir::TextureFile::auto(file.clone()));
         let c = b.texture(index, uv, shadenet_graph::ir::Sampling::default(), false);
         Some(Val::V {
@@ -627,6 +625,14 @@ fn accepts(param: &ast::Param, v: &Val, exact: bool) -> bool {
         }
         _ => false,
     }
+}
+
+/// The texture coordinates a `texture(file, s, t)` call reads: `(s, 1 − t)` (the
+/// languages' `t` runs down the image, the IR's `v` up it).
+pub(super) fn st_uv(b: &mut Builder, s: Value, t: Value) -> Value {
+    let one = b.float(1.0);
+    let v = b.sub(one, t);
+    b.construct(Type::Vec2, &[s, v])
 }
 
 /// `smoothstep` of floats, or (`osl`) OSL's form for a triple `x`, per component, each

@@ -246,10 +246,8 @@ impl<'a> Lower<'a> {
             return self.field_of(b, v, field);
         }
         let (v, ty, varying) = self.plain(b, v, base.span);
-        let k = match (field.name.as_str(), ty) {
-            ("x", t) | ("r", t) if t.is_triple() => 0,
-            ("y", t) | ("g", t) if t.is_triple() => 1,
-            ("z", t) | ("b", t) if t.is_triple() => 2,
+        let k = match component(&field.name) {
+            Some(k) if ty.is_triple() => k,
             _ => {
                 self.error(
                     format!(
@@ -675,12 +673,7 @@ impl<'a> Lower<'a> {
         if let ExprKind::Member { base, field } = &target.kind
             && let Some(id) = super::structs::place(base)
             && matches!(self.lookup(&id.name).map(|v| &v.val), Some(Val::V { ty, .. }) if ty.is_triple())
-            && let Some(k) = match field.name.as_str() {
-                "x" | "r" => Some(0),
-                "y" | "g" => Some(1),
-                "z" | "b" => Some(2),
-                _ => None,
-            }
+            && let Some(k) = component(&field.name)
         {
             let rhs = super::arrays::Rhs::Expr(op, value);
             return self.assign_component(b, (&id, k), rhs, span);
@@ -1027,6 +1020,16 @@ impl<'a> Lower<'a> {
         }
         let found = self.overload(&f, &vals, &(None, None));
         self.user_call(b, (&f, found), vals, &[], span)
+    }
+}
+
+/// The component of a triple that OSL's field `name` is: `x`/`r` 0, `y`/`g` 1, `z`/`b` 2.
+fn component(name: &str) -> Option<usize> {
+    match name {
+        "x" | "r" => Some(0),
+        "y" | "g" => Some(1),
+        "z" | "b" => Some(2),
+        _ => None,
     }
 }
 

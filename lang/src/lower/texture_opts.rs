@@ -18,21 +18,20 @@
 //! Names and modes are strings, so compile-time values. Any other token is an error naming
 //! it.
 
+use super::builtins::st_uv;
 use super::{Lower, Ty, Val};
 use crate::ast::Expr;
 use crate::source::Span;
-use shadenet_graph::Type;
 use shadenet_graph::ir::{Builder, ColorSpace, Filter, Sampling, TextureFile, Wrap};
 
-/// The wrap mode an OSL wrap name stands for.
+/// The wrap mode an OSL wrap name stands for: the IR's names (`periodic`, `clamp`,
+/// `mirror`, `black`), OSL's `default` and MaterialX's `constant`.
 fn wrap(name: &str) -> Option<Wrap> {
-    Some(match name {
-        "periodic" | "default" => Wrap::Periodic,
-        "clamp" => Wrap::Clamp,
-        "mirror" => Wrap::Mirror,
-        "black" | "constant" => Wrap::Black,
-        _ => return None,
-    })
+    match name {
+        "default" => Some(Wrap::Periodic),
+        "constant" => Some(Wrap::Black),
+        _ => Wrap::from_name(name),
+    }
 }
 
 /// The filter an OSL `"interp"` name stands for.
@@ -87,9 +86,7 @@ impl<'a> Lower<'a> {
             path: file,
             colorspace: o.colorspace,
         };
-        let one = b.float(1.0);
-        let v = b.sub(one, t);
-        let uv = b.construct(Type::Vec2, &[s, v]);
+        let uv = st_uv(b, s, t);
         let index = b.texture_index(&file);
         let c = b.texture(index, uv, o.sampling, false);
         if let Some((n, target)) = o.alpha {
