@@ -132,9 +132,9 @@ fn string_nodes_report_what_is_wrong() {
     }
 }
 
-/// A 1×1 PNG of colour `rgb` in `dir`.
-fn png(dir: &std::path::Path, name: &str, rgb: [u8; 3]) {
-    image::save_buffer(dir.join(name), &rgb, 1, 1, image::ExtendedColorType::Rgb8).unwrap();
+/// A 1×1 PNG of colour `rgb` at `path`.
+fn png(path: &std::path::Path, rgb: [u8; 3]) {
+    image::save_buffer(path, &rgb, 1, 1, image::ExtendedColorType::Rgb8).unwrap();
 }
 
 /// Three quads side by side share one material whose image is the instance's `tex`
@@ -146,12 +146,11 @@ fn instances_specialize_a_material_per_distinct_property() {
     if mtlx_library().is_none() {
         return;
     }
-    let dir = std::env::temp_dir().join(format!("shadenet-geomprops-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    png(&dir, "red.png", [255, 0, 0]);
-    png(&dir, "green.png", [0, 255, 0]);
-    png(&dir, "fallback.png", [0, 0, 255]);
-    std::fs::write(dir.join("m.mtlx"), doc(PER_OBJECT_IMAGE)).unwrap();
+    let at = |name: &str| tmp("geomprops", name);
+    png(&at("red.png"), [255, 0, 0]);
+    png(&at("green.png"), [0, 255, 0]);
+    png(&at("fallback.png"), [0, 0, 255]);
+    std::fs::write(at("m.mtlx"), doc(PER_OBJECT_IMAGE)).unwrap();
     let scene = r#"
 [camera]
 position = [0, 0, 5]
@@ -190,7 +189,7 @@ material = "m"
 translate = [0, 0, 10]
 geomprops = { tex = "red.png" }
 "#;
-    let path = dir.join("s.toml");
+    let path = at("s.toml");
     std::fs::write(&path, scene).unwrap();
     let opts = RenderOptions::default();
     for kind in [BackendKind::Interp, BackendKind::Jit] {
@@ -235,14 +234,12 @@ fn the_cli_takes_geomprops() {
     if mtlx_library().is_none() {
         return;
     }
-    let dir = std::env::temp_dir().join(format!("shadenet-geomprops-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let file = dir.join("g.mtlx");
+    let file = tmp("geomprops-cli", "g.mtlx");
     std::fs::write(&file, doc(PER_OBJECT_IMAGE)).unwrap();
     let f = file.to_str().unwrap();
     let (code, out, err) = shadenet(&["compile", f, "--geomprop", "tex=brick.png"]);
     assert_eq!(code, 0, "{err}");
-    let want = format!("texture \"{}\"", dir.join("brick.png").display());
+    let want = format!("texture \"{}\"", file.with_file_name("brick.png").display());
     assert!(out.contains(&want), "want {want} in:\n{out}");
     let (code, out, _) = shadenet(&["compile", f]);
     assert_eq!(code, 0);

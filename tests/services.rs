@@ -1106,6 +1106,61 @@ fn tagged_attribute(i: usize, slot: u32, default: &[f32]) -> Vec<f32> {
         .collect()
 }
 
+/// How [`on_cpu_backends`] shaded a fragment.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Run {
+    /// The interpreter or the JIT's scalar entry (named), with the fragment's services.
+    Scalar(&'static str),
+    /// The same without a scene.
+    NoScene(&'static str),
+    /// The JIT's batch entry (`shade_many`, each lane asking its own fragment's services).
+    Batch,
+}
+
+/// Shades `p` (`width` output floats) at 43 fragments of a [`TaggedScene`] on the
+/// interpreter and the JIT's scalar entry (with the fragment's services and without a
+/// scene) and on the JIT's batch entry, handing each result to `check(fragment, run, got)`.
+///
+/// [`TaggedScene`]: shadenet_runtime::testing::TaggedScene
+fn on_cpu_backends(p: &Program, width: usize, mut check: impl FnMut(usize, Run, &[f32])) {
+    let env = ShadeEnv::default();
+    let frags: Vec<Fragment> = (0..43)
+        .map(|i| Fragment {
+            p: [i as f32, 0.0, 0.0],
+            ..Fragment::default()
+        })
+        .collect();
+    let scene = shadenet_runtime::testing::TaggedScene::with_fragments(frags.len());
+    let interp = shadenet_runtime::InterpBackend
+        .compile_program(p, Duration::ZERO)
+        .unwrap();
+    let jit = shadenet_jit::JitBackend::new()
+        .compile_program(p, Duration::ZERO)
+        .unwrap();
+    assert_eq!(jit.info().backend, "jit");
+    let w = jit.width();
+    assert_eq!(w, width);
+    let mut batch = vec![f32::NAN; w * frags.len()];
+    shadenet_runtime::shade_many_unpacked(&*jit, &env, u32::MAX, Some(&scene), &frags, &mut batch);
+    for (i, f) in frags.iter().enumerate() {
+        for (what, m) in [("interpreter", &interp), ("jit scalar", &jit)] {
+            let mut one = vec![f32::NAN; w];
+            let ctx = ShadeCtx {
+                frag: *f,
+                env: &env,
+                mask: u32::MAX,
+                scene: scene.fragment(i),
+            };
+            m.shade(&ctx, &mut one);
+            check(i, Run::Scalar(what), &one);
+            let ctx = ShadeCtx { scene: None, ..ctx };
+            m.shade(&ctx, &mut one);
+            check(i, Run::NoScene(what), &one);
+        }
+        check(i, Run::Batch, &batch[i * w..(i + 1) * w]);
+    }
+}
+
 /// The IR text form of `attribute` round-trips; validation names a slot past the table and
 /// a default of the wrong type.
 #[test]
@@ -1137,25 +1192,6 @@ fn attribute_ops_print_parse_and_validate() {
 #[test]
 fn attributes_agree_across_interpreter_jit_scalar_and_batch() {
     let p = ir::parse(ATTRIBUTES).unwrap();
-    let env = ShadeEnv::default();
-    let frags: Vec<Fragment> = (0..43)
-        .map(|i| Fragment {
-            p: [i as f32, 0.0, 0.0],
-            ..Fragment::default()
-        })
-        .collect();
-    let scene = shadenet_runtime::testing::TaggedScene::with_fragments(frags.len());
-    let interp = shadenet_runtime::InterpBackend
-        .compile_program(&p, Duration::ZERO)
-        .unwrap();
-    let jit = shadenet_jit::JitBackend::new()
-        .compile_program(&p, Duration::ZERO)
-        .unwrap();
-    assert_eq!(jit.info().backend, "jit");
-    let w = jit.width();
-    assert_eq!(w, 10);
-    let mut batch = vec![f32::NAN; w * frags.len()];
-    shadenet_runtime::shade_many_unpacked(&*jit, &env, u32::MAX, Some(&scene), &frags, &mut batch);
     let defaults: [&[f32]; 4] = [
         &[-1.0],
         &[-2.0, -3.0],
@@ -1163,35 +1199,21 @@ fn attributes_agree_across_interpreter_jit_scalar_and_batch() {
         &[-7.0, -8.0, -9.0, -10.0],
     ];
     let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-    for (i, f) in frags.iter().enumerate() {
+    on_cpu_backends(&p, 10, |i, run, got| {
         let want: Vec<f32> = (0..4)
             .flat_map(|s| tagged_attribute(i, s, defaults[s as usize]))
             .collect();
-        for (what, m) in [("interpreter", &interp), ("jit scalar", &jit)] {
-            let mut one = vec![f32::NAN; w];
-            let ctx = ShadeCtx {
-                frag: *f,
-                env: &env,
-                mask: u32::MAX,
-                scene: scene.fragment(i),
-            };
-            m.shade(&ctx, &mut one);
-            assert_eq!(bits(&one), bits(&want), "fragment {i}: {what}");
+        match run {
+            Run::Scalar(what) => assert_eq!(bits(got), bits(&want), "fragment {i}: {what}"),
             // Without a scene: the defaults.
-            let ctx = ShadeCtx { scene: None, ..ctx };
-            m.shade(&ctx, &mut one);
-            assert_eq!(
-                one,
+            Run::NoScene(what) => assert_eq!(
+                got,
                 defaults.concat(),
                 "fragment {i}: {what} without a scene"
-            );
+            ),
+            Run::Batch => assert_eq!(bits(got), bits(&want), "fragment {i}: jit batch"),
         }
-        assert_eq!(
-            bits(&batch[i * w..(i + 1) * w]),
-            bits(&want),
-            "fragment {i}: jit batch"
-        );
-    }
+    });
 }
 
 /// [`ATTRIBUTES`]' slots asked whether they are found ([`ir::Op::AttributeFound`]): 1 or
@@ -1241,28 +1263,9 @@ fn attribute_found_agrees_with_the_lookup_on_every_back_end() {
     let (o, report) = opt::run(&p, &Specialization::default());
     assert_eq!(report.needs.attributes.len(), 4);
     assert!(o.to_string().contains("attribute.found #3"), "{o}");
-    let env = ShadeEnv::default();
-    let frags: Vec<Fragment> = (0..43)
-        .map(|i| Fragment {
-            p: [i as f32, 0.0, 0.0],
-            ..Fragment::default()
-        })
-        .collect();
-    let scene = shadenet_runtime::testing::TaggedScene::with_fragments(frags.len());
-    let interp = shadenet_runtime::InterpBackend
-        .compile_program(&o, Duration::ZERO)
-        .unwrap();
-    let jit = shadenet_jit::JitBackend::new()
-        .compile_program(&o, Duration::ZERO)
-        .unwrap();
-    assert_eq!(jit.info().backend, "jit");
-    let w = jit.width();
-    assert_eq!(w, 7);
-    let mut batch = vec![f32::NAN; w * frags.len()];
-    shadenet_runtime::shade_many_unpacked(&*jit, &env, u32::MAX, Some(&scene), &frags, &mut batch);
     let widths = [1, 2, 3, 4];
     let mut founds = 0;
-    for (i, f) in frags.iter().enumerate() {
+    on_cpu_backends(&o, 7, |i, run, got| {
         let mut want: Vec<f32> = (0..4u32)
             .map(|s| {
                 let d = vec![f32::NAN; widths[s as usize]];
@@ -1270,29 +1273,17 @@ fn attribute_found_agrees_with_the_lookup_on_every_back_end() {
                 f32::from(u8::from(!got[0].is_nan()))
             })
             .collect();
-        founds += want.iter().filter(|x| **x == 1.0).count();
         want.extend(tagged_attribute(i, 2, &[-4.0, -5.0, -6.0]));
         let none = [0.0, 0.0, 0.0, 0.0, -4.0, -5.0, -6.0];
-        for (what, m) in [("interpreter", &interp), ("jit scalar", &jit)] {
-            let mut one = vec![f32::NAN; w];
-            let ctx = ShadeCtx {
-                frag: *f,
-                env: &env,
-                mask: u32::MAX,
-                scene: scene.fragment(i),
-            };
-            m.shade(&ctx, &mut one);
-            assert_eq!(one, want, "fragment {i}: {what}");
-            let ctx = ShadeCtx { scene: None, ..ctx };
-            m.shade(&ctx, &mut one);
-            assert_eq!(one, none, "fragment {i}: {what} without a scene");
+        match run {
+            Run::Scalar(what) => assert_eq!(got, want, "fragment {i}: {what}"),
+            Run::NoScene(what) => assert_eq!(got, none, "fragment {i}: {what} without a scene"),
+            Run::Batch => {
+                founds += want[..4].iter().filter(|x| **x == 1.0).count();
+                assert_eq!(got, &want[..], "fragment {i}: jit batch");
+            }
         }
-        assert_eq!(
-            batch[i * w..(i + 1) * w],
-            want[..],
-            "fragment {i}: jit batch"
-        );
-    }
+    });
     assert!(
         founds > 40 && founds < 4 * 43,
         "found {founds} of {}",
@@ -1317,9 +1308,16 @@ fn attribute_found_agrees_with_the_lookup_on_every_back_end() {
         assert!(err.contains("attribute"), "{err}");
         let m = gpu().compile_program(&o, Duration::ZERO).unwrap();
         assert_eq!(m.info().backend, "interp");
-        let mut one = vec![f32::NAN; w];
+        let (env, scene) = (
+            ShadeEnv::default(),
+            shadenet_runtime::testing::TaggedScene::with_fragments(43),
+        );
+        let mut one = vec![f32::NAN; 7];
         let ctx = ShadeCtx {
-            frag: frags[1],
+            frag: Fragment {
+                p: [1.0, 0.0, 0.0],
+                ..Fragment::default()
+            },
             env: &env,
             mask: u32::MAX,
             scene: scene.fragment(1),

@@ -19,6 +19,14 @@ fn compile(src: &str) -> Result<shadenet::graph::ir::Program, String> {
     compile_shader(src, Dialect::Osl)
 }
 
+/// Each source fails to compile with an error containing its text.
+fn assert_errors(cases: &[(&str, &str)]) {
+    for (src, want) in cases {
+        let err = compile(src).unwrap_err();
+        assert!(err.contains(want), "{src}\n→ {err}");
+    }
+}
+
 fn point(pos: [f64; 3], i: f64) -> LightDesc {
     LightDesc::new("l", LightKind::Point { position: pos }, [i; 3]).unwrap()
 }
@@ -635,7 +643,7 @@ fn structs_hold_fields() {
         check(&o, "o", &[50.0, m_weight + m_w1, 1.0], 0.0);
         check(&o, "p", &[1.0, 1.0, 3.0], 0.0);
     }
-    for (src, want) in [
+    assert_errors(&[
         (
             "struct S { float a; }; surface s() { S x; float y = x.b; }",
             "struct `S` has no field `b` (its fields: a)",
@@ -648,10 +656,7 @@ fn structs_hold_fields() {
             "struct S { float a, b; }; surface s() { S x = S(1); }",
             "struct `S` is made of its 2 fields in order",
         ),
-    ] {
-        let err = compile(src).unwrap_err();
-        assert!(err.contains(want), "{src}\n→ {err}");
-    }
+    ]);
 }
 
 /// Operators on structs are OSL's overloads `__operator__add__` and kin, chosen by the
@@ -964,7 +969,7 @@ fn getattribute_reads_the_geometry() {
             assert_eq!(out, want, "{} at u = {u}", m.info().backend);
         }
     }
-    for (src, want) in [
+    assert_errors(&[
         (
             "shader s(output float a = 0) { getattribute(\"obj\", \"x\", a); }",
             "`getattribute` of a named object is not built",
@@ -981,10 +986,7 @@ fn getattribute_reads_the_geometry() {
             "shader s(output float a = 0) { a = getattribute(\"x\", 2); }",
             "is an `output` parameter: pass a variable",
         ),
-    ] {
-        let err = compile(src).unwrap_err();
-        assert!(err.contains(want), "{src}\n→ {err}");
-    }
+    ]);
 }
 
 /// OSL's `{ … }` compound initialisers build a struct where one is expected: a declaration,
@@ -1020,7 +1022,7 @@ fn brace_initialisers_build_structs() {
         check(&out, "c", &[15.0, 9.0, my], 0.0);
         check(&out, "e", &[0.5, 0.5, f64::from(u) * 10.0], 1e-6);
     }
-    for (src, want) in [
+    assert_errors(&[
         (
             "struct V2 { float x; float y; }; shader s() { V2 v = { 1, 2, 3 }; }",
             "struct `V2` is made of its 2 fields in order: this list has 3",
@@ -1029,10 +1031,7 @@ fn brace_initialisers_build_structs() {
             "shader s(output float a = 0) { a = { 1, 2 }; }",
             "a `{…}` list initialises an array in its declaration, or a struct where one is expected",
         ),
-    ] {
-        let err = compile(src).unwrap_err();
-        assert!(err.contains(want), "{src}\n→ {err}");
-    }
+    ]);
 }
 
 /// `texture`'s optional arguments become the lookup's sampling, colour space and alpha
@@ -1073,7 +1072,7 @@ fn texture_options_and_string_comparisons() {
     .unwrap();
     let o = run_program(&eq, &plane_fragment(), &[], u32::MAX);
     check(&o, "eq", &[3.0], 0.0);
-    for (src, want) in [
+    assert_errors(&[
         (
             "shader s(output color c = 0) { c = texture(\"t.png\", u, v, \"blur\", 0.1); }",
             "`texture` option \"blur\" is not built",
@@ -1090,10 +1089,7 @@ fn texture_options_and_string_comparisons() {
             "shader s(output color c = 0) { c = texture(\"t.png\", u, v, \"subimage\", \"diffuse\"); }",
             "named subimages (layers) are not built",
         ),
-    ] {
-        let err = compile(src).unwrap_err();
-        assert!(err.contains(want), "{src}\n→ {err}");
-    }
+    ]);
 }
 
 /// OSL's triple forms of `smoothstep` (edges triples or floats) and `atan2` work per
