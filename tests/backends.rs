@@ -790,7 +790,8 @@ fn op_table() -> Vec<Row> {
             Intrinsic::Noise3 | Intrinsic::CellNoise3 => "%p",
             Intrinsic::Fbm3 => "%n, %k, %a, %b",
             Intrinsic::RgbToHsv | Intrinsic::HsvToRgb => "%pc",
-            Intrinsic::GgxAlbedo => "%a, %b",
+            Intrinsic::GgxAlbedo | Intrinsic::SheenAlbedo => "%a, %b",
+            Intrinsic::DielectricAlbedo => "%a, %b, %c",
             // OSL/MaterialX noise: the point, then (octaves, lacunarity, diminish) or
             // (jitter, style, metric) from the fragment's hard values.
             osl => match ops::osl_intrinsic_operands(osl).expect("an OSL noise intrinsic") {
@@ -807,7 +808,8 @@ fn op_table() -> Vec<Row> {
                 Intrinsic::Noise2 => vec![Type::Vec2],
                 Intrinsic::Fbm3 => vec![Type::Vec3, Type::Int, Type::Float, Type::Float],
                 Intrinsic::RgbToHsv | Intrinsic::HsvToRgb => vec![Type::Color],
-                Intrinsic::GgxAlbedo => vec![Type::Float, Type::Float],
+                Intrinsic::GgxAlbedo | Intrinsic::SheenAlbedo => vec![Type::Float, Type::Float],
+                Intrinsic::DielectricAlbedo => vec![Type::Float; 3],
                 _ => vec![Type::Vec3],
             },
             <[Type]>::to_vec,

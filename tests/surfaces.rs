@@ -431,7 +431,7 @@ type Config = (
     f64,
 );
 
-const STANDARD: [Config; 6] = [
+const STANDARD: [Config; 7] = [
     (
         "white diffuse + specular",
         |r| {
@@ -467,7 +467,21 @@ const STANDARD: [Config; 6] = [
                 f("coat_roughness", r),
                 f("sheen", 1.0),
                 c("sheen_color", WHITE),
-                f("sheen_roughness", r.max(0.05)),
+                f("sheen_roughness", r),
+            ]
+        },
+        0.10,
+    ),
+    (
+        "+ sheen",
+        |r| {
+            vec![
+                f("base", 1.0),
+                c("base_color", WHITE),
+                f("specular_roughness", r),
+                f("sheen", 1.0),
+                c("sheen_color", WHITE),
+                f("sheen_roughness", r),
             ]
         },
         0.10,
@@ -554,6 +568,61 @@ const OPEN_PBR: [Config; 5] = [
     ),
 ];
 
+const GLTF: [Config; 4] = [
+    (
+        "white diffuse + specular",
+        |r| {
+            vec![
+                c("base_color", WHITE),
+                f("metallic", 0.0),
+                f("roughness", r),
+            ]
+        },
+        0.02,
+    ),
+    (
+        "+ clearcoat",
+        |r| {
+            vec![
+                c("base_color", WHITE),
+                f("metallic", 0.0),
+                f("roughness", r),
+                f("clearcoat", 1.0),
+                f("clearcoat_roughness", r),
+            ]
+        },
+        0.02,
+    ),
+    (
+        "+ sheen",
+        |r| {
+            vec![
+                c("base_color", WHITE),
+                f("metallic", 0.0),
+                f("roughness", r),
+                c("sheen_color", WHITE),
+                f("sheen_roughness", r),
+            ]
+        },
+        0.10,
+    ),
+    (
+        "+ clearcoat + sheen",
+        |r| {
+            vec![
+                c("base_color", WHITE),
+                f("metallic", 0.0),
+                f("roughness", r),
+                f("clearcoat", 1.0),
+                f("clearcoat_roughness", r),
+                c("sheen_color", WHITE),
+                f("sheen_roughness", r),
+            ]
+        },
+        0.10,
+    ),
+];
+
 /// Runs the furnace over configurations × roughness × views; every estimate printed, and
 /// per configuration the largest mean beyond three standard errors must not exceed 1 by
 /// more than its bound. Returns the largest mean of all.
@@ -562,7 +631,7 @@ fn layered_furnace(node: &str, configs: &[Config]) -> Option<f64> {
     let mut largest: f64 = 0.0;
     for (name, inputs, bound) in configs {
         let mut worst = (f64::MIN, String::new());
-        for r in [0.0, 0.25, 0.5, 1.0] {
+        for r in [0.0, 0.25, 0.5, 0.75, 1.0] {
             let est = furnace(lib, &doc(node, &inputs(r)));
             for ((mean, se, albedo), deg) in est.iter().zip(VIEWS) {
                 eprintln!(
@@ -603,6 +672,11 @@ fn layered_standard_surface_gains_at_most_its_fits_errors_in_a_white_furnace() {
 #[test]
 fn layered_open_pbr_surface_gains_at_most_its_fits_errors_in_a_white_furnace() {
     layered_furnace("open_pbr_surface", &OPEN_PBR);
+}
+
+#[test]
+fn layered_gltf_pbr_gains_at_most_its_fits_errors_in_a_white_furnace() {
+    layered_furnace("gltf_pbr", &GLTF);
 }
 
 /// A material of one pbrlib BSDF node `bsdf` (its inputs in `inputs`, MaterialX syntax).

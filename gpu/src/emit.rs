@@ -99,8 +99,9 @@ const LIBRARY_SOURCE: &str = include_str!("wgsl/lib.wgsl");
 
 /// The WGSL intrinsic library: every `sn_*` function the expressions of [`op_expr`] call
 /// (each kernel includes the declarations it uses). `wgsl/lib.wgsl` with the noise's
-/// permutation table and the GGX albedo table taken from the CPU's
-/// (`shadenet_graph::ops::noise::PERM`, `ops::ggx_albedo::table`), so the two cannot drift
+/// permutation table and the albedo tables taken from the CPU's
+/// (`shadenet_graph::ops::noise::PERM`, `ops::ggx_albedo::table`,
+/// `ops::dielectric_albedo::table`, `ops::sheen_albedo::table`), so the two cannot drift
 /// apart.
 pub fn library() -> &'static str {
     static LIBRARY: std::sync::LazyLock<String> = std::sync::LazyLock::new(|| {
@@ -124,11 +125,36 @@ pub fn library() -> &'static str {
             })
             .collect();
         let ggx = format!("(\n{}\n)", ggx.join("\n"));
+        let dielectric = floats(shadenet_graph::ops::dielectric_albedo::table());
+        let sheen: Vec<f32> = shadenet_graph::ops::sheen_albedo::table()
+            .iter()
+            .flatten()
+            .copied()
+            .collect();
         LIBRARY_SOURCE
             .replacen("(SN_PERM_ENTRIES)", &entries, 1)
             .replacen("(SN_GGX_ALBEDO_ENTRIES)", &ggx, 1)
+            .replacen("(SN_DIELECTRIC_ALBEDO_ENTRIES)", &dielectric, 1)
+            .replacen("(SN_SHEEN_ALBEDO_ENTRIES)", &floats(&sheen), 1)
+            .replacen(
+                "SN_SHEEN_INV_LN",
+                &format!("{:?}f", shadenet_graph::ops::sheen_albedo::INV_LN),
+                1,
+            )
     });
     &LIBRARY
+}
+
+/// A WGSL array initializer of `xs`, each f32 in its shortest exact decimal, 8 a row.
+fn floats(xs: &[f32]) -> String {
+    let rows: Vec<String> = xs
+        .chunks(8)
+        .map(|row| {
+            let row: Vec<String> = row.iter().map(|x| format!("{x:?}f")).collect();
+            format!("    {},", row.join(", "))
+        })
+        .collect();
+    format!("(\n{}\n)", rows.join("\n"))
 }
 
 /// Texture lookup (`sn_texture(tex: u32, uv: vec2<f32>) -> vec4<f32>`), which reads the
@@ -430,7 +456,7 @@ pub fn op_expr(
             let mut parts: Vec<String> = args.iter().map(|a| arg(*a)).collect();
             let worley =
                 ops::osl_intrinsic_operands(*i).is_some_and(|o| o.get(1) == Some(&Type::Float));
-            if *i == Intrinsic::RgbToHsv || worley {
+            if matches!(i, Intrinsic::RgbToHsv | Intrinsic::SheenAlbedo) || worley {
                 parts.push(KEY.into());
             }
             let f = match i {

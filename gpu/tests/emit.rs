@@ -403,7 +403,8 @@ fn op_table() -> Vec<Row> {
             Intrinsic::Noise3 | Intrinsic::CellNoise3 => vec![Type::Vec3],
             Intrinsic::Fbm3 => vec![Type::Vec3, Type::Int, Type::Float, Type::Float],
             Intrinsic::RgbToHsv | Intrinsic::HsvToRgb => vec![Type::Color],
-            Intrinsic::GgxAlbedo => vec![Type::Float, Type::Float],
+            Intrinsic::GgxAlbedo | Intrinsic::SheenAlbedo => vec![Type::Float, Type::Float],
+            Intrinsic::DielectricAlbedo => vec![Type::Float; 3],
             osl => ops::osl_intrinsic_operands(osl)
                 .expect("an OSL noise intrinsic")
                 .to_vec(),

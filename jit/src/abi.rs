@@ -465,6 +465,12 @@ fn rgb_to_hsv(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
 fn ggx_albedo(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
     o.copy_from_slice(&ops::ggx_albedo::ggx_albedo(a[0], a[1]));
 }
+fn dielectric_albedo(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = ops::dielectric_albedo::dielectric_albedo(a[0], a[1], a[2]);
+}
+fn sheen_albedo(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&ops::sheen_albedo::sheen_albedo(a[0], a[1]));
+}
 fn hsv_to_rgb(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
     o.copy_from_slice(&ops::hsv_to_rgb([a[0], a[1], a[2]]));
 }
@@ -860,6 +866,8 @@ mem_helpers! {
     rgb_to_hsv: 3 -> 3 => rgb_to_hsv_x4,
     hsv_to_rgb: 3 -> 3 => hsv_to_rgb_x4,
     ggx_albedo: 2 -> 2,
+    dielectric_albedo: 3 -> 1,
+    sheen_albedo: 2 -> 2,
     osl_perlin2: 2 -> 1 => osl_perlin2_x4,
     osl_perlin3: 3 -> 1 => osl_perlin3_x4,
     osl_vperlin2: 2 -> 3 => osl_vperlin2_x4,

@@ -776,6 +776,64 @@ fn sn_ggx_albedo(c: f32, alpha: f32) -> vec2<f32> {
     return r;
 }
 
+// ---- dielectric directional albedo (ops::dielectric_albedo) ----
+
+// 16 √cos θo nodes by 16 α^¼ nodes by 13 F0^¼ nodes: `emit::library()` writes the CPU's
+// table (`ops::dielectric_albedo::table`) in place of SN_DIELECTRIC_ALBEDO_ENTRIES.
+var<private> SN_DIELECTRIC_ALBEDO: array<f32, 3328> = array<f32, 3328>(SN_DIELECTRIC_ALBEDO_ENTRIES);
+
+fn sn_dielectric_at(i: i32, j: i32, k: i32) -> f32 {
+    return SN_DIELECTRIC_ALBEDO[(k * 16i + j) * 16i + i];
+}
+
+fn sn_dielectric_plane(i: i32, j: i32, k: i32, tx: f32, ty: f32) -> f32 {
+    let lo = sn_dielectric_at(i, j, k) + (sn_dielectric_at(i + 1i, j, k) - sn_dielectric_at(i, j, k)) * tx;
+    let hi = sn_dielectric_at(i, j + 1i, k) + (sn_dielectric_at(i + 1i, j + 1i, k) - sn_dielectric_at(i, j + 1i, k)) * tx;
+    return lo + (hi - lo) * ty;
+}
+
+// ops::dielectric_albedo::dielectric_albedo: trilinear in √cos θo, α^¼ and √(|η − 1|/(η + 1)).
+fn sn_dielectric_albedo(c: f32, alpha: f32, etap: f32) -> f32 {
+    let x = sn_ggx_axis(sn_sqrt(c), 16i);
+    let y = sn_ggx_axis(sn_sqrt(sn_sqrt(alpha)), 16i);
+    let e0 = select(0.0f, etap, etap > 0.0f);
+    let e = select(1e30f, e0, e0 < 1e30f);
+    let z = sn_ggx_axis(sn_sqrt(abs(e - 1.0f) / (e + 1.0f)), 13i);
+    let i = i32(x.x);
+    let j = i32(y.x);
+    let k = i32(z.x);
+    let p0 = sn_dielectric_plane(i, j, k, x.y, y.y);
+    let p1 = sn_dielectric_plane(i, j, k + 1i, x.y, y.y);
+    return p0 + (p1 - p0) * z.y;
+}
+
+// ---- sheen directional albedo (ops::sheen_albedo) ----
+
+// (E, G) pairs, 32 √cos θo nodes by 12 ln(r/r₀)/ln(1/r₀) nodes (r₀ = 0.005):
+// `emit::library()` writes the CPU's table (`ops::sheen_albedo::table`) in place of
+// SN_SHEEN_ALBEDO_ENTRIES.
+var<private> SN_SHEEN_ALBEDO: array<f32, 768> = array<f32, 768>(SN_SHEEN_ALBEDO_ENTRIES);
+
+fn sn_sheen_at(i: i32, j: i32, k: i32) -> f32 {
+    return SN_SHEEN_ALBEDO[(j * 32i + i) * 2i + k];
+}
+
+// ops::sheen_albedo::sheen_albedo: bilinear in √cos θo and ln(r/r₀)/ln(1/r₀).
+fn sn_sheen_albedo(c: f32, roughness: f32, key: u32) -> vec2<f32> {
+    let x = sn_ggx_axis(sn_sqrt(c), 32i);
+    let r = select(0.005f, roughness, roughness > 0.005f);
+    let y = sn_ggx_axis(sn_log(r * 200.0f, key) * SN_SHEEN_INV_LN, 12i);
+    let i = i32(x.x);
+    let j = i32(y.x);
+    var o: vec2<f32>;
+    for (var k = 0i; k < 2i; k++) {
+        let lo = sn_sheen_at(i, j, k) + (sn_sheen_at(i + 1i, j, k) - sn_sheen_at(i, j, k)) * x.y;
+        let hi = sn_sheen_at(i, j + 1i, k) + (sn_sheen_at(i + 1i, j + 1i, k) - sn_sheen_at(i, j + 1i, k)) * x.y;
+        o[k] = lo + (hi - lo) * y.y;
+    }
+    return o;
+}
+
 // ---- noise (ops::noise) ----
 
 // Ken Perlin's reference permutation (Improved Noise, 2002): `emit::library()` writes

@@ -11,10 +11,13 @@
 //! with pbrt-v4's `1/etap²` radiance scaling (see [`ggx`]). In `RT` reflection is chosen
 //! with probability `F(wo·h)` using `u.z`.
 //!
-//! Albedo: `R` uses the GGX albedo table (`ops::ggx_albedo`) as MaterialX uses its fit: `tint max(F0 A + B, F(cos θo) (A + B) max(1 − 4ᾱ, 0))`,
-//! `F0 = ((etap − 1)/(etap + 1))²` (Schlick's split of the exact Fresnel, as MaterialX does,
-//! raised for near-mirror lobes to the exact Fresnel at the view angle where Schlick's is
-//! lower, so that `layer` does not give the base light the top reflects; `ᾱ = √(αx αy)`);
+//! Albedo: `R` is `tint` times the directional albedo of this lobe with its exact Fresnel,
+//! a table of our own integration over `(cos θo, α, √F0)` (`ops::dielectric_albedo`, the
+//! intrinsic `dielectric_albedo`, `ᾱ = √(αx αy)`; it replaced Schlick's split `F0 A + B` of
+//! the GGX table, under which `layer` gave the base up to 3 % of light the top reflects).
+//! The table is for a viewer outside; inside it is raised, for near-mirror lobes, to the
+//! exact Fresnel at the view angle times the white albedo, `F(cos θo)(A + B) max(1 − 4ᾱ,
+//! 0)` (total internal reflection).
 //! `T` and `RT` give `tint`, the
 //! energy (flux) the interface passes on when nothing is absorbed, ignoring the few
 //! percent that single-scattering GGX loses at high roughness and, for `T`, the reflected
@@ -30,7 +33,7 @@
 use super::ggx::{self, Alpha, Microfacet};
 use super::math::{f, gray, lt, safe_sqrt, sq};
 use super::{Eval, Sample, ScatterMode, ThinFilm, thin_film};
-use crate::ir::{Builder, Value};
+use crate::ir::{Builder, Intrinsic, Value};
 use crate::types::Type;
 
 /// The exact unpolarized Fresnel reflectance of a dielectric (float) at `c = cos` (≥ 0)
@@ -142,24 +145,22 @@ impl Dielectric {
         let alpha = Alpha::new(b, self.roughness);
         let etap = etap(b, self.ior, self.inside);
         let one = f(b, 1.0);
-        let em = b.sub(etap, one);
-        let ep = b.add(etap, one);
-        let r = b.div(em, ep);
-        let f0 = sq(b, r);
-        let f0 = gray(b, f0);
         let w = gray(b, one);
-        let e = ggx::albedo_f0_f90(b, alpha, wo, f0, w);
-        // Schlick's split underestimates the exact Fresnel of a near-mirror interface
-        // (ior 1.5 at 60°: 0.070 against 0.089), and `layer` would give the base that
-        // difference. A near-mirror lobe's albedo is the exact Fresnel at `wo` times the
-        // white albedo; rough lobes average the Fresnel over tilted microfacets (lower at
-        // grazing views), so that bound fades out linearly by α = 0.25.
-        let white = ggx::albedo_f0_f90(b, alpha, wo, w, w);
         let co = super::math::comp(b, wo, 2);
         let zero = f(b, 0.0);
+        let up = super::math::gt(b, co, zero);
         let co = b.max(co, zero);
-        let fr = fresnel(b, co, etap);
         let avg = alpha.average(b);
+        let e = b.call(Intrinsic::DielectricAlbedo, &[co, avg, etap]);
+        let e = b.select(up, e, zero);
+        let e = gray(b, e);
+        // The table is for a viewer outside (`η ≥ 1`); inside, it reads the node of `1/η`
+        // and misses total internal reflection. A near-mirror lobe's albedo is the exact
+        // Fresnel at `wo` times the white albedo; rough lobes average the Fresnel over
+        // tilted microfacets, so that bound fades out linearly by α = 0.25. (Outside it is
+        // below the table's value up to the table's error.)
+        let white = ggx::albedo_f0_f90(b, alpha, wo, w, w);
+        let fr = fresnel(b, co, etap);
         let k = f(b, 4.0);
         let fade = b.mul(avg, k);
         let fade = b.sub(one, fade);

@@ -12,19 +12,24 @@
 //! comes from grazing half-vectors, and `f cos θi / pdf = π D l / (2(l + c − lc)) ≤ π D/2`
 //! stays bounded at grazing views, where the cosine density's weight grows as `1/c`.
 //!
-//! The directional albedo is MaterialX's rational fit of Monte Carlo data,
-//! `(13.673 − 68.78018 c + 799.08825 r − 905.00061 c r + 60.28956 c² + 1086.96473 r²) /
-//! (1 + 61.57746 c + 442.78211 r + 2597.49308 c r + 121.81241 c² + 3045.55075 r²)`,
-//! clamped to [0, 1], times `color` (with the roughness as given). The lobe suite checks the
-//! fit against a Monte Carlo estimate of this lobe: within 0.1 (it is 0.157 at `c = 1`,
-//! `r = 1`, where the exact value is 0.1414), except at grazing views with roughness ≤ 0.1,
-//! where the model itself gains energy (no shadowing term: a white lobe reflects 5.3× what
-//! it receives at 89.9° and roughness 0) and the fit is clamped at 1. MaterialX's `zeltner`
-//! mode (an LTC sheen) is not built here: the node lowering must refuse it with an error.
+//! The model reflects more than it receives at grazing views of smooth roughness (no
+//! shadowing term: a white lobe 5.3× at 89.9° and roughness 0, 1.3× at 0.1). The lobe here
+//! is divided by `N(cos θo) N(cos θi)`, `N(x) = max(1, E(x))` with `E` the model's own
+//! directional albedo: reciprocal, never above 1 in a white furnace, and exactly the model
+//! wherever it reflects at most what it receives from both directions (every view at
+//! roughness ≥ 0.3).
+//!
+//! `E` and the normalized lobe's albedo (what [`albedo`] gives, times `color`) come from one
+//! table of our own integration (`ops::sheen_albedo`, the intrinsic
+//! `sheen_albedo`); it replaced MaterialX's rational fit, which is up to 0.1 off the model
+//! (0.157 at `c = 1`, `r = 1`, where the model's is 0.1414) and under which `layer` gave
+//! standard_surface's sheen 8.4 % more than the light in a white furnace. MaterialX's
+//! `zeltner` mode (an LTC sheen) is not built here: the node lowering must refuse it with
+//! an error.
 
-use super::math::{div_pdf, f, gt, one_minus, pos, safe_sqrt, saturate, scale, sq, vec3};
+use super::math::{div_pdf, f, gt, one_minus, pos, safe_sqrt, scale, sq, vec3};
 use super::{Eval, Sample};
-use crate::ir::{BinOp, Builder, UnOp, Value};
+use crate::ir::{BinOp, Builder, Intrinsic, UnOp, Value};
 use crate::types::Type;
 use std::f64::consts::PI;
 
@@ -61,6 +66,10 @@ pub fn eval(b: &mut Builder, color: Value, roughness: Value, wo: Value, wi: Valu
     let den = b.mul(four, den);
     let fr = b.div(d, den);
     let fr = b.mul(fr, l);
+    let nc = normalization(b, c, roughness);
+    let nl = normalization(b, l, roughness);
+    let n = b.mul(nc, nl);
+    let fr = b.div(fr, n);
     let value = scale(b, color, fr);
     let black = b.zero(Type::Color);
     let value = b.select(up, value, black);
@@ -90,41 +99,26 @@ pub fn sample(b: &mut Builder, color: Value, roughness: Value, wo: Value, u: Val
     }
 }
 
-/// MaterialX's rational albedo fit times `color`, 0 for `cos θo ≤ 0`.
+/// `N(x) = max(1, E(x))`, `E` the raw lobe's albedo at `cos θo = x` (the table).
+fn normalization(b: &mut Builder, x: Value, roughness: Value) -> Value {
+    let e = b.call(Intrinsic::SheenAlbedo, &[x, roughness]);
+    let e = b.extract(e, 0);
+    let one = f(b, 1.0);
+    b.max(e, one)
+}
+
+/// The normalized lobe's albedo `G / N(cos θo)` (the table's `(E, G)`, `N = max(1, E)`)
+/// times `color`, 0 for `cos θo ≤ 0`.
 pub fn albedo(b: &mut Builder, color: Value, roughness: Value, wo: Value) -> Value {
     let c = b.extract(wo, 2);
-    let cr = b.mul(c, roughness);
-    let c2 = sq(b, c);
-    let r2 = sq(b, roughness);
-    let terms = [c, roughness, cr, c2, r2];
-    let num = fit(
-        b,
-        13.673,
-        &terms,
-        [-68.78018, 799.08825, -905.00061, 60.28956, 1086.96473],
-    );
-    let den = fit(
-        b,
-        1.0,
-        &terms,
-        [61.57746, 442.78211, 2597.49308, 121.81241, 3045.55075],
-    );
-    let e = b.div(num, den);
-    let e = saturate(b, e);
+    let eg = b.call(Intrinsic::SheenAlbedo, &[c, roughness]);
+    let (e, g) = (b.extract(eg, 0), b.extract(eg, 1));
+    let one = f(b, 1.0);
+    let n = b.max(e, one);
+    let e = b.div(g, n);
     let a = scale(b, color, e);
     let zero = f(b, 0.0);
     let up = gt(b, c, zero);
     let black = b.zero(Type::Color);
     b.select(up, a, black)
-}
-
-/// `k0 + Σ k_i t_i`.
-fn fit(b: &mut Builder, k0: f64, terms: &[Value; 5], k: [f64; 5]) -> Value {
-    let mut s = f(b, k0);
-    for (t, k) in terms.iter().zip(k) {
-        let k = f(b, k);
-        let x = b.mul(k, *t);
-        s = b.add(s, x);
-    }
-    s
 }

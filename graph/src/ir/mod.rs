@@ -510,6 +510,14 @@ named_enum! {
         /// α: float)` → `(A, B)` (vec2): it reflects `F0·A + F90·B`
         /// ([`crate::ops::ggx_albedo`], a table of our own integration).
         GgxAlbedo = "ggx_albedo",
+        /// The directional albedo of a GGX dielectric's reflection with the exact Fresnel,
+        /// `(cos θo: float, α: float, η: float)` → float
+        /// ([`crate::ops::dielectric_albedo`], a table of our own integration).
+        DielectricAlbedo = "dielectric_albedo",
+        /// The directional albedo of the sheen lobe, `(cos θo: float, roughness: float)` →
+        /// `(E, G)` (vec2): the raw lobe's albedo and the normalized lobe's albedo times
+        /// `max(1, E)` ([`crate::ops::sheen_albedo`], a table of our own integration).
+        SheenAlbedo = "sheen_albedo",
     }
 }
 

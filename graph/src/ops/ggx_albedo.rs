@@ -35,12 +35,29 @@ const MIN_ALPHA: f64 = 1e-4;
 /// `n` × `n` midpoint grid of the sampling square: the estimator is smooth in the square,
 /// so the grid converges fast for every roughness.
 pub fn integrate(c: f64, a: f64, n: usize) -> (f64, f64) {
+    let (mut sa, mut sb) = (0.0, 0.0);
+    for_each_sample(c, a, n, |w, vh| {
+        let f = 1.0 - vh.max(0.0);
+        let f5 = f * f * f * f * f;
+        sa += w * (1.0 - f5);
+        sb += w * f5;
+    });
+    let k = (n * n) as f64;
+    (sa / k, sb / k)
+}
+
+/// The visible-normal samples of a GGX reflection at `cos θo = c` (clamped to
+/// [1e-4, 1]) and roughness `a` (clamped to [1e-4, 1]) on an `n` × `n` midpoint grid of
+/// the sampling square (spherical caps, Dupuy & Benyoub 2023): `visit(G2/G1, wo·h)` for
+/// each sample whose mirror direction is above the horizon. The mean of `G2/G1 · F(wo·h)`
+/// over all `n²` points is the directional albedo of the lobe with Fresnel `F`; the
+/// tables of this module and [`super::dielectric_albedo`] integrate through it.
+pub fn for_each_sample(c: f64, a: f64, n: usize, mut visit: impl FnMut(f64, f64)) {
     let c = c.clamp(MIN_COS, 1.0);
     let a = a.clamp(MIN_ALPHA, 1.0);
     let wo = [(1.0 - c * c).sqrt(), 0.0, c];
     let v = norm([wo[0] * a, wo[1] * a, wo[2]]);
     let g1o = 2.0 * c / (c + proj(a, wo));
-    let (mut sa, mut sb) = (0.0, 0.0);
     for i in 0..n {
         let u1 = (i as f64 + 0.5) / n as f64;
         let phi = 2.0 * std::f64::consts::PI * u1;
@@ -62,15 +79,9 @@ pub fn integrate(c: f64, a: f64, n: usize) -> (f64, f64) {
                 continue;
             }
             let g2 = 2.0 * c * wi[2] / (proj(a, wo) * wi[2] + proj(a, wi) * c);
-            let w = g2 / g1o;
-            let f = 1.0 - vh.max(0.0);
-            let f5 = f * f * f * f * f;
-            sa += w * (1.0 - f5);
-            sb += w * f5;
+            visit(g2 / g1o, vh);
         }
     }
-    let k = (n * n) as f64;
-    (sa / k, sb / k)
 }
 
 fn norm(v: [f64; 3]) -> [f64; 3] {
@@ -106,19 +117,23 @@ pub fn table() -> &'static [[f32; 2]] {
     })
 }
 
+/// A table coordinate `x` clamped to [0, 1] (NaN to 0) on an axis of `n` nodes uniform over
+/// [0, 1]: the node below (at most `n − 2`) and the fraction past it. Every table lookup
+/// (and its WGSL copy, `sn_ggx_axis`) places its coordinates with it.
+pub fn axis<F: Real>(x: F, n: usize) -> (usize, F) {
+    let x = if x > F::ZERO { x } else { F::ZERO };
+    let x = if x < F::ONE { x } else { F::ONE };
+    let s = x * F::from_f64((n - 1) as f64);
+    let i = s.floor();
+    let k = (i.to_i32().max(0) as usize).min(n - 2);
+    (k, s - F::from_i32(k as i32))
+}
+
 /// `(A, B)` at `cos θo = cos` and roughness `alpha`: the table interpolated bilinearly in
 /// `√cos θo` and `α^¼`, both clamped to [0, 1] (NaN reads the first node). The same
 /// operations in the same order at either precision.
 pub fn ggx_albedo<F: Real>(cos: F, alpha: F) -> [F; 2] {
     let t = table();
-    let axis = |x: F, n: usize| -> (usize, F) {
-        let x = if x > F::ZERO { x } else { F::ZERO };
-        let x = if x < F::ONE { x } else { F::ONE };
-        let s = x * F::from_f64((n - 1) as f64);
-        let i = s.floor();
-        let k = (i.to_i32().max(0) as usize).min(n - 2);
-        (k, s - F::from_i32(k as i32))
-    };
     let (i, tx) = axis(cos.sqrt(), N_COS);
     let (j, ty) = axis(alpha.sqrt().sqrt(), N_ROUGH);
     let at = |i: usize, j: usize, k: usize| F::from_f64(f64::from(t[j * N_COS + i][k]));

@@ -15,6 +15,7 @@
 //! material output guard, which replaces them with 0 and counts them.
 
 pub mod cell_hsv_x4;
+pub mod dielectric_albedo;
 pub mod ggx_albedo;
 pub mod math;
 pub mod math_x4;
@@ -22,6 +23,7 @@ pub mod noise;
 pub mod noise_x4;
 pub mod osl_noise;
 pub mod osl_noise_x4;
+pub mod sheen_albedo;
 pub mod simd;
 
 use crate::ir::{BinOp, Intrinsic, UnOp, XformKind};
@@ -539,12 +541,13 @@ pub fn intrinsic_type(i: Intrinsic, args: &[Type]) -> Option<Type> {
         Noise3 | CellNoise3 => args == [Type::Vec3],
         Fbm3 => args == [Type::Vec3, Type::Int, Type::Float, Type::Float],
         RgbToHsv | HsvToRgb => args == [Type::Color],
-        GgxAlbedo => args == [Type::Float, Type::Float],
+        GgxAlbedo | SheenAlbedo => args == [Type::Float, Type::Float],
+        DielectricAlbedo => args == [Type::Float, Type::Float, Type::Float],
         _ => return osl_intrinsic_type(i, args),
     };
     ok.then_some(match i {
         RgbToHsv | HsvToRgb => Type::Color,
-        GgxAlbedo => Type::Vec2,
+        GgxAlbedo | SheenAlbedo => Type::Vec2,
         _ => Type::Float,
     })
 }
@@ -756,6 +759,15 @@ pub fn intrinsic<F: Real>(i: Intrinsic, args: &[Val<F>]) -> Val<F> {
         Intrinsic::GgxAlbedo => {
             Val::Vec2(ggx_albedo::ggx_albedo(arg(0).as_float(), arg(1).as_float()))
         }
+        Intrinsic::DielectricAlbedo => Val::Float(dielectric_albedo::dielectric_albedo(
+            arg(0).as_float(),
+            arg(1).as_float(),
+            arg(2).as_float(),
+        )),
+        Intrinsic::SheenAlbedo => Val::Vec2(sheen_albedo::sheen_albedo(
+            arg(0).as_float(),
+            arg(1).as_float(),
+        )),
         _ => osl_intrinsic(i, args),
     }
 }
