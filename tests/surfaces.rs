@@ -441,7 +441,7 @@ const STANDARD: [Config; 7] = [
                 f("specular_roughness", r),
             ]
         },
-        0.02,
+        0.006,
     ),
     (
         "+ coat",
@@ -454,7 +454,7 @@ const STANDARD: [Config; 7] = [
                 f("coat_roughness", r),
             ]
         },
-        0.035,
+        0.006,
     ),
     (
         "+ coat + sheen",
@@ -470,7 +470,7 @@ const STANDARD: [Config; 7] = [
                 f("sheen_roughness", r),
             ]
         },
-        0.10,
+        0.006,
     ),
     (
         "+ sheen",
@@ -484,7 +484,7 @@ const STANDARD: [Config; 7] = [
                 f("sheen_roughness", r),
             ]
         },
-        0.10,
+        0.006,
     ),
     (
         "transmission",
@@ -515,7 +515,7 @@ const STANDARD: [Config; 7] = [
                 f("coat_roughness", r),
             ]
         },
-        0.02,
+        0.006,
     ),
 ];
 
@@ -523,7 +523,7 @@ const OPEN_PBR: [Config; 5] = [
     (
         "white diffuse + specular",
         |r| vec![c("base_color", WHITE), f("specular_roughness", r)],
-        0.02,
+        0.006,
     ),
     (
         "+ coat",
@@ -535,7 +535,7 @@ const OPEN_PBR: [Config; 5] = [
                 f("coat_roughness", r),
             ]
         },
-        0.01,
+        0.006,
     ),
     (
         "transmission",
@@ -564,7 +564,7 @@ const OPEN_PBR: [Config; 5] = [
                 f("coat_roughness", r),
             ]
         },
-        0.02,
+        0.006,
     ),
 ];
 
@@ -578,7 +578,7 @@ const GLTF: [Config; 4] = [
                 f("roughness", r),
             ]
         },
-        0.02,
+        0.006,
     ),
     (
         "+ clearcoat",
@@ -591,7 +591,7 @@ const GLTF: [Config; 4] = [
                 f("clearcoat_roughness", r),
             ]
         },
-        0.02,
+        0.006,
     ),
     (
         "+ sheen",
@@ -604,7 +604,7 @@ const GLTF: [Config; 4] = [
                 f("sheen_roughness", r),
             ]
         },
-        0.10,
+        0.006,
     ),
     (
         "+ clearcoat + sheen",
@@ -619,7 +619,7 @@ const GLTF: [Config; 4] = [
                 f("sheen_roughness", r),
             ]
         },
-        0.10,
+        0.006,
     ),
 ];
 
@@ -635,7 +635,7 @@ fn layered_furnace(node: &str, configs: &[Config]) -> Option<f64> {
             let est = furnace(lib, &doc(node, &inputs(r)));
             for ((mean, se, albedo), deg) in est.iter().zip(VIEWS) {
                 eprintln!(
-                    "{node} {name}, roughness {r}, {deg}°: E[weight] = {mean:.4} ± {se:.4} (albedo fit {albedo:.4})"
+                    "{node} {name}, roughness {r}, {deg}°: E[weight] = {mean:.4} ± {se:.4} (albedo {albedo:.4})"
                 );
                 largest = largest.max(*mean);
                 let excess = mean - 3.0 * se - 1.0;
@@ -658,24 +658,25 @@ fn layered_furnace(node: &str, configs: &[Config]) -> Option<f64> {
 }
 
 // The measured excess (README, docs/closures.md): `layer` scales the base by `1 − albedo
-// (top)`; the GGX albedo is our table (exact to 0.007), the dielectric's uses Schlick's split
-// of its exact Fresnel (up to +1.8 % for one dielectric layer, +3.3 % under a coat, the
-// mirror limit at 89.9°: +0.4 %) and the sheen albedo is a fit (+8.4 % at roughness 1 and
-// grazing views).
+// (top)`, and every albedo it subtracts is a table of our own integration of the lobe
+// itself (GGX, the exact-Fresnel dielectric, the normalized sheen). What remains is the
+// tables' interpolation at grazing views of near-mirror lobes: at most +0.55 % (roughness 0,
+// 89.9°), hence 0.006 for every configuration. (Before the dielectric and sheen tables:
+// +3.3 % under a coat at roughness 0.25 and 60°, +8.4 % with sheen at roughness 1, 89.9°.)
 // Transmission and white metal alone stay within noise of ≤ 1.
 
 #[test]
-fn layered_standard_surface_gains_at_most_its_fits_errors_in_a_white_furnace() {
+fn layered_standard_surface_gains_at_most_its_tables_errors_in_a_white_furnace() {
     layered_furnace("standard_surface", &STANDARD);
 }
 
 #[test]
-fn layered_open_pbr_surface_gains_at_most_its_fits_errors_in_a_white_furnace() {
+fn layered_open_pbr_surface_gains_at_most_its_tables_errors_in_a_white_furnace() {
     layered_furnace("open_pbr_surface", &OPEN_PBR);
 }
 
 #[test]
-fn layered_gltf_pbr_gains_at_most_its_fits_errors_in_a_white_furnace() {
+fn layered_gltf_pbr_gains_at_most_its_tables_errors_in_a_white_furnace() {
     layered_furnace("gltf_pbr", &GLTF);
 }
 
