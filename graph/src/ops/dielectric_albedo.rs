@@ -119,9 +119,8 @@ pub fn dielectric_albedo<F: Real>(cos: F, alpha: F, etap: F) -> F {
     let e = if e < big { e } else { big };
     let r = (e - F::ONE).abs() / (e + F::ONE);
     let (k, tz) = axis(r.sqrt(), N_R);
-    let at = |i: usize, j: usize, k: usize| {
-        F::from_f64(f64::from(t[(k * N_ROUGH + j) * N_COS + i]))
-    };
+    let at =
+        |i: usize, j: usize, k: usize| F::from_f64(f64::from(t[(k * N_ROUGH + j) * N_COS + i]));
     let plane = |k: usize| {
         let lo = at(i, j, k) + (at(i + 1, j, k) - at(i, j, k)) * tx;
         let hi = at(i, j + 1, k) + (at(i + 1, j + 1, k) - at(i, j + 1, k)) * tx;
@@ -188,7 +187,10 @@ mod tests {
                 }
             }
         }
-        eprintln!("table max |error|: main {}, grazing/smooth {}, Schlick's split {schlick}", err[0], err[1]);
+        eprintln!(
+            "table max |error|: main {}, grazing/smooth {}, Schlick's split {schlick}",
+            err[0], err[1]
+        );
         assert!(err[0] < 6e-3 && err[1] < 2e-2, "{err:?}");
         assert!(schlick > 0.1, "{schlick}");
     }

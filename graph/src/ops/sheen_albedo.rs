@@ -84,7 +84,10 @@ pub fn integrate(c: f64, r: f64, nt: usize, nphi: usize, n: &dyn Fn(f64) -> f64)
 fn node(i: usize, j: usize) -> (f64, f64) {
     let x = i as f64 / (N_COS - 1) as f64;
     let y = j as f64 / (N_ROUGH - 1) as f64;
-    (x * x, MIN_ROUGHNESS * math::exp(y * math::log(1.0 / MIN_ROUGHNESS)))
+    (
+        x * x,
+        MIN_ROUGHNESS * math::exp(y * math::log(1.0 / MIN_ROUGHNESS)),
+    )
 }
 
 /// The table, `(E, G)` at node `(i, j)` at index `j·N_COS + i` (`i` along `√cos θo`, `j`
@@ -161,7 +164,10 @@ mod tests {
             }
             let direct = s * (1.0 / nl as f64) * (2.0 * PI / np as f64);
             let e = integrate(c, r, GRID_T, GRID_PHI, &|_| 1.0);
-            assert!((e - direct).abs() < 2e-3 * direct.max(1.0), "{c} {r}: {e} vs {direct}");
+            assert!(
+                (e - direct).abs() < 2e-3 * direct.max(1.0),
+                "{c} {r}: {e} vs {direct}"
+            );
         }
     }
 
@@ -189,7 +195,10 @@ mod tests {
                 most = most.max(g / nc);
             }
         }
-        eprintln!("sheen table: E rel error {}, albedo error {}, largest {most}", err[0], err[1]);
+        eprintln!(
+            "sheen table: E rel error {}, albedo error {}, largest {most}",
+            err[0], err[1]
+        );
         assert!(err[0] < 0.015 && err[1] < 0.01, "{err:?}");
         assert!(most <= 1.002, "{most}");
     }
