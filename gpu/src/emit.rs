@@ -99,10 +99,10 @@ const LIBRARY_SOURCE: &str = include_str!("wgsl/lib.wgsl");
 
 /// The WGSL intrinsic library: every `sn_*` function the expressions of [`op_expr`] call
 /// (each kernel includes the declarations it uses). `wgsl/lib.wgsl` with the noise's
-/// permutation table and the albedo tables taken from the CPU's
-/// (`shadenet_graph::ops::noise::PERM`, `ops::ggx_albedo::table`,
-/// `ops::dielectric_albedo::table`, `ops::sheen_albedo::table`), so the two cannot drift
-/// apart.
+/// permutation table taken from the CPU's (`shadenet_graph::ops::noise::PERM`), so the two
+/// cannot drift apart. The albedo tables are not in the text: their lookups read the
+/// storage buffer `sn_tables` ([`albedo_tables`]), which a kernel whose library reads it
+/// binds ([`TABLES_BINDING`]).
 pub fn library() -> &'static str {
     static LIBRARY: std::sync::LazyLock<String> = std::sync::LazyLock::new(|| {
         let rows: Vec<String> = shadenet_graph::ops::noise::PERM
@@ -113,29 +113,8 @@ pub fn library() -> &'static str {
             })
             .collect();
         let entries = format!("(\n{}\n)", rows.join("\n"));
-        // The GGX albedo table, each f32 written in its shortest exact decimal.
-        let ggx: Vec<String> = shadenet_graph::ops::ggx_albedo::table()
-            .chunks(8)
-            .map(|row| {
-                let row: Vec<String> = row
-                    .iter()
-                    .map(|ab| format!("{:?}f, {:?}f", ab[0], ab[1]))
-                    .collect();
-                format!("    {},", row.join(", "))
-            })
-            .collect();
-        let ggx = format!("(\n{}\n)", ggx.join("\n"));
-        let dielectric = floats(shadenet_graph::ops::dielectric_albedo::table());
-        let sheen: Vec<f32> = shadenet_graph::ops::sheen_albedo::table()
-            .iter()
-            .flatten()
-            .copied()
-            .collect();
         LIBRARY_SOURCE
             .replacen("(SN_PERM_ENTRIES)", &entries, 1)
-            .replacen("(SN_GGX_ALBEDO_ENTRIES)", &ggx, 1)
-            .replacen("(SN_DIELECTRIC_ALBEDO_ENTRIES)", &dielectric, 1)
-            .replacen("(SN_SHEEN_ALBEDO_ENTRIES)", &floats(&sheen), 1)
             .replacen(
                 "SN_SHEEN_INV_LN",
                 &format!("{:?}f", shadenet_graph::ops::sheen_albedo::INV_LN),
@@ -145,16 +124,33 @@ pub fn library() -> &'static str {
     &LIBRARY
 }
 
-/// A WGSL array initializer of `xs`, each f32 in its shortest exact decimal, 8 a row.
-fn floats(xs: &[f32]) -> String {
-    let rows: Vec<String> = xs
-        .chunks(8)
-        .map(|row| {
-            let row: Vec<String> = row.iter().map(|x| format!("{x:?}f")).collect();
-            format!("    {},", row.join(", "))
-        })
-        .collect();
-    format!("(\n{}\n)", rows.join("\n"))
+/// The binding of `sn_tables: array<f32>`, the albedo tables ([`albedo_tables`]).
+pub const TABLES_BINDING: u32 = 7;
+
+/// The declaration of `sn_tables` at [`TABLES_BINDING`], which a kernel whose library reads
+/// the tables carries (with [`library`] in full, so does any module that calls the lookups).
+pub const TABLES_DECLARATION: &str =
+    "@group(0) @binding(7) var<storage, read> sn_tables: array<f32>;\n";
+
+/// The contents of `sn_tables`: the CPU's albedo tables end to end, as `wgsl/lib.wgsl`'s
+/// lookups index them — `ops::ggx_albedo::table` ((A, B) pairs) at 0,
+/// `ops::dielectric_albedo::table` at 2048, `ops::sheen_albedo::table` ((E, G) pairs) at
+/// 5376. In a storage buffer rather than in the WGSL text: as `var<private>` arrays every
+/// invocation held a copy, and lavapipe took minutes to compile a kernel that read them.
+pub fn albedo_tables() -> &'static [f32] {
+    static TABLES: std::sync::LazyLock<Vec<f32>> = std::sync::LazyLock::new(|| {
+        let mut t: Vec<f32> = shadenet_graph::ops::ggx_albedo::table()
+            .iter()
+            .flatten()
+            .copied()
+            .collect();
+        assert_eq!(t.len(), 2048, "the GGX table's offset in wgsl/lib.wgsl");
+        t.extend_from_slice(shadenet_graph::ops::dielectric_albedo::table());
+        assert_eq!(t.len(), 5376, "the sheen table's offset in wgsl/lib.wgsl");
+        t.extend(shadenet_graph::ops::sheen_albedo::table().iter().flatten());
+        t
+    });
+    &TABLES
 }
 
 /// Texture lookup (`sn_texture(tex: u32, uv: vec2<f32>) -> vec4<f32>`), which reads the

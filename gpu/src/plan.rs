@@ -42,8 +42,9 @@ pub const U_OBJECT_INV: usize = 56;
 pub const U_VALUES: usize = 72;
 /// Columns of one light sample in `sn_light`: L (3), Cl (3), visible (1), pdf (1).
 pub const LIGHT_COLUMNS: usize = 8;
-/// Storage buffers a kernel may bind at most (uni, frag, out, tmp, light, texels, tex info).
-pub const MAX_BINDINGS: u32 = 7;
+/// Storage buffers a kernel may bind at most (uni, frag, out, tmp, light, texels, tex info,
+/// albedo tables).
+pub const MAX_BINDINGS: u32 = 8;
 
 /// The conditions an item runs under: each `(cond, polarity)` must hold (`cond == polarity`),
 /// outermost first.
@@ -134,6 +135,8 @@ pub struct Pass {
     pub lights: bool,
     /// Whether it reads textures (binds `sn_texels` and `sn_tex_info`).
     pub textures: bool,
+    /// Whether it reads the albedo tables (binds `sn_tables`).
+    pub tables: bool,
     /// Its WGSL kernel.
     pub wgsl: String,
 }
@@ -187,6 +190,8 @@ pub struct Layout {
     pub light_sets: Vec<LightSet>,
     /// Whether some kernel reads textures.
     pub textures: bool,
+    /// Whether some kernel reads the albedo tables.
+    pub tables: bool,
 }
 
 /// A program planned for the GPU: steps, layouts, limits. See the module documentation.
@@ -462,7 +467,7 @@ impl fmt::Display for Plan {
                     writeln!(
                         f,
                         "  pass {pass_no} (step {s}): {} ops in {} items, guard {}, loads {}, \
-                         stores {}, outputs {}{}{}, {} WGSL lines",
+                         stores {}, outputs {}{}{}{}, {} WGSL lines",
                         ps.cost,
                         ps.items.len(),
                         guard_text(&self.names, &ps.guard),
@@ -475,6 +480,7 @@ impl fmt::Display for Plan {
                         },
                         if ps.lights { ", light loop" } else { "" },
                         if ps.textures { ", textures" } else { "" },
+                        if ps.tables { ", albedo tables" } else { "" },
                         ps.wgsl.lines().count()
                     )?;
                     pass_no += 1;

@@ -49,6 +49,12 @@ fn validate(src: &str) -> Result<(), String> {
     Ok(())
 }
 
+/// The intrinsic library with the albedo tables' binding declared (`sn_tables`, which `run`
+/// binds whenever a module declares it).
+fn library() -> String {
+    format!("{}{}", emit::library(), emit::TABLES_DECLARATION)
+}
+
 const TEXTURE_BINDINGS: &str = "
 @group(0) @binding(5) var<storage, read> sn_texels: array<vec4<f32>>;
 @group(0) @binding(6) var<storage, read> sn_tex_info: array<vec4<u32>>;
@@ -56,12 +62,8 @@ const TEXTURE_BINDINGS: &str = "
 
 #[test]
 fn the_libraries_validate() {
-    validate(emit::library()).unwrap_or_else(|e| panic!("LIBRARY:\n{e}"));
-    let src = format!(
-        "{}{TEXTURE_BINDINGS}{}",
-        emit::library(),
-        emit::TEXTURE_LIBRARY
-    );
+    validate(&library()).unwrap_or_else(|e| panic!("LIBRARY:\n{e}"));
+    let src = format!("{}{TEXTURE_BINDINGS}{}", library(), emit::TEXTURE_LIBRARY);
     validate(&src).unwrap_or_else(|e| panic!("TEXTURE_LIBRARY:\n{e}"));
     // Every function of the library is named sn_*.
     for lib in [emit::library(), emit::TEXTURE_LIBRARY] {
@@ -104,7 +106,7 @@ fn constant_expressions_are_not_folded_by_naga() {
     }
     let src = format!(
         "{}\nfn f(sn_keep: u32) -> f32 {{\n{body}    return v{sq} + f32(v{q} + v{r} + v{c}) + v{e} + w{sq} + f32(w{q} + w{r} + w{c}) + w{e};\n}}\n",
-        emit::library(),
+        library(),
         sq = sq.index(),
         q = q.index(),
         r = r.index(),
@@ -642,7 +644,7 @@ fn row_kernel(row: &Row, n: usize) -> String {
     let mut s = String::new();
     s.push_str("@group(0) @binding(0) var<storage, read> sn_in: array<f32>;\n");
     s.push_str("@group(0) @binding(1) var<storage, read_write> sn_res: array<f32>;\n");
-    s.push_str(emit::library());
+    s.push_str(&library());
     s.push_str("\n@compute @workgroup_size(64)\n");
     s.push_str("fn main(@builtin(global_invocation_id) gid: vec3<u32>) {\n");
     writeln!(
@@ -745,10 +747,40 @@ fn run(
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
+    // The albedo tables where the module declares them (the whole library does).
+    let mut extra_bufs = extra_bufs;
+    if src.contains(emit::TABLES_DECLARATION) {
+        extra_bufs.push((
+            emit::TABLES_BINDING,
+            storage(bytemuck::cast_slice(emit::albedo_tables())),
+        ));
+    }
+    // An explicit layout: a binding the entry point does not reach may stay in it.
+    let entry = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    let mut layout_entries = vec![entry(0, true), entry(1, false)];
+    layout_entries.extend(extra_bufs.iter().map(|(b, _)| entry(*b, true)));
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: None,
+        entries: &layout_entries,
+    });
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: None,
+        bind_group_layouts: &[Some(&layout)],
+        immediate_size: 0,
+    });
     let t_compile = std::time::Instant::now();
     let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
         label: None,
-        layout: None,
+        layout: Some(&pipeline_layout),
         module: &module,
         entry_point: Some("main"),
         compilation_options: Default::default(),
@@ -772,7 +804,7 @@ fn run(
     }
     let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: None,
-        layout: &pipeline.get_bind_group_layout(0),
+        layout: &layout,
         entries: &entries,
     });
     if std::env::var("SN_ROW").is_ok() {
@@ -1271,7 +1303,7 @@ fn main() {{
     let sn_keep = bitcast<u32>(sn_in[0]);
 {body}}}
 ",
-        emit::library()
+        library()
     );
     let got = run(&ctx, &src, &[0.0], &[], want.len(), 1);
     for (k, ((ty, w), g)) in want.iter().zip(&got).enumerate() {
@@ -1434,7 +1466,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {{
     }}
 }}
 ",
-        emit::library(),
+        library(),
         emit::TEXTURE_LIBRARY,
         bits.join(", "),
     );
@@ -1552,7 +1584,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {{
     let x = sn_in[i];
 {body}}}
 ",
-        emit::library(),
+        library(),
         n = xs.len()
     );
     let input: Vec<f32> = xs.iter().copied().chain([0.0]).collect();

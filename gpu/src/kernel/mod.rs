@@ -46,6 +46,8 @@ pub(crate) struct KernelText {
     pub wgsl: String,
     /// Whether it reads textures.
     pub textures: bool,
+    /// Whether it reads the albedo tables (binds `sn_tables`).
+    pub tables: bool,
 }
 
 /// Checks a WGSL kernel with naga (parse and validate); the error text names the line.
@@ -82,9 +84,11 @@ pub(crate) fn write(
     let before_guard = (w.remat.clone(), w.loads.clone());
     let body = pass_body(&mut w, p, plan, pass, step)?;
     let entry = entry_point(&w, plan, pass, &guard, &before_guard, &locals, &body)?;
+    let (wgsl, tables) = assemble(&w, p, pass, pass_no, &entry);
     Ok(KernelText {
-        wgsl: assemble(&w, p, pass, pass_no, &entry),
+        wgsl,
         textures: w.uses_textures,
+        tables,
     })
 }
 
@@ -279,8 +283,15 @@ fn entry_point(
 
 /// The whole kernel: a comment naming the material and the pass, what the entry point needs
 /// of the libraries, the bindings the pass uses, the texture library and transform helpers
-/// where it uses them, and the entry point.
-fn assemble(w: &Writer<'_>, p: &Program, pass: &Pass, pass_no: usize, entry: &str) -> String {
+/// where it uses them, and the entry point; and whether its library reads the albedo tables
+/// (`sn_tables`, then bound).
+fn assemble(
+    w: &Writer<'_>,
+    p: &Program,
+    pass: &Pass,
+    pass_no: usize,
+    entry: &str,
+) -> (String, bool) {
     let mut extra = String::new();
     if w.uses_textures {
         extra.push_str(emit::TEXTURE_LIBRARY);
@@ -297,7 +308,9 @@ fn assemble(w: &Writer<'_>, p: &Program, pass: &Pass, pass_no: usize, entry: &st
         "// shadenet: material `{}`, pass {pass_no}",
         p.name.replace(['\n', '\r'], " ")
     );
-    s.push_str(&library_for(emit::library(), &format!("{extra}{entry}")));
+    let library = library_for(emit::library(), &format!("{extra}{entry}"));
+    let tables = library.contains("sn_tables");
+    s.push_str(&library);
     if !s.ends_with('\n') {
         s.push('\n');
     }
@@ -312,7 +325,10 @@ fn assemble(w: &Writer<'_>, p: &Program, pass: &Pass, pass_no: usize, entry: &st
         s.push_str("@group(0) @binding(5) var<storage, read> sn_texels: array<vec4<f32>>;\n");
         s.push_str("@group(0) @binding(6) var<storage, read> sn_tex_info: array<vec4<u32>>;\n");
     }
+    if tables {
+        s.push_str(emit::TABLES_DECLARATION);
+    }
     s.push_str(&extra);
     s.push_str(entry);
-    s
+    (s, tables)
 }

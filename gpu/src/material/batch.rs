@@ -72,6 +72,17 @@ impl GpuMaterial {
                     resource: info.as_entire_binding(),
                 });
             }
+            if pg.tables {
+                let Some(tables) = &self.tables else {
+                    return Err(GpuError::Runtime(
+                        "the albedo tables were not uploaded".into(),
+                    ));
+                };
+                entries.push(wgpu::BindGroupEntry {
+                    binding: crate::emit::TABLES_BINDING,
+                    resource: tables.as_entire_binding(),
+                });
+            }
             let bg = self.device().create_bind_group(&wgpu::BindGroupDescriptor {
                 label: None,
                 layout: &pg.layout,

@@ -124,6 +124,7 @@ struct PassGpu {
     layout: wgpu::BindGroupLayout,
     lights: bool,
     textures: bool,
+    tables: bool,
 }
 
 /// A program compiled for the GPU: its plan, one pipeline per pass, its textures on the
@@ -136,6 +137,8 @@ pub struct GpuMaterial {
     passes: Vec<Option<PassGpu>>,
     /// `sn_texels` and `sn_tex_info`, when a pass reads textures.
     textures: Option<(wgpu::Buffer, wgpu::Buffer)>,
+    /// `sn_tables` (`emit::albedo_tables`), when a pass reads the albedo tables.
+    tables: Option<wgpu::Buffer>,
     /// The uniform slots from [`U_VALUES`] on: prelude values and parameters.
     statics: Vec<f32>,
     companion: Arc<dyn Material>,
@@ -210,9 +213,16 @@ impl GpuMaterial {
         let (made, errors) = with_error_scopes(device, || {
             let passes = pipelines(device, program, &plan);
             let tex = upload_textures(device, program, &plan, &textures)?;
-            Ok::<_, BackendError>((passes, tex))
+            let tables = plan.layout.tables.then(|| {
+                device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("sn_tables"),
+                    contents: bytemuck::cast_slice(crate::emit::albedo_tables()),
+                    usage: wgpu::BufferUsages::STORAGE,
+                })
+            });
+            Ok::<_, BackendError>((passes, tex, tables))
         });
-        let (passes, tex) = made?;
+        let (passes, tex, tables) = made?;
         if !errors.is_empty() {
             return Err(BackendError::Codegen {
                 backend: "gpu",
@@ -243,6 +253,7 @@ impl GpuMaterial {
             plan,
             passes,
             textures: tex,
+            tables,
             statics,
             companion,
             layout,
@@ -299,8 +310,8 @@ fn statics(program: &Program, plan: &Plan, textures: &TextureSet) -> Vec<f32> {
 }
 
 /// One compute pipeline per pass of the plan (`None` for host steps), each with its bind
-/// group layout: the four buffers every kernel binds, `sn_light` and the textures where the
-/// pass reads them.
+/// group layout: the four buffers every kernel binds, `sn_light`, the textures and the albedo
+/// tables where the pass reads them.
 fn pipelines(device: &wgpu::Device, program: &Program, plan: &Plan) -> Vec<Option<PassGpu>> {
     let mut passes = Vec::new();
     let mut pass_no = 0;
@@ -327,6 +338,9 @@ fn pipelines(device: &wgpu::Device, program: &Program, plan: &Plan) -> Vec<Optio
             entries.push(storage_entry(5, true));
             entries.push(storage_entry(6, true));
         }
+        if ps.tables {
+            entries.push(storage_entry(crate::emit::TABLES_BINDING, true));
+        }
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some(&label),
             entries: &entries,
@@ -349,6 +363,7 @@ fn pipelines(device: &wgpu::Device, program: &Program, plan: &Plan) -> Vec<Optio
             layout,
             lights: ps.lights,
             textures: ps.textures,
+            tables: ps.tables,
         }));
         pass_no += 1;
     }

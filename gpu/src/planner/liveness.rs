@@ -313,6 +313,7 @@ pub(super) fn steps(
                     cost,
                     lights,
                     textures: false,
+                    tables: false,
                     wgsl: String::new(),
                 }));
             }

@@ -65,6 +65,7 @@ pub fn plan(
         tmp_columns_no_reuse: tmp.no_reuse,
         light_sets,
         textures: false,
+        tables: false,
     };
     let (limit_batch, binding) = batch_limit(p, &layout, options, limits)?;
     let mut plan = Plan {
@@ -268,13 +269,16 @@ fn write_kernels(p: &Program, plan: &mut Plan, limits: &wgpu::Limits) -> Result<
     for (s, k) in kernels {
         if let Step::Pass(pass) = &mut plan.steps[s] {
             pass.textures = k.textures;
+            pass.tables = k.tables;
             pass.wgsl = k.wgsl;
             plan.layout.textures |= k.textures;
+            plan.layout.tables |= k.tables;
         }
     }
     let need = 4
         + u32::from(!plan.layout.light_sets.is_empty())
-        + if plan.layout.textures { 2 } else { 0 };
+        + if plan.layout.textures { 2 } else { 0 }
+        + u32::from(plan.layout.tables);
     if need > limits.max_storage_buffers_per_shader_stage {
         return Err(limit_err(
             p,

@@ -744,9 +744,10 @@ fn sn_mul_vector(m: array<vec4<f32>, 4>, v: vec3<f32>, k: u32) -> vec3<f32> {
 
 // ---- GGX directional albedo (ops::ggx_albedo) ----
 
-// The table of (A, B) pairs, 32 √cos θo nodes by 32 α^¼ nodes: `emit::library()` writes the
-// CPU's table (`ops::ggx_albedo::table`) in place of SN_GGX_ALBEDO_ENTRIES.
-var<private> SN_GGX_ALBEDO: array<f32, 2048> = array<f32, 2048>(SN_GGX_ALBEDO_ENTRIES);
+// The albedo tables live in the storage buffer `sn_tables` (`emit::albedo_tables`, the CPU's
+// tables end to end), which a kernel binds when its library reads it: as `var<private>`
+// arrays every invocation would hold a copy, and lavapipe took minutes to compile a kernel
+// with them. The GGX table, (A, B) pairs at 32 √cos θo nodes by 32 α^¼ nodes, is at 0.
 
 // A coordinate clamped to [0, 1] (NaN to 0) on an axis of n nodes: (node, fraction).
 fn sn_ggx_axis(x: f32, n: i32) -> vec2<f32> {
@@ -758,7 +759,7 @@ fn sn_ggx_axis(x: f32, n: i32) -> vec2<f32> {
 }
 
 fn sn_ggx_at(i: i32, j: i32, k: i32) -> f32 {
-    return SN_GGX_ALBEDO[(j * 32i + i) * 2i + k];
+    return sn_tables[(j * 32i + i) * 2i + k];
 }
 
 // ops::ggx_albedo::ggx_albedo: bilinear in √cos θo and α^¼.
@@ -778,12 +779,11 @@ fn sn_ggx_albedo(c: f32, alpha: f32) -> vec2<f32> {
 
 // ---- dielectric directional albedo (ops::dielectric_albedo) ----
 
-// 16 √cos θo nodes by 16 α^¼ nodes by 13 F0^¼ nodes: `emit::library()` writes the CPU's
-// table (`ops::dielectric_albedo::table`) in place of SN_DIELECTRIC_ALBEDO_ENTRIES.
-var<private> SN_DIELECTRIC_ALBEDO: array<f32, 3328> = array<f32, 3328>(SN_DIELECTRIC_ALBEDO_ENTRIES);
+// 16 √cos θo nodes by 16 α^¼ nodes by 13 F0^¼ nodes, in `sn_tables` after the GGX table
+// (at 2048).
 
 fn sn_dielectric_at(i: i32, j: i32, k: i32) -> f32 {
-    return SN_DIELECTRIC_ALBEDO[(k * 16i + j) * 16i + i];
+    return sn_tables[2048i + (k * 16i + j) * 16i + i];
 }
 
 fn sn_dielectric_plane(i: i32, j: i32, k: i32, tx: f32, ty: f32) -> f32 {
@@ -809,13 +809,11 @@ fn sn_dielectric_albedo(c: f32, alpha: f32, etap: f32) -> f32 {
 
 // ---- sheen directional albedo (ops::sheen_albedo) ----
 
-// (E, G) pairs, 32 √cos θo nodes by 12 ln(r/r₀)/ln(1/r₀) nodes (r₀ = 0.005):
-// `emit::library()` writes the CPU's table (`ops::sheen_albedo::table`) in place of
-// SN_SHEEN_ALBEDO_ENTRIES.
-var<private> SN_SHEEN_ALBEDO: array<f32, 768> = array<f32, 768>(SN_SHEEN_ALBEDO_ENTRIES);
+// (E, G) pairs, 32 √cos θo nodes by 12 ln(r/r₀)/ln(1/r₀) nodes (r₀ = 0.005), in
+// `sn_tables` after the dielectric table (at 2048 + 3328 = 5376).
 
 fn sn_sheen_at(i: i32, j: i32, k: i32) -> f32 {
-    return SN_SHEEN_ALBEDO[(j * 32i + i) * 2i + k];
+    return sn_tables[5376i + (j * 32i + i) * 2i + k];
 }
 
 // ops::sheen_albedo::sheen_albedo: bilinear in √cos θo and ln(r/r₀)/ln(1/r₀).
