@@ -116,8 +116,13 @@ pub fn library() -> &'static str {
         LIBRARY_SOURCE
             .replacen("(SN_PERM_ENTRIES)", &entries, 1)
             .replacen(
-                "SN_SHEEN_INV_LN",
-                &format!("{:?}f", shadenet_graph::ops::sheen_albedo::INV_LN),
+                "SN_SHEEN_ROOT_MIN",
+                &format!("{:?}f", shadenet_graph::ops::sheen_albedo::ROOT_MIN),
+                1,
+            )
+            .replacen(
+                "SN_SHEEN_INV_SPAN",
+                &format!("{:?}f", shadenet_graph::ops::sheen_albedo::INV_SPAN),
                 1,
             )
     });
@@ -452,7 +457,7 @@ pub fn op_expr(
             let mut parts: Vec<String> = args.iter().map(|a| arg(*a)).collect();
             let worley =
                 ops::osl_intrinsic_operands(*i).is_some_and(|o| o.get(1) == Some(&Type::Float));
-            if matches!(i, Intrinsic::RgbToHsv | Intrinsic::SheenAlbedo) || worley {
+            if matches!(i, Intrinsic::RgbToHsv) || worley {
                 parts.push(KEY.into());
             }
             let f = match i {

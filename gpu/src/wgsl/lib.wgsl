@@ -809,18 +809,20 @@ fn sn_dielectric_albedo(c: f32, alpha: f32, etap: f32) -> f32 {
 
 // ---- sheen directional albedo (ops::sheen_albedo) ----
 
-// (E, G) pairs, 32 √cos θo nodes by 12 ln(r/r₀)/ln(1/r₀) nodes (r₀ = 0.005), in
+// (E, G) pairs, 32 √cos θo nodes by 12 (r^(1/32) − r₀^(1/32))/(1 − r₀^(1/32)) nodes
+// (r₀ = 0.005), in
 // `sn_tables` after the dielectric table (at 2048 + 3328 = 5376).
 
 fn sn_sheen_at(i: i32, j: i32, k: i32) -> f32 {
     return sn_tables[5376i + (j * 32i + i) * 2i + k];
 }
 
-// ops::sheen_albedo::sheen_albedo: bilinear in √cos θo and ln(r/r₀)/ln(1/r₀).
-fn sn_sheen_albedo(c: f32, roughness: f32, key: u32) -> vec2<f32> {
+// ops::sheen_albedo::sheen_albedo: bilinear in √cos θo and
+// (r^(1/32) − r₀^(1/32))/(1 − r₀^(1/32)), five square roots and no logarithm.
+fn sn_sheen_albedo(c: f32, roughness: f32) -> vec2<f32> {
     let x = sn_ggx_axis(sn_sqrt(c), 32i);
     let r = select(0.005f, roughness, roughness > 0.005f);
-    let y = sn_ggx_axis(sn_log(r * 200.0f, key) * SN_SHEEN_INV_LN, 12i);
+    let y = sn_ggx_axis((sn_sqrt(sn_sqrt(sn_sqrt(sn_sqrt(sn_sqrt(r))))) - SN_SHEEN_ROOT_MIN) * SN_SHEEN_INV_SPAN, 12i);
     let i = i32(x.x);
     let j = i32(y.x);
     var o: vec2<f32>;
