@@ -124,8 +124,10 @@ pub fn axis<F: Real>(x: F, n: usize) -> (usize, F) {
     let x = if x > F::ZERO { x } else { F::ZERO };
     let x = if x < F::ONE { x } else { F::ONE };
     let s = x * F::from_f64((n - 1) as f64);
-    let i = s.floor();
-    let k = (i.to_i32().max(0) as usize).min(n - 2);
+    // `s ≥ 0`, so truncation is the floor (the WGSL copy's `floor`), without a call to
+    // `floorf` (x86-64's baseline has no rounding instruction): 1.5 % of standard_surface's
+    // shading time.
+    let k = (s.to_i32().max(0) as usize).min(n - 2);
     (k, s - F::from_i32(k as i32))
 }
 
