@@ -1184,3 +1184,72 @@ fn triple_components_are_assigned_by_name() {
         check(&o, "f", &[1.0, 7.0, 3.0], 0.0);
     }
 }
+
+/// MaterialX's OSL closures take their thin film by OSL keyword arguments, as MaterialX's
+/// OSL generator writes them: equal to the MaterialX node with the same film; a thickness
+/// of 0 is the plain lobe, the film's index defaults to 1.5; an unknown keyword is an
+/// error naming it. stdosl.h's `mix` of two closures is `x (1 − a) + y a`.
+#[test]
+fn closure_keywords_and_mix() {
+    let lights = [point([0.6, -0.3, 1.5], 3.0), point([-1.0, 0.5, 0.7], 2.0)];
+    let mut f = plane_fragment();
+    f.p = [0.2, 0.1, 0.0];
+    f.i = [0.3, 0.1, -1.0];
+    let ci = |src: &str| {
+        let p = compile(&format!("surface s() {{ Ci = {src}; }}")).unwrap();
+        run_program(&p, &f, &lights, u32::MAX).get("Ci")
+    };
+    let conductor = "conductor_bsdf(N, vector(0), 0.2, 0.2, color(0.2, 0.4, 1.4), color(3.9, 2.4, 1.6), \"ggx\"";
+    let plain = ci(&format!("{conductor})"));
+    let film = ci(&format!(
+        "{conductor}, \"thinfilm_thickness\", 550, \"thinfilm_ior\", 1.5)"
+    ));
+    assert!(plain.iter().all(|x| *x > 0.0), "{plain:?}");
+    assert!(
+        film.iter().zip(&plain).any(|(a, b)| (a - b).abs() > 1e-3),
+        "the film changes the colour: {film:?} vs {plain:?}"
+    );
+    assert_eq!(
+        ci(&format!("{conductor}, \"thinfilm_thickness\", 550)")),
+        film
+    );
+    assert_eq!(
+        ci(&format!(
+            "{conductor}, \"thinfilm_thickness\", 0, \"thinfilm_ior\", 2)"
+        )),
+        plain
+    );
+    // The MaterialX node with the same film.
+    if let Some(lib) = mtlx_library() {
+        let doc = r#"<?xml version="1.0"?><materialx version="1.39">
+            <conductor_bsdf name="b" type="BSDF">
+              <input name="ior" type="color3" value="0.2, 0.4, 1.4"/>
+              <input name="extinction" type="color3" value="3.9, 2.4, 1.6"/>
+              <input name="roughness" type="vector2" value="0.2, 0.2"/>
+              <input name="thinfilm_thickness" type="float" value="550"/>
+              <input name="thinfilm_ior" type="float" value="1.5"/>
+            </conductor_bsdf>
+            <surface name="s" type="surfaceshader"><input name="bsdf" type="BSDF" nodename="b"/></surface>
+            <surfacematerial name="M" type="material">
+              <input name="surfaceshader" type="surfaceshader" nodename="s"/></surfacematerial>
+            </materialx>"#;
+        let c = shadenet::graph::mtlx::compile("t.mtlx", doc, lib, &Default::default()).unwrap();
+        let m = run_program(&c.program, &f, &lights, u32::MAX).get("M");
+        assert_close(
+            &film,
+            &m,
+            1e-9,
+            "OSL conductor_bsdf with a film = MaterialX's",
+        );
+    }
+    let d = "diffuse(N)";
+    let e = "color(0.1, 0.2, 0.3) * emission()";
+    assert_eq!(
+        ci(&format!("mix({d}, {e}, 0.25)")),
+        ci(&format!("0.75 * {d} + 0.25 * {e}"))
+    );
+    assert_errors(&[(
+        &format!("surface s() {{ Ci = {conductor}, \"thinfilm_width\", 5); }}"),
+        "closure keyword \"thinfilm_width\" is not built",
+    )]);
+}

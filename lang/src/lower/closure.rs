@@ -14,7 +14,7 @@
 use super::{Lower, Ty, Val};
 use crate::source::Span;
 use shadenet_graph::Type;
-use shadenet_graph::closure::{Closure, Lobe, LobeKind, ScatterMode};
+use shadenet_graph::closure::{Closure, Lobe, LobeKind, ScatterMode, ThinFilm};
 use shadenet_graph::ir::{Builder, Stream, Value};
 use shadenet_graph::mtlx::atoms_closure::{frame_at, view_dir};
 
@@ -44,15 +44,15 @@ const CLOSURES: &[(&str, &str)] = &[
     ("sheen_bsdf", "(normal N, color albedo, float roughness)"),
     (
         "dielectric_bsdf",
-        "(normal N, vector U, color reflection_tint, color transmission_tint, float roughness_x, float roughness_y, float ior, string distribution)",
+        "(normal N, vector U, color reflection_tint, color transmission_tint, float roughness_x, float roughness_y, float ior, string distribution[, \"thinfilm_thickness\", float][, \"thinfilm_ior\", float])",
     ),
     (
         "conductor_bsdf",
-        "(normal N, vector U, float roughness_x, float roughness_y, color ior, color extinction, string distribution)",
+        "(normal N, vector U, float roughness_x, float roughness_y, color ior, color extinction, string distribution[, \"thinfilm_thickness\", float][, \"thinfilm_ior\", float])",
     ),
     (
         "generalized_schlick_bsdf",
-        "(normal N, vector U, color reflection_tint, color transmission_tint, float roughness_x, float roughness_y, color f0, color f90, float exponent, string distribution)",
+        "(normal N, vector U, color reflection_tint, color transmission_tint, float roughness_x, float roughness_y, color f0, color f90, float exponent, string distribution[, \"thinfilm_thickness\", float][, \"thinfilm_ior\", float])",
     ),
     ("uniform_edf", "(color emittance)"),
     ("layer", "(closure color top, closure color base)"),
@@ -91,6 +91,9 @@ impl<'a> Lower<'a> {
             self.error(format!("`{name}`: {why} yet"), span, "not built yet");
             return Some(Val::Closure(Box::default()));
         }
+        if name == "mix" {
+            return self.closure_mix(b, args);
+        }
         let (_, sig) = CLOSURES.iter().find(|(n, _)| *n == name)?;
         let c = self.build_closure(b, name, args).unwrap_or_else(|| {
             let got: Vec<&str> = args.iter().map(|(v, _)| v.type_name()).collect();
@@ -105,6 +108,35 @@ impl<'a> Lower<'a> {
             Closure::default()
         });
         Some(Val::Closure(Box::new(c)))
+    }
+
+    /// stdosl.h's `mix(closure x, closure y, float a)`: `x (1 − a) + y a`; `None` (the
+    /// ordinary `mix`) unless both `x` and `y` are closures.
+    fn closure_mix(&mut self, b: &mut Builder, args: &[(Val, Span)]) -> Option<Val> {
+        let [(x @ Val::Closure(_), _), (y @ Val::Closure(_), _), (a, _)] = args else {
+            return None;
+        };
+        let mul = crate::ast::BinaryOp::Mul;
+        let (a, ty) = match a {
+            Val::V { ty: Ty::Int, v, .. } => (b.convert(Type::Float, *v), Ty::Float),
+            Val::V {
+                ty: ty @ (Ty::Float | Ty::Color),
+                v,
+                ..
+            } => (*v, *ty),
+            _ => return None,
+        };
+        let one = b.float(1.0);
+        let one = b.splat_to(b.ty(a), one);
+        let keep = b.sub(one, a);
+        let weight = |v| Val::V {
+            v,
+            ty,
+            varying: true,
+        };
+        let xs = self.closure_arith(b, mul, x, &weight(keep))?;
+        let ys = self.closure_arith(b, mul, y, &weight(a))?;
+        Some(Val::Closure(Box::new(Closure::add(b, &xs, &ys))))
     }
 
     /// The lobe list of closure `name` on `args`; `None` when the arguments do not fit.
@@ -207,7 +239,7 @@ impl<'a> Lower<'a> {
                 // Straight through: a smooth dielectric of index 1 that only transmits.
                 let one = b.float(1.0);
                 let smooth = b.zero(Type::Vec2);
-                let (kind, component) = dielectric(white, one, smooth, ScatterMode::T);
+                let (kind, component) = dielectric(white, one, smooth, ScatterMode::T, None);
                 let n = b.stream(Stream::N);
                 lobe(b, kind, n, no_tangent, component)
             }
@@ -235,13 +267,14 @@ impl<'a> Lower<'a> {
             }
             "dielectric_bsdf" | "generalized_schlick_bsdf" => self.mx_specular(b, name, args)?,
             "conductor_bsdf" => {
-                let v = self.operands_and_distribution(b, args, &[N, V, F, F, C, C])?;
+                let (v, thin_film) =
+                    self.operands_and_distribution(b, args, &[N, V, F, F, C, C])?;
                 let roughness = b.construct(Type::Vec2, &[v[2], v[3]]);
                 let kind = LobeKind::Conductor {
                     ior: v[4],
                     extinction: v[5],
                     roughness,
-                    thin_film: None,
+                    thin_film,
                 };
                 lobe(b, kind, v[0], v[1], "specular")
             }
@@ -327,7 +360,7 @@ impl<'a> Lower<'a> {
         } else {
             &[N, V, C, C, F, F, F]
         };
-        let v = self.operands_and_distribution(b, args, tys)?;
+        let (v, thin_film) = self.operands_and_distribution(b, args, tys)?;
         let roughness = b.construct(Type::Vec2, &[v[4], v[5]]);
         let mut out = Closure::default();
         for (tint, mode) in [(v[2], ScatterMode::R), (v[3], ScatterMode::T)] {
@@ -344,11 +377,11 @@ impl<'a> Lower<'a> {
                     exponent: v[8],
                     roughness,
                     scatter_mode: mode,
-                    thin_film: None,
+                    thin_film,
                 };
                 (kind, specular_component(mode), tint)
             } else {
-                let (kind, component) = dielectric(tint, v[6], roughness, mode);
+                let (kind, component) = dielectric(tint, v[6], roughness, mode, thin_film);
                 (kind, component, b.color([1.0; 3]))
             };
             let frame = frame_at(b, v[0], v[1]);
@@ -388,14 +421,19 @@ impl<'a> Lower<'a> {
         Some(out)
     }
 
-    /// [`Lower::operands`] followed by a distribution name, which must be `"ggx"`.
+    /// [`Lower::operands`] followed by a distribution name, which must be `"ggx"`, and
+    /// OSL's optional keyword arguments of the MaterialX closures (`"thinfilm_thickness",
+    /// t, "thinfilm_ior", n`, as MaterialX's OSL generator writes them): the thin film, or
+    /// `None` where its thickness is absent or the constant 0. An unknown keyword is an error
+    /// naming it.
     fn operands_and_distribution(
         &mut self,
         b: &mut Builder,
         args: &[(Val, Span)],
         tys: &[Ty],
-    ) -> Option<Vec<Value>> {
-        let (last, rest) = args.split_last()?;
+    ) -> Option<(Vec<Value>, Option<ThinFilm>)> {
+        let (head, keywords) = args.split_at_checked(tys.len() + 1)?;
+        let (last, rest) = head.split_last()?;
         let Val::Str(dist) = &last.0 else {
             return None;
         };
@@ -407,7 +445,48 @@ impl<'a> Lower<'a> {
                 "not built",
             );
         }
-        Some(v)
+        let film = self.thin_film_keywords(b, keywords)?;
+        Some((v, film))
+    }
+
+    /// The `"thinfilm_thickness"` and `"thinfilm_ior"` keyword pairs of a MaterialX closure
+    /// (defaults 0 and 1.5, MaterialX's); `None` when they are not name–value pairs.
+    fn thin_film_keywords(
+        &mut self,
+        b: &mut Builder,
+        keywords: &[(Val, Span)],
+    ) -> Option<Option<ThinFilm>> {
+        if !keywords.len().is_multiple_of(2) {
+            return None;
+        }
+        let (mut thickness, mut ior) = (None, None);
+        for pair in keywords.chunks(2) {
+            let Val::Str(key) = &pair[0].0 else {
+                return None;
+            };
+            let slot = match key.as_str() {
+                "thinfilm_thickness" => &mut thickness,
+                "thinfilm_ior" => &mut ior,
+                _ => {
+                    self.error(
+                        format!(
+                            "closure keyword \"{key}\" is not built (built: \"thinfilm_thickness\", \"thinfilm_ior\")"
+                        ),
+                        pair[0].1,
+                        "unknown keyword",
+                    );
+                    continue;
+                }
+            };
+            *slot = Some(self.operands(b, &pair[1..], &[Ty::Float])?[0]);
+        }
+        let Some(thickness) = thickness else {
+            return Some(None);
+        };
+        let zero = shadenet_graph::opt::fold::constant(b.program(), thickness)
+            == Some(shadenet_graph::ConstValue::Float(0.0));
+        let ior = ior.unwrap_or_else(|| b.float(1.5));
+        Some((!zero).then_some(ThinFilm { thickness, ior }))
     }
 
     /// The closure an OSL operator makes of `a` and `c`, where one is a closure: `+` of two
@@ -511,7 +590,7 @@ fn osl_dielectric(
     let inv = b.div(one, eta);
     let ior = b.select(frame.inside, inv, eta);
     let white = b.color([1.0; 3]);
-    let (kind, component) = dielectric(white, ior, roughness, mode);
+    let (kind, component) = dielectric(white, ior, roughness, mode, None);
     Closure::lobe(Lobe {
         kind,
         weight: white,
@@ -521,13 +600,14 @@ fn osl_dielectric(
     })
 }
 
-/// A dielectric lobe of `tint`, index `ior`, `roughness` (vec2) and `mode`, with its
-/// render component.
+/// A dielectric lobe of `tint`, index `ior`, `roughness` (vec2), `mode` and thin film, with
+/// its render component.
 fn dielectric(
     tint: Value,
     ior: Value,
     roughness: Value,
     mode: ScatterMode,
+    thin_film: Option<ThinFilm>,
 ) -> (LobeKind, &'static str) {
     (
         LobeKind::Dielectric {
@@ -535,7 +615,7 @@ fn dielectric(
             ior,
             roughness,
             scatter_mode: mode,
-            thin_film: None,
+            thin_film,
         },
         specular_component(mode),
     )
