@@ -797,6 +797,8 @@ fn op_table() -> Vec<Row> {
             osl => match ops::osl_intrinsic_operands(osl).expect("an OSL noise intrinsic") {
                 [Type::Vec2] => "%uv",
                 [Type::Vec3] => "%p",
+                [Type::Float] => "%a",
+                [Type::Vec3, Type::Float] => "%n, %b",
                 [Type::Vec2, Type::Int, ..] => "%uv, %k, %a, %b",
                 [Type::Vec3, Type::Int, ..] => "%n, %k, %a, %b",
                 [Type::Vec2, ..] => "%uv, %a, %k, %m",

@@ -62,7 +62,7 @@ fn genosl_implementations_compile() {
 }
 
 /// How many compile today (a floor: raise it as more is built).
-const MIN_COMPILED: usize = 509;
+const MIN_COMPILED: usize = 511;
 
 /// A MaterialX document of one node of nodedef `nd` with `values` set, its output `out`.
 fn one_node_document(

@@ -110,12 +110,16 @@ fn functions_with_output_parameters_and_overloads() {
 fn noise_is_osls() {
     let src = r#"
         shader n(output color a = 0, output vector vp = 0, output color vc = 0,
-                 output color d2 = 0) {
+                 output color d2 = 0, output color c14 = 0, output color vc1 = 0,
+                 output color vc4 = 0) {
             point q = P * 3.7 + point(0.3, -1.2, 5.1);
             a = color(snoise(q), noise(q), cellnoise(q));
             vp = noise("perlin", q);
             vc = cellnoise(q);
             d2 = color(noise("perlin", u * 9, v * 9), noise(u * 9, v * 9), cellnoise(u * 9, v * 9));
+            c14 = color(cellnoise(u * 9), cellnoise(q, v * 9), noise("cell", q, u * 9));
+            vc1 = cellnoise(u * 9);
+            vc4 = noise("cell", q, v * 9);
         }"#;
     let p = compile(src).unwrap();
     let mut f = plane_fragment();
@@ -151,6 +155,23 @@ fn noise_is_osls() {
         let d2 = [p2, 0.5 * (p2 + 1.0), osl_noise::cell2(uv9)];
         let d2: Vec<f64> = d2.iter().map(|x| *x as f64).collect();
         assert_eq!(o.get32("d2"), d2, "2D noise, point {k}");
+        let c14 = [
+            osl_noise::cell1(uv9[0]),
+            osl_noise::cell4(q, uv9[1]),
+            osl_noise::cell4(q, uv9[0]),
+        ];
+        let c14: Vec<f64> = c14.iter().map(|x| *x as f64).collect();
+        assert_eq!(o.get32("c14"), c14, "1D and 4D cell noise, point {k}");
+        let vc1: Vec<f64> = osl_noise::vcell1(uv9[0])
+            .iter()
+            .map(|x| *x as f64)
+            .collect();
+        assert_eq!(o.get32("vc1"), vc1, "1D vector cell noise, point {k}");
+        let vc4: Vec<f64> = osl_noise::vcell4(q, uv9[1])
+            .iter()
+            .map(|x| *x as f64)
+            .collect();
+        assert_eq!(o.get32("vc4"), vc4, "4D vector cell noise, point {k}");
     }
 }
 
@@ -304,6 +325,8 @@ fn the_jit_agrees_with_the_interpreter_bit_for_bit() {
                 amp *= 0.5;
             }
             color c = mix(Cd, color(cellnoise(P * 8)), 0.5 + 0.5 * n);
+            c += 0.1 * (cellnoise(u * 7) + cellnoise(P * 3, v * 5))
+                + 0.05 * (color(cellnoise(u * 7)) + color(cellnoise(P * 3, v * 5)));
             if (n > 0)
                 Ci = c * diffuse(N);
             else
@@ -372,7 +395,7 @@ fn errors_name_the_place_and_the_problem() {
         ),
         (
             "surface s() { float x = noise(u); }",
-            "1D and 4D noise are not built yet",
+            "1D and 4D Perlin noise are not built yet",
         ),
         (
             "surface s() { float x = noise(\"fancy\", P); }",

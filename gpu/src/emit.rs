@@ -455,8 +455,9 @@ pub fn op_expr(
         Op::Convert(a) => convert(program.ty(*a), ty, &arg(*a)),
         Op::Call(i, args) => {
             let mut parts: Vec<String> = args.iter().map(|a| arg(*a)).collect();
-            let worley =
-                ops::osl_intrinsic_operands(*i).is_some_and(|o| o.get(1) == Some(&Type::Float));
+            // The Worley noises (a jitter after the position) and rgb_to_hsv take the key.
+            let worley = ops::osl_intrinsic_operands(*i)
+                .is_some_and(|o| o.len() == 4 && o.get(1) == Some(&Type::Float));
             if matches!(i, Intrinsic::RgbToHsv) || worley {
                 parts.push(KEY.into());
             }

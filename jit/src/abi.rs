@@ -375,6 +375,18 @@ fn osl_vcell2(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
 fn osl_vcell3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
     o.copy_from_slice(&osl_noise::vcell3([a[0], a[1], a[2]]));
 }
+fn osl_cell1(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = osl_noise::cell1(a[0]);
+}
+fn osl_cell4(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = osl_noise::cell4([a[0], a[1], a[2]], a[3]);
+}
+fn osl_vcell1(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&osl_noise::vcell1(a[0]));
+}
+fn osl_vcell4(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&osl_noise::vcell4([a[0], a[1], a[2]], a[3]));
+}
 fn mx_fractal2(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
     o[0] = osl_noise::fractal2([a[0], a[1]], int(a[2]), a[3], a[4]);
 }
@@ -876,6 +888,10 @@ mem_helpers! {
     osl_cell3: 3 -> 1 => osl_cell3_x4,
     osl_vcell2: 2 -> 3 => osl_vcell2_x4,
     osl_vcell3: 3 -> 3 => osl_vcell3_x4,
+    osl_cell1: 1 -> 1,
+    osl_cell4: 4 -> 1,
+    osl_vcell1: 1 -> 3,
+    osl_vcell4: 4 -> 3,
     mx_fractal2: 5 -> 1 => mx_fractal2_x4,
     mx_fractal3: 6 -> 1 => mx_fractal3_x4,
     mx_vfractal2: 5 -> 3 => mx_vfractal2_x4,

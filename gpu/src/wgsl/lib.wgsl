@@ -1211,6 +1211,42 @@ fn sn_osl_vcell3(p: vec3<f32>) -> vec3<f32> {
     );
 }
 
+// OSL cellnoise(x): inthash of one key (start 0xdeadbeef + 17).
+fn sn_osl_cell1(x: f32) -> f32 {
+    let s = 0xdeadbeefu + 17u;
+    return sn_bits_to_01(sn_bjfinal(s + sn_osl_ifloor(x), s, s));
+}
+
+// OSL cellnoise(p, t): inthash of four keys, one bjmix, then bjfinal(a + t, b, c).
+fn sn_osl_cell4(p: vec3<f32>, t: f32) -> f32 {
+    let s = 0xdeadbeefu + 29u;
+    let m = sn_bjmix(s + sn_osl_ifloor(p.x), s + sn_osl_ifloor(p.y), s + sn_osl_ifloor(p.z));
+    return sn_bits_to_01(sn_bjfinal(m.x + sn_osl_ifloor(t), m.y, m.z));
+}
+
+// OSL inthashVec of one key: inthash(x, component).
+fn sn_osl_vcell1(x_in: f32) -> vec3<f32> {
+    let x = sn_osl_ifloor(x_in);
+    return vec3<f32>(
+        sn_bits_to_01(sn_inthash2(x, 0u)),
+        sn_bits_to_01(sn_inthash2(x, 1u)),
+        sn_bits_to_01(sn_inthash2(x, 2u)),
+    );
+}
+
+// OSL inthashVec of four keys (five with the component): one bjmix of x, y, z, then
+// bjfinal(a + t, b + component, c).
+fn sn_osl_vcell4(p: vec3<f32>, t: f32) -> vec3<f32> {
+    let s = 0xdeadbeefu + 33u;
+    let m = sn_bjmix(s + sn_osl_ifloor(p.x), s + sn_osl_ifloor(p.y), s + sn_osl_ifloor(p.z));
+    let a = m.x + sn_osl_ifloor(t);
+    return vec3<f32>(
+        sn_bits_to_01(sn_bjfinal(a, m.y, m.z)),
+        sn_bits_to_01(sn_bjfinal(a, m.y + 1u, m.z)),
+        sn_bits_to_01(sn_bjfinal(a, m.y + 2u, m.z)),
+    );
+}
+
 // MaterialX fractal noise: octaves clamped to [0, 32] (osl_noise::MAX_OCTAVES).
 fn sn_mx_fractal2(p_in: vec2<f32>, octaves: i32, lacunarity: f32, diminish: f32) -> f32 {
     var p = p_in;

@@ -484,6 +484,14 @@ named_enum! {
         OslVCell2 = "osl_vcell2",
         /// OSL `vector cellnoise(p)` (vec3 → vec3).
         OslVCell3 = "osl_vcell3",
+        /// OSL `cellnoise(x)` (float → float in [0, 1]).
+        OslCell1 = "osl_cell1",
+        /// OSL `cellnoise(p, t)` (vec3, float → float in [0, 1]).
+        OslCell4 = "osl_cell4",
+        /// OSL `vector cellnoise(x)` (float → vec3).
+        OslVCell1 = "osl_vcell1",
+        /// OSL `vector cellnoise(p, t)` (vec3, float → vec3).
+        OslVCell4 = "osl_vcell4",
         /// MaterialX fractal noise of `osl_perlin2`: (p: vec2, octaves: int, lacunarity:
         /// float, diminish: float) → float.
         MxFractal2 = "mx_fractal2",

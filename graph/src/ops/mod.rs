@@ -558,6 +558,8 @@ pub fn osl_intrinsic_operands(i: Intrinsic) -> Option<&'static [Type]> {
     use Intrinsic::*;
     const V2: &[Type] = &[Type::Vec2];
     const V3: &[Type] = &[Type::Vec3];
+    const F1: &[Type] = &[Type::Float];
+    const V3F: &[Type] = &[Type::Vec3, Type::Float];
     const FRACTAL2: &[Type] = &[Type::Vec2, Type::Int, Type::Float, Type::Float];
     const FRACTAL3: &[Type] = &[Type::Vec3, Type::Int, Type::Float, Type::Float];
     const WORLEY2: &[Type] = &[Type::Vec2, Type::Float, Type::Int, Type::Int];
@@ -565,6 +567,8 @@ pub fn osl_intrinsic_operands(i: Intrinsic) -> Option<&'static [Type]> {
     Some(match i {
         OslPerlin2 | OslVPerlin2 | OslCell2 | OslVCell2 => V2,
         OslPerlin3 | OslVPerlin3 | OslCell3 | OslVCell3 => V3,
+        OslCell1 | OslVCell1 => F1,
+        OslCell4 | OslVCell4 => V3F,
         MxFractal2 | MxVFractal2 => FRACTAL2,
         MxFractal3 | MxVFractal3 => FRACTAL3,
         MxWorley2 | MxWorley2V2 | MxWorley2V3 => WORLEY2,
@@ -580,8 +584,8 @@ fn osl_intrinsic_type(i: Intrinsic, args: &[Type]) -> Option<Type> {
         return None;
     }
     Some(match i {
-        OslVPerlin2 | OslVPerlin3 | OslVCell2 | OslVCell3 | MxVFractal2 | MxVFractal3
-        | MxWorley2V3 | MxWorley3V3 => Type::Vec3,
+        OslVPerlin2 | OslVPerlin3 | OslVCell1 | OslVCell2 | OslVCell3 | OslVCell4 | MxVFractal2
+        | MxVFractal3 | MxWorley2V3 | MxWorley3V3 => Type::Vec3,
         MxWorley2V2 | MxWorley3V2 => Type::Vec2,
         _ => Type::Float,
     })
@@ -798,6 +802,10 @@ fn osl_intrinsic<F: Real>(i: Intrinsic, args: &[Val<F>]) -> Val<F> {
         Intrinsic::OslCell3 => Val::Float(o::cell3(v3())),
         Intrinsic::OslVCell2 => Val::Vec3(o::vcell2(v2())),
         Intrinsic::OslVCell3 => Val::Vec3(o::vcell3(v3())),
+        Intrinsic::OslCell1 => Val::Float(o::cell1(arg(0).as_float())),
+        Intrinsic::OslCell4 => Val::Float(o::cell4(v3(), f1)),
+        Intrinsic::OslVCell1 => Val::Vec3(o::vcell1(arg(0).as_float())),
+        Intrinsic::OslVCell4 => Val::Vec3(o::vcell4(v3(), f1)),
         Intrinsic::MxFractal2 => Val::Float(o::fractal2(v2(), n, f2, f3)),
         Intrinsic::MxFractal3 => Val::Float(o::fractal3(v3(), n, f2, f3)),
         Intrinsic::MxVFractal2 => Val::Vec3(o::vfractal2(v2(), n, f2, f3)),

@@ -305,6 +305,43 @@ pub fn vcell3<F: Real>(p: [F; 3]) -> [F; 3] {
     std::array::from_fn(|k| bits_to_01(bjfinal(a.wrapping_add(k as u32), b, c)))
 }
 
+/// OSL `cellnoise(x)`: `bits_to_01(inthash(ifloor x))`, in [0, 1].
+pub fn cell1<F: Real>(x: F) -> F {
+    bits_to_01(inthash1(ifloor(x)))
+}
+
+/// OSL `cellnoise(p, t)`: `bits_to_01(inthash(ifloor x, ifloor y, ifloor z, ifloor t))`,
+/// in [0, 1].
+pub fn cell4<F: Real>(p: [F; 3], t: F) -> F {
+    bits_to_01(inthash4(
+        ifloor(p[0]),
+        ifloor(p[1]),
+        ifloor(p[2]),
+        ifloor(t),
+    ))
+}
+
+/// OSL `vector cellnoise(x)` (`inthashVec` of one key): component k is
+/// `bits_to_01(inthash(ifloor x, k))`.
+pub fn vcell1<F: Real>(x: F) -> [F; 3] {
+    let x = ifloor(x);
+    std::array::from_fn(|k| bits_to_01(inthash2(x, k as u32)))
+}
+
+/// OSL `vector cellnoise(p, t)` (`inthashVec` of four keys): component k is
+/// `bits_to_01(inthash(x, y, z, t, k))` — one `bjmix` of `x, y, z`, then `bjfinal(a + t,
+/// b + k, c)`.
+pub fn vcell4<F: Real>(p: [F; 3], t: F) -> [F; 3] {
+    let s = start(5);
+    let [a, b, c] = bjmix(
+        s.wrapping_add(ifloor(p[0])),
+        s.wrapping_add(ifloor(p[1])),
+        s.wrapping_add(ifloor(p[2])),
+    );
+    let a = a.wrapping_add(ifloor(t));
+    std::array::from_fn(|k| bits_to_01(bjfinal(a, b.wrapping_add(k as u32), c)))
+}
+
 // ---- MaterialX fractal noise ----
 
 /// The most octaves [`fractal2`] and friends sum (MaterialX loops `octaves` times; beyond
@@ -641,6 +678,39 @@ mod tests {
         0xdead_beef,
         12345,
     ];
+
+    /// Cell noise of one and four dimensions (float and vector) is `bits_to_01` of OSL's
+    /// `inthash` (lookup3's hashword) of the floored coordinates — with the component index
+    /// as the last key for the vector forms — on keys around 0 and the integer limits.
+    #[test]
+    fn cell1_and_cell4_hash_their_floored_keys() {
+        let xs = [-2.5f32, -0.25, 0.0, 0.75, 3.5, 1e10, -1e10, f32::NAN];
+        let key = |x: f32| ifloor(x);
+        for &x in &xs {
+            assert_eq!(cell1(x), bits_to_01::<f32>(reference_inthash(&[key(x)])));
+            let v = vcell1(x);
+            for (k, c) in v.iter().enumerate() {
+                assert_eq!(
+                    *c,
+                    bits_to_01::<f32>(reference_inthash(&[key(x), k as u32]))
+                );
+            }
+            for &y in &xs[..4] {
+                let p = [x, y, 0.5 - y];
+                for &t in &[-1.5f32, 0.0, 2.0, 7.9] {
+                    let keys = [key(p[0]), key(p[1]), key(p[2]), key(t)];
+                    assert_eq!(cell4(p, t), bits_to_01::<f32>(reference_inthash(&keys)));
+                    for (k, c) in vcell4(p, t).iter().enumerate() {
+                        let mut five = keys.to_vec();
+                        five.push(k as u32);
+                        assert_eq!(*c, bits_to_01::<f32>(reference_inthash(&five)));
+                    }
+                }
+            }
+        }
+        // The fourth coordinate matters.
+        assert_ne!(cell4([0.5f32; 3], 0.0), cell4([0.5; 3], 1.0));
+    }
 
     #[test]
     fn inthash_is_lookup3_hashword_with_initval_13() {

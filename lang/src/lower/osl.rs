@@ -535,22 +535,15 @@ impl<'a> Lower<'a> {
                 }
             }
         }
-        let p = match vals.as_slice() {
-            [(x, Ty::Float), (y, Ty::Float)] => (b.construct(Type::Vec2, &[*x, *y]), false),
-            [(p, t)] if t.is_geometric() => (*p, true),
-            [(_, Ty::Float)] | [(_, _), (_, Ty::Float)] => {
-                self.error(
-                    format!(
-                        "`{name}`: 1D and 4D noise are not built yet (built: `{name}(x, y)` and `{name}(point)`)"
-                    ),
-                    span,
-                    "not built yet",
-                );
-                return Self::poison(b, out_ty);
-            }
+        // The operands and the dimension: 1 (x), 2 (x, y), 3 (p) or 4 (p, t).
+        let (operands, dim) = match vals.as_slice() {
+            [(x, Ty::Float)] => (vec![*x], 1),
+            [(x, Ty::Float), (y, Ty::Float)] => (vec![b.construct(Type::Vec2, &[*x, *y])], 2),
+            [(p, t)] if t.is_geometric() => (vec![*p], 3),
+            [(p, t), (w, Ty::Float)] if t.is_geometric() => (vec![*p, *w], 4),
             _ => {
                 self.error(
-                    format!("`{name}` takes (float x, float y) or (point p), after an optional generator name"),
+                    format!("`{name}` takes (float x), (float x, float y), (point p) or (point p, float t), after an optional generator name"),
                     span,
                     "wrong arguments",
                 );
@@ -559,17 +552,32 @@ impl<'a> Lower<'a> {
         };
         let (signed, cell) = kind;
         let vector = out_ty != Ty::Float;
-        let f = match (cell, vector, p.1) {
-            (false, false, false) => Intrinsic::OslPerlin2,
-            (false, false, true) => Intrinsic::OslPerlin3,
-            (false, true, false) => Intrinsic::OslVPerlin2,
-            (false, true, true) => Intrinsic::OslVPerlin3,
-            (true, false, false) => Intrinsic::OslCell2,
-            (true, false, true) => Intrinsic::OslCell3,
-            (true, true, false) => Intrinsic::OslVCell2,
-            (true, true, true) => Intrinsic::OslVCell3,
+        use Intrinsic as I;
+        let f = match (cell, vector, dim) {
+            (false, false, 2) => I::OslPerlin2,
+            (false, false, 3) => I::OslPerlin3,
+            (false, true, 2) => I::OslVPerlin2,
+            (false, true, 3) => I::OslVPerlin3,
+            (true, false, 1) => I::OslCell1,
+            (true, false, 2) => I::OslCell2,
+            (true, false, 3) => I::OslCell3,
+            (true, false, _) => I::OslCell4,
+            (true, true, 1) => I::OslVCell1,
+            (true, true, 2) => I::OslVCell2,
+            (true, true, 3) => I::OslVCell3,
+            (true, true, _) => I::OslVCell4,
+            (false, ..) => {
+                self.error(
+                    format!(
+                        "`{name}`: 1D and 4D Perlin noise are not built yet (built: `{name}(x, y)` and `{name}(point)`; cell noise in every dimension)"
+                    ),
+                    span,
+                    "not built yet",
+                );
+                return Self::poison(b, out_ty);
+            }
         };
-        let mut v = b.call(f, &[p.0]);
+        let mut v = b.call(f, &operands);
         if !cell && !signed {
             // OSL's unsigned Perlin noise: 0.5 · (n + 1).
             let one = b.float(1.0);
