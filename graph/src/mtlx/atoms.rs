@@ -7,6 +7,7 @@
 //! computes (the formulas of the MaterialX specification); it must not parse documents or
 //! resolve nodedefs. The lowerings themselves are in [`super::atoms_lower`].
 
+use super::atoms_flake as flake;
 use super::atoms_geom as geom;
 use super::atoms_lower as l;
 use super::atoms_matrix as mx;
@@ -169,6 +170,16 @@ const ATOMS: &[Atom] = &[
     a("cellnoise3d", "position", l::cellnoise3d),
     a("worleynoise2d", "texcoord jitter style", l::worleynoise2d),
     a("worleynoise3d", "position jitter style", l::worleynoise3d),
+    a(
+        "flake2d",
+        "size roughness coverage texcoord normal tangent bitangent",
+        flake::flake2d,
+    ),
+    a(
+        "flake3d",
+        "size roughness coverage position normal tangent bitangent",
+        flake::flake3d,
+    ),
     // texture
     a("image", "file default texcoord", l::image),
     a(
@@ -256,7 +267,6 @@ pub fn missing_reason(nd: &NodeDefElem) -> &'static str {
     } else {
         match nd.node.as_str() {
             "frame" => "no frame number in the shading context yet",
-            "flake2d" | "flake3d" => "no flake noise intrinsic yet",
             _ => "no lowering in the atom table yet",
         }
     }

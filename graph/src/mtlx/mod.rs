@@ -16,6 +16,7 @@
 
 pub mod atoms;
 pub mod atoms_closure;
+pub mod atoms_flake;
 pub mod atoms_geom;
 pub mod atoms_lower;
 pub mod atoms_matrix;
