@@ -758,39 +758,31 @@ fn sn_ggx_axis(x: f32, n: i32) -> vec2<f32> {
     return vec2<f32>(f32(k), s - f32(k));
 }
 
-fn sn_ggx_at(i: i32, j: i32, k: i32) -> f32 {
-    return sn_tables[(j * 32i + i) * 2i + k];
+// ops::ggx_albedo::bilinear: the table at `base` (node (i, j) at base + (j·row + i)·stride)
+// interpolated at the axis positions x and y ((node, fraction) each), in the CPU's order.
+fn sn_table_bilinear(base: i32, row: i32, stride: i32, x: vec2<f32>, y: vec2<f32>) -> f32 {
+    let i = i32(x.x);
+    let j = i32(y.x);
+    let a = sn_tables[base + (j * row + i) * stride];
+    let b = sn_tables[base + (j * row + i + 1i) * stride];
+    let c = sn_tables[base + ((j + 1i) * row + i) * stride];
+    let d = sn_tables[base + ((j + 1i) * row + i + 1i) * stride];
+    let lo = a + (b - a) * x.y;
+    let hi = c + (d - c) * x.y;
+    return lo + (hi - lo) * y.y;
 }
 
 // ops::ggx_albedo::ggx_albedo: bilinear in √cos θo and α^¼.
 fn sn_ggx_albedo(c: f32, alpha: f32) -> vec2<f32> {
     let x = sn_ggx_axis(sn_sqrt(c), 32i);
     let y = sn_ggx_axis(sn_sqrt(sn_sqrt(alpha)), 32i);
-    let i = i32(x.x);
-    let j = i32(y.x);
-    var r: vec2<f32>;
-    for (var k = 0i; k < 2i; k++) {
-        let lo = sn_ggx_at(i, j, k) + (sn_ggx_at(i + 1i, j, k) - sn_ggx_at(i, j, k)) * x.y;
-        let hi = sn_ggx_at(i, j + 1i, k) + (sn_ggx_at(i + 1i, j + 1i, k) - sn_ggx_at(i, j + 1i, k)) * x.y;
-        r[k] = lo + (hi - lo) * y.y;
-    }
-    return r;
+    return vec2<f32>(sn_table_bilinear(0i, 32i, 2i, x, y), sn_table_bilinear(1i, 32i, 2i, x, y));
 }
 
 // ---- dielectric directional albedo (ops::dielectric_albedo) ----
 
 // 16 √cos θo nodes by 16 α^¼ nodes by 13 F0^¼ nodes, in `sn_tables` after the GGX table
 // (at 2048).
-
-fn sn_dielectric_at(i: i32, j: i32, k: i32) -> f32 {
-    return sn_tables[2048i + (k * 16i + j) * 16i + i];
-}
-
-fn sn_dielectric_plane(i: i32, j: i32, k: i32, tx: f32, ty: f32) -> f32 {
-    let lo = sn_dielectric_at(i, j, k) + (sn_dielectric_at(i + 1i, j, k) - sn_dielectric_at(i, j, k)) * tx;
-    let hi = sn_dielectric_at(i, j + 1i, k) + (sn_dielectric_at(i + 1i, j + 1i, k) - sn_dielectric_at(i, j + 1i, k)) * tx;
-    return lo + (hi - lo) * ty;
-}
 
 // ops::dielectric_albedo::dielectric_albedo: trilinear in √cos θo, α^¼ and √(|η − 1|/(η + 1)).
 fn sn_dielectric_albedo(c: f32, alpha: f32, etap: f32) -> f32 {
@@ -799,11 +791,9 @@ fn sn_dielectric_albedo(c: f32, alpha: f32, etap: f32) -> f32 {
     let e0 = select(0.0f, etap, etap > 0.0f);
     let e = select(1e30f, e0, e0 < 1e30f);
     let z = sn_ggx_axis(sn_sqrt(abs(e - 1.0f) / (e + 1.0f)), 13i);
-    let i = i32(x.x);
-    let j = i32(y.x);
     let k = i32(z.x);
-    let p0 = sn_dielectric_plane(i, j, k, x.y, y.y);
-    let p1 = sn_dielectric_plane(i, j, k + 1i, x.y, y.y);
+    let p0 = sn_table_bilinear(2048i + k * 256i, 16i, 1i, x, y);
+    let p1 = sn_table_bilinear(2048i + (k + 1i) * 256i, 16i, 1i, x, y);
     return p0 + (p1 - p0) * z.y;
 }
 
@@ -813,25 +803,16 @@ fn sn_dielectric_albedo(c: f32, alpha: f32, etap: f32) -> f32 {
 // (r₀ = 0.005), in
 // `sn_tables` after the dielectric table (at 2048 + 3328 = 5376).
 
-fn sn_sheen_at(i: i32, j: i32, k: i32) -> f32 {
-    return sn_tables[5376i + (j * 32i + i) * 2i + k];
-}
-
 // ops::sheen_albedo::sheen_albedo: bilinear in √cos θo and
 // (r^(1/32) − r₀^(1/32))/(1 − r₀^(1/32)), five square roots and no logarithm.
 fn sn_sheen_albedo(c: f32, roughness: f32) -> vec2<f32> {
     let x = sn_ggx_axis(sn_sqrt(c), 32i);
     let r = select(0.005f, roughness, roughness > 0.005f);
     let y = sn_ggx_axis((sn_sqrt(sn_sqrt(sn_sqrt(sn_sqrt(sn_sqrt(r))))) - SN_SHEEN_ROOT_MIN) * SN_SHEEN_INV_SPAN, 12i);
-    let i = i32(x.x);
-    let j = i32(y.x);
-    var o: vec2<f32>;
-    for (var k = 0i; k < 2i; k++) {
-        let lo = sn_sheen_at(i, j, k) + (sn_sheen_at(i + 1i, j, k) - sn_sheen_at(i, j, k)) * x.y;
-        let hi = sn_sheen_at(i, j + 1i, k) + (sn_sheen_at(i + 1i, j + 1i, k) - sn_sheen_at(i, j + 1i, k)) * x.y;
-        o[k] = lo + (hi - lo) * y.y;
-    }
-    return o;
+    return vec2<f32>(
+        sn_table_bilinear(5376i, 32i, 2i, x, y),
+        sn_table_bilinear(5377i, 32i, 2i, x, y),
+    );
 }
 
 // ---- noise (ops::noise) ----

@@ -25,7 +25,7 @@
 //! albedo is used.
 
 use super::Real;
-use super::ggx_albedo::{axis, for_each_sample};
+use super::ggx_albedo::{axis, bilinear, for_each_sample};
 use std::sync::OnceLock;
 
 /// Nodes along `√cos θo`.
@@ -112,19 +112,16 @@ pub fn table() -> &'static [f32] {
 /// precision (and in the WGSL copy, `sn_dielectric_albedo`).
 pub fn dielectric_albedo<F: Real>(cos: F, alpha: F, etap: F) -> F {
     let t = table();
-    let (i, tx) = axis(cos.sqrt(), N_COS);
-    let (j, ty) = axis(alpha.sqrt().sqrt(), N_ROUGH);
+    let x = axis(cos.sqrt(), N_COS);
+    let y = axis(alpha.sqrt().sqrt(), N_ROUGH);
     let e = if etap > F::ZERO { etap } else { F::ZERO };
     let big = F::from_f64(1e30);
     let e = if e < big { e } else { big };
     let r = (e - F::ONE).abs() / (e + F::ONE);
     let (k, tz) = axis(r.sqrt(), N_R);
-    let at =
-        |i: usize, j: usize, k: usize| F::from_f64(f64::from(t[(k * N_ROUGH + j) * N_COS + i]));
     let plane = |k: usize| {
-        let lo = at(i, j, k) + (at(i + 1, j, k) - at(i, j, k)) * tx;
-        let hi = at(i, j + 1, k) + (at(i + 1, j + 1, k) - at(i, j + 1, k)) * tx;
-        lo + (hi - lo) * ty
+        let at = |i: usize, j: usize| F::from_f64(f64::from(t[(k * N_ROUGH + j) * N_COS + i]));
+        bilinear(at, x, y)
     };
     let (p0, p1) = (plane(k), plane(k + 1));
     p0 + (p1 - p0) * tz

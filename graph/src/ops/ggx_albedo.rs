@@ -131,19 +131,27 @@ pub fn axis<F: Real>(x: F, n: usize) -> (usize, F) {
     (k, s - F::from_i32(k as i32))
 }
 
+/// The table value `at(i, j)` interpolated bilinearly at the axis positions `(i, tx)` and
+/// `(j, ty)` ([`axis`]): along `i` on both rows, then between them. Every table lookup (and
+/// the WGSL copy, `sn_table_bilinear`) interpolates with it, in this order.
+pub fn bilinear<F: Real>(
+    at: impl Fn(usize, usize) -> F,
+    (i, tx): (usize, F),
+    (j, ty): (usize, F),
+) -> F {
+    let lo = at(i, j) + (at(i + 1, j) - at(i, j)) * tx;
+    let hi = at(i, j + 1) + (at(i + 1, j + 1) - at(i, j + 1)) * tx;
+    lo + (hi - lo) * ty
+}
+
 /// `(A, B)` at `cos θo = cos` and roughness `alpha`: the table interpolated bilinearly in
 /// `√cos θo` and `α^¼`, both clamped to [0, 1] (NaN reads the first node). The same
 /// operations in the same order at either precision.
 pub fn ggx_albedo<F: Real>(cos: F, alpha: F) -> [F; 2] {
     let t = table();
-    let (i, tx) = axis(cos.sqrt(), N_COS);
-    let (j, ty) = axis(alpha.sqrt().sqrt(), N_ROUGH);
-    let at = |i: usize, j: usize, k: usize| F::from_f64(f64::from(t[j * N_COS + i][k]));
-    [0, 1].map(|k| {
-        let lo = at(i, j, k) + (at(i + 1, j, k) - at(i, j, k)) * tx;
-        let hi = at(i, j + 1, k) + (at(i + 1, j + 1, k) - at(i, j + 1, k)) * tx;
-        lo + (hi - lo) * ty
-    })
+    let x = axis(cos.sqrt(), N_COS);
+    let y = axis(alpha.sqrt().sqrt(), N_ROUGH);
+    [0, 1].map(|k| bilinear(|i, j| F::from_f64(f64::from(t[j * N_COS + i][k])), x, y))
 }
 
 #[cfg(test)]

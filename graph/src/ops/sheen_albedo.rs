@@ -29,7 +29,7 @@
 //! This module owns the integration and the lookup; `closure::sheen` owns the lobe.
 
 use super::Real;
-use super::ggx_albedo::axis;
+use super::ggx_albedo::{axis, bilinear};
 use super::math;
 use std::f64::consts::PI;
 use std::sync::OnceLock;
@@ -119,18 +119,13 @@ pub fn table() -> &'static [[f32; 2]] {
 
 /// [`sheen_albedo`] on the table `t`.
 fn lookup<F: Real>(t: &[[f32; 2]], cos: F, roughness: F) -> [F; 2] {
-    let (i, tx) = axis(cos.sqrt(), N_COS);
+    let x = axis(cos.sqrt(), N_COS);
     let r0 = F::from_f64(MIN_ROUGHNESS);
     let r = if roughness > r0 { roughness } else { r0 };
     let root = r.sqrt().sqrt().sqrt().sqrt().sqrt() - F::from_f64(f64::from(ROOT_MIN));
     let y = root * F::from_f64(f64::from(INV_SPAN));
-    let (j, ty) = axis(y, N_ROUGH);
-    let at = |i: usize, j: usize, k: usize| F::from_f64(f64::from(t[j * N_COS + i][k]));
-    [0, 1].map(|k| {
-        let lo = at(i, j, k) + (at(i + 1, j, k) - at(i, j, k)) * tx;
-        let hi = at(i, j + 1, k) + (at(i + 1, j + 1, k) - at(i, j + 1, k)) * tx;
-        lo + (hi - lo) * ty
-    })
+    let y = axis(y, N_ROUGH);
+    [0, 1].map(|k| bilinear(|i, j| F::from_f64(f64::from(t[j * N_COS + i][k])), x, y))
 }
 
 /// `(E, G)` at `cos θo = cos` and `roughness`: the table interpolated bilinearly in
