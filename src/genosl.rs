@@ -26,8 +26,10 @@ const FOLDERS: &[&str] = &["stdlib/genosl", "pbrlib/genosl"];
 /// included: a `filename` is a `textureresource`, the file's name and colour space).
 const PREAMBLE: &str = "#define M_FLOAT_EPS 1e-8\n\
     #define BSDF closure color\n#define EDF closure color\n#define VDF closure color\n\
-    #define surfaceshader closure color\n#define volumeshader closure color\n\
+    struct surfaceshader { closure color bsdf; closure color edf; float opacity; };\n\
+    #define volumeshader closure color\n#define displacementshader vector\n\
     #define lightshader closure color\n#define material closure color\n\
+    #define MATERIAL closure color\n\
     struct textureresource { string filename; string colorspace; };\n";
 
 /// The tokens MaterialX's OSL generator substitutes in the implementations' source text
@@ -94,8 +96,9 @@ fn osl_type(mx: &str) -> Option<&'static str> {
         "matrix44" => "matrix",
         "string" => "string",
         "filename" => "textureresource",
-        "BSDF" | "EDF" | "VDF" | "surfaceshader" | "volumeshader" | "displacementshader"
-        | "lightshader" | "material" => "closure color",
+        "surfaceshader" => "surfaceshader",
+        "displacementshader" => "vector",
+        "BSDF" | "EDF" | "VDF" | "volumeshader" | "lightshader" | "material" => "closure color",
         _ => return None,
     })
 }
@@ -190,6 +193,9 @@ pub fn shader_source_with(
     Ok(src)
 }
 
+/// A `surfaceshader` with no BSDF and no EDF, opaque (MaterialX's OSL default).
+const EMPTY_SURFACE: &str = "surfaceshader(0, 0, 1)";
+
 /// `params` followed by the nodedef's outputs as `output` parameters, and the outputs'
 /// names.
 fn with_outputs(
@@ -200,15 +206,28 @@ fn with_outputs(
     for o in &nd.outputs {
         let ty = osl_type(&o.ty).ok_or_else(|| format!("output type `{}`", o.ty))?;
         let name = format!("out_{}", o.name);
-        let init = if ty == "closure color" {
-            "0".to_string()
-        } else {
-            zero(ty)
+        // A surfaceshader output is the shader's closure (see `surface_output`).
+        let (ty, init) = match ty {
+            "closure color" | "surfaceshader" => ("closure color", "0".to_string()),
+            _ => (ty, zero(ty)),
         };
         params.push(format!("output {ty} {name} = {init}"));
         outs.push(name);
     }
     Ok((params, outs))
+}
+
+/// The statements around a call whose output `out` is a `surfaceshader`: a local struct the
+/// function fills, then the closure it renders as, as `surfacematerial` makes it — `(bsdf +
+/// edf)` weighted by the clamped opacity, the rest `transparent()`.
+fn surface_output(out: &str) -> (String, String, String) {
+    let local = format!("{out}_s");
+    let before = format!("    surfaceshader {local} = {EMPTY_SURFACE};\n");
+    let after = format!(
+        "    float {local}_w = clamp({local}.opacity, 0.0, 1.0);\n    \
+         {out} = ({local}.bsdf + {local}.edf) * {local}_w + transparent() * (1.0 - {local}_w);\n"
+    );
+    (local, before, after)
 }
 
 /// The file a shader for `g` includes (if any) and the shader's own text.
@@ -222,13 +241,18 @@ fn shader_parts(
     let body = match (&g.imp.file, &g.imp.function, &g.imp.sourcecode) {
         (Some(file), Some(function), _) => {
             include = Some(g.dir.join(file));
-            let args: Vec<String> = nd
-                .inputs
-                .iter()
-                .map(|i| param_name(&i.name))
-                .chain(outs.iter().cloned())
-                .collect();
-            format!("    {function}({});\n", args.join(", "))
+            let (mut before, mut after) = (String::new(), String::new());
+            let mut args: Vec<String> = nd.inputs.iter().map(|i| param_name(&i.name)).collect();
+            for (o, name) in nd.outputs.iter().zip(outs) {
+                if o.ty == "surfaceshader" {
+                    let (local, b, a) = surface_output(name);
+                    (before, after) = (before + &b, after + &a);
+                    args.push(local);
+                } else {
+                    args.push(name.clone());
+                }
+            }
+            format!("{before}    {function}({});\n{after}", args.join(", "))
         }
         (_, _, Some(code)) => {
             let mut expr = code.clone();
@@ -241,7 +265,12 @@ fn shader_parts(
             let [out] = outs else {
                 return Err("an inline template with several outputs".into());
             };
-            format!("    {out} = {expr};\n")
+            if nd.outputs[0].ty == "surfaceshader" {
+                let (local, before, after) = surface_output(out);
+                format!("{before}    {local} = {expr};\n{after}")
+            } else {
+                format!("    {out} = {expr};\n")
+            }
         }
         _ => return Err("neither a function in a file nor a template".into()),
     };
@@ -273,6 +302,12 @@ fn input_param(i: &Input) -> Result<String, String> {
     let ty = osl_type(&i.ty).ok_or_else(|| format!("input type `{}`", i.ty))?;
     if ty == "closure color" {
         return Ok(format!("closure color {} = 0", param_name(&i.name)));
+    }
+    if ty == "surfaceshader" {
+        return Ok(format!(
+            "surfaceshader {} = {EMPTY_SURFACE}",
+            param_name(&i.name)
+        ));
     }
     let default = match (&i.defaultgeomprop, &i.value) {
         (Some(g), _) => geomprop(&i.ty, g).unwrap_or_else(|| zero(ty)),

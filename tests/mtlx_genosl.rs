@@ -62,7 +62,7 @@ fn genosl_implementations_compile() {
 }
 
 /// How many compile today (a floor: raise it as more is built).
-const MIN_COMPILED: usize = 511;
+const MIN_COMPILED: usize = 517;
 
 /// A MaterialX document of one node of nodedef `nd` with `values` set, its output `out`
 /// (a node of several outputs: `o_NAME` for each output `NAME`).

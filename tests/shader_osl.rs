@@ -1276,3 +1276,45 @@ fn closure_keywords_and_mix() {
         "closure keyword \"thinfilm_width\" is not built",
     )]);
 }
+
+/// Struct fields may hold closures (MaterialX's `surfaceshader`: `bsdf`, `edf`, `opacity`):
+/// set through an output parameter, built by the constructor (0 is the null closure), read
+/// back as the lobes they hold. OSL's shader types are names, not keywords: `surface` is a
+/// parameter of MaterialX's `mx_surfacematerial`.
+#[test]
+fn closures_in_struct_fields_and_shader_types_as_names() {
+    let lights = [point([0.6, -0.3, 1.5], 3.0)];
+    let mut f = plane_fragment();
+    f.p = [0.2, 0.1, 0.0];
+    f.i = [0.2, 0.1, -1.0];
+    let ci = |src: &str| {
+        let p = compile(src).unwrap_or_else(|e| panic!("{e}"));
+        run_program(&p, &f, &lights, u32::MAX).get("Ci")
+    };
+    let want = ci("surface s() { Ci = diffuse(N) + 0.5 * emission(); }");
+    assert!(want.iter().all(|x| *x > 0.5), "{want:?}");
+    let by_output = r#"
+        struct S { closure color bsdf; closure color edf; float opacity; };
+        void mk(output S r) { r.bsdf = diffuse(N); r.edf = 0.5 * emission(); r.opacity = 1; }
+        surface s() { S r = S(0, 0, 0); mk(r); Ci = (r.bsdf + r.edf) * r.opacity; }"#;
+    assert_eq!(ci(by_output), want);
+    let by_constructor = r#"
+        struct S { closure color bsdf; closure color edf; float opacity; };
+        surface s() { S r = S(diffuse(N), 0.5 * emission(), 1); Ci = r.bsdf + r.edf; }"#;
+    assert_eq!(ci(by_constructor), want);
+    // A surfaceshader whose fields are left null renders nothing.
+    let null = r#"
+        struct S { closure color bsdf; closure color edf; float opacity; };
+        surface s() { S r = S(0, 0, 1); Ci = r.bsdf + r.edf; }"#;
+    assert_eq!(ci(null), vec![0.0; 3]);
+    // `surface` and `displacement` as names.
+    let named = r#"
+        struct S { closure color bsdf; closure color edf; float opacity; };
+        closure color m(S surface, float displacement) { return surface.bsdf * displacement; }
+        surface s() { Ci = m(S(diffuse(N), 0, 1), 1) + 0.5 * emission(); }"#;
+    assert_eq!(ci(named), want);
+    assert_errors(&[(
+        "struct S { closure color c; }; surface s() { S r = S(1.5); Ci = r.c; }",
+        "expected a closure (or 0), found float",
+    )]);
+}

@@ -80,10 +80,12 @@ const KEYWORDS: &[(&str, Keyword, Option<Dialect>)] = &[
     ("illuminance", Keyword::Illuminance, Some(Dialect::Rsl)),
     ("illuminate", Keyword::Illuminate, Some(Dialect::Rsl)),
     ("solar", Keyword::Solar, Some(Dialect::Rsl)),
-    ("surface", Keyword::Surface, None),
+    // OSL's shader types are names, not keywords (`surface` is a parameter of MaterialX's
+    // `mx_surfacematerial`): the parser takes them as the kind where an item begins.
+    ("surface", Keyword::Surface, Some(Dialect::Rsl)),
     ("light", Keyword::Light, Some(Dialect::Rsl)),
-    ("volume", Keyword::Volume, None),
-    ("displacement", Keyword::Displacement, None),
+    ("volume", Keyword::Volume, Some(Dialect::Rsl)),
+    ("displacement", Keyword::Displacement, Some(Dialect::Rsl)),
     ("imager", Keyword::Imager, Some(Dialect::Rsl)),
     ("shader", Keyword::Shader, Some(Dialect::Osl)),
 ];

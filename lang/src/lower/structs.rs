@@ -6,6 +6,7 @@
 //! return structs (`output` structs written back). Owns the struct rules.
 
 use super::{Lower, Ty, Val};
+use crate::Dialect;
 use crate::ast::{self, Expr, ExprKind};
 use crate::source::Span;
 use shadenet_graph::ir::Builder;
@@ -95,6 +96,14 @@ impl<'a> Lower<'a> {
             return match len {
                 Some(n) => Val::Array(vec![one; n]),
                 None => one,
+            };
+        }
+        if ty.closure.is_some() && self.dialect == Dialect::Osl {
+            // A closure field: the empty closure, set by assignment like a closure local.
+            let none = Val::Closure(Box::default());
+            return match len {
+                Some(n) => Val::Array(vec![none; n]),
+                None => none,
             };
         }
         let t = self.declared_type(ty).unwrap_or(Ty::Float);
@@ -382,12 +391,31 @@ impl<'a> Lower<'a> {
         let mut out = Vec::new();
         for ((name, ty, _), (v, at)) in fields.into_iter().zip(args) {
             let v = match (self.declared_type_quiet(ty), v) {
+                _ if ty.closure.is_some() => self.closure_field(b, v, *at),
                 (Some(t), v @ Val::V { .. }) => self.coerce(b, v.clone(), t, *at),
                 (_, v) => v.clone(),
             };
             out.push((name.name.clone(), v));
         }
         Some(Val::Struct(def.name.name.clone(), out))
+    }
+
+    /// The value of a closure field given `v`: a closure, or OSL's null closure for a
+    /// constant 0; anything else is an error (and the null closure).
+    fn closure_field(&mut self, b: &Builder, v: &Val, at: Span) -> Val {
+        match v {
+            Val::Closure(_) => v.clone(),
+            _ => {
+                if !Self::closure_or_zero(b, v) {
+                    self.error(
+                        format!("expected a closure (or 0), found {}", v.type_name()),
+                        at,
+                        "not a closure",
+                    );
+                }
+                Val::Closure(Box::default())
+            }
+        }
     }
 
     /// The value type of `t` without an error (`None` for structs and closures).

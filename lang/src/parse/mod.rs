@@ -428,6 +428,16 @@ impl<'a> Parser<'a> {
             Some(TokenKind::Keyword(Keyword::Displacement)) => Some(ShaderKind::Displacement),
             Some(TokenKind::Keyword(Keyword::Imager)) => Some(ShaderKind::Imager),
             Some(TokenKind::Keyword(Keyword::Shader)) => Some(ShaderKind::Shader),
+            // OSL: `surface`, `displacement` and `volume` are names, a shader's kind where
+            // a name follows (a function's return type is a type keyword or a struct).
+            Some(TokenKind::Ident) if self.nth_kind(1) == Some(TokenKind::Ident) => {
+                match self.peek().map(|t| self.text(t)) {
+                    Some("surface") => Some(ShaderKind::Surface),
+                    Some("displacement") => Some(ShaderKind::Displacement),
+                    Some("volume") => Some(ShaderKind::Volume),
+                    _ => None,
+                }
+            }
             _ => None,
         };
         if let Some(kind) = kind {
