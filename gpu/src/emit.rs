@@ -91,7 +91,6 @@
 
 use shadenet_graph::ir::{BinOp, Intrinsic, UnOp};
 use shadenet_graph::ir::{Op, Program, Value};
-use shadenet_graph::ops;
 use shadenet_graph::types::{ConstValue, Type};
 
 /// `wgsl/lib.wgsl` as written: [`library`] fills in the noise permutation.
@@ -455,10 +454,18 @@ pub fn op_expr(
         Op::Convert(a) => convert(program.ty(*a), ty, &arg(*a)),
         Op::Call(i, args) => {
             let mut parts: Vec<String> = args.iter().map(|a| arg(*a)).collect();
-            // The Worley noises (a jitter after the position) and rgb_to_hsv take the key.
-            let worley = ops::osl_intrinsic_operands(*i)
-                .is_some_and(|o| o.len() == 4 && o.get(1) == Some(&Type::Float));
-            if matches!(i, Intrinsic::RgbToHsv) || worley {
+            // rgb_to_hsv and the Worley noises take the key.
+            use Intrinsic as I;
+            if matches!(
+                i,
+                I::RgbToHsv
+                    | I::MxWorley2
+                    | I::MxWorley2V2
+                    | I::MxWorley2V3
+                    | I::MxWorley3
+                    | I::MxWorley3V2
+                    | I::MxWorley3V3
+            ) {
                 parts.push(KEY.into());
             }
             let f = match i {

@@ -800,8 +800,7 @@ fn sn_dielectric_albedo(c: f32, alpha: f32, etap: f32) -> f32 {
 // ---- sheen directional albedo (ops::sheen_albedo) ----
 
 // (E, G) pairs, 32 √cos θo nodes by 12 (r^(1/32) − r₀^(1/32))/(1 − r₀^(1/32)) nodes
-// (r₀ = 0.005), in
-// `sn_tables` after the dielectric table (at 2048 + 3328 = 5376).
+// (r₀ = 0.005), in `sn_tables` after the dielectric table (at 2048 + 3328 = 5376).
 
 // ops::sheen_albedo::sheen_albedo: bilinear in √cos θo and
 // (r^(1/32) − r₀^(1/32))/(1 − r₀^(1/32)), five square roots and no logarithm.

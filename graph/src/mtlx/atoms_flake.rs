@@ -9,6 +9,7 @@
 //! This module owns the flake formula; the atom table ([`super::atoms`]) maps the nodes
 //! onto it.
 
+use crate::closure::math::scale;
 use crate::ir::{BinOp, Builder, Intrinsic, UnOp, Value};
 use crate::nodes::{LowVal, NodeInputs};
 use crate::types::Type;
@@ -161,8 +162,8 @@ fn flake(b: &mut Builder, inp: &NodeInputs, position: Value) -> Out {
     let two = b.float(2.0);
     let noise = b.call(Intrinsic::OslVCell4, &[cell, two]);
     let [xi0, xi1, rand] = [0, 1, 2].map(|c| b.extract(noise, c));
-    let scale = b.float(16_777_215.0);
-    let scaled = b.mul(rand, scale);
+    let ids = b.float(16_777_215.0);
+    let scaled = b.mul(rand, ids);
     let id = b.convert(Type::Int, scaled);
     let phi = two_pi(b, xi0);
     // tan θ = r² √ξ1 / √(1 − ξ1) (GGX), sin θ = tan θ / √(1 + tan² θ), cos θ = √(1 − sin² θ)
@@ -180,21 +181,12 @@ fn flake(b: &mut Builder, inp: &NodeInputs, position: Value) -> Out {
     let oms = b.sub(one, ss);
     let cos = b.unary(UnOp::Sqrt, oms);
     // tangent · cos φ · sin θ + bitangent · sin φ · sin θ + N · cos θ
-    let term = |b: &mut Builder, v: Value, x: Value, y: Option<Value>| {
-        let x = b.splat_to(Type::Vec3, x);
-        let r = b.mul(v, x);
-        match y {
-            Some(y) => {
-                let y = b.splat_to(Type::Vec3, y);
-                b.mul(r, y)
-            }
-            None => r,
-        }
-    };
     let (cp, sp) = (b.unary(UnOp::Cos, phi), b.unary(UnOp::Sin, phi));
-    let a = term(b, tangent, cp, Some(sin));
-    let c = term(b, bitangent, sp, Some(sin));
-    let d = term(b, n, cos, None);
+    let a = scale(b, tangent, cp);
+    let a = scale(b, a, sin);
+    let c = scale(b, bitangent, sp);
+    let c = scale(b, c, sin);
+    let d = scale(b, n, cos);
     let sum = b.add(a, c);
     let sum = b.add(sum, d);
     let normal = b.normalize(sum);

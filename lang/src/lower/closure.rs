@@ -113,29 +113,15 @@ impl<'a> Lower<'a> {
     /// stdosl.h's `mix(closure x, closure y, float a)`: `x (1 − a) + y a`; `None` (the
     /// ordinary `mix`) unless both `x` and `y` are closures.
     fn closure_mix(&mut self, b: &mut Builder, args: &[(Val, Span)]) -> Option<Val> {
-        let [(x @ Val::Closure(_), _), (y @ Val::Closure(_), _), (a, _)] = args else {
+        let [(Val::Closure(x), _), (Val::Closure(y), _), (a, _)] = args else {
             return None;
         };
-        let mul = crate::ast::BinaryOp::Mul;
-        let (a, ty) = match a {
-            Val::V { ty: Ty::Int, v, .. } => (b.convert(Type::Float, *v), Ty::Float),
-            Val::V {
-                ty: ty @ (Ty::Float | Ty::Color),
-                v,
-                ..
-            } => (*v, *ty),
-            _ => return None,
-        };
+        let a = weight(b, a)?;
         let one = b.float(1.0);
         let one = b.splat_to(b.ty(a), one);
         let keep = b.sub(one, a);
-        let weight = |v| Val::V {
-            v,
-            ty,
-            varying: true,
-        };
-        let xs = self.closure_arith(b, mul, x, &weight(keep))?;
-        let ys = self.closure_arith(b, mul, y, &weight(a))?;
+        let xs = x.scaled(b, keep);
+        let ys = y.scaled(b, a);
         Some(Val::Closure(Box::new(Closure::add(b, &xs, &ys))))
     }
 
@@ -500,15 +486,6 @@ impl<'a> Lower<'a> {
         c: &Val,
     ) -> Option<Closure> {
         use crate::ast::BinaryOp as Op;
-        let weight = |b: &mut Builder, v: &Val| match v {
-            Val::V {
-                v,
-                ty: Ty::Float | Ty::Color,
-                ..
-            } => Some(*v),
-            Val::V { v, ty: Ty::Int, .. } => Some(b.convert(Type::Float, *v)),
-            _ => None,
-        };
         match (op, a, c) {
             (Op::Add, Val::Closure(x), Val::Closure(y)) => Some(Closure::add(b, x, y)),
             (Op::Mul, Val::Closure(x), k) | (Op::Mul, k, Val::Closure(x)) => {
@@ -598,6 +575,20 @@ fn osl_dielectric(
         component,
         unbuilt: None,
     })
+}
+
+/// The IR value of a closure weight: a float or a color (an int converted to float);
+/// `None` for anything else.
+fn weight(b: &mut Builder, v: &Val) -> Option<Value> {
+    match v {
+        Val::V {
+            v,
+            ty: Ty::Float | Ty::Color,
+            ..
+        } => Some(*v),
+        Val::V { v, ty: Ty::Int, .. } => Some(b.convert(Type::Float, *v)),
+        _ => None,
+    }
 }
 
 /// A dielectric lobe of `tint`, index `ior`, `roughness` (vec2), `mode` and thin film, with
