@@ -1318,3 +1318,197 @@ fn closures_in_struct_fields_and_shader_types_as_names() {
         "expected a closure (or 0), found float",
     )]);
 }
+
+/// Arrays of structs (MaterialX's hex tiling keeps `vector2 ctr[3]` and a struct field
+/// `vector2 coords[3]`): declared zero or from a `{ … }` list of structs, written and read
+/// at a run-time index inside a loop, whole elements and their fields, passed to a
+/// function, copied whole; the wrong element type and the wrong list length are errors.
+#[test]
+fn arrays_of_structs() {
+    let src = r#"
+        struct V2 { float x; float y; };
+        struct Tiles { V2 c[3]; float w; };
+        float total(V2 a[3]) { return a[0].x + a[1].x + a[2].x + a[0].y + a[1].y + a[2].y; }
+        shader s(output color o = 0, output color p = 0) {
+            V2 ctr[3];
+            V2 init[2] = { V2(1, 2), { 3, 4 } };
+            Tiles t;
+            for (int i = 0; i < 3; i++) {
+                ctr[i] = V2(i * u, i + 10);
+                t.c[i] = V2(ctr[i].x * 2, ctr[i].y);
+            }
+            int k = u > 0.5 ? 2 : 1;
+            ctr[k].y = 0;
+            for (int i = 0; i < 3; i++) t.c[i].y += 1;
+            if (u > 0.5) t.c[1].x = 7;
+            V2 copy[3] = ctr;
+            ctr[0] = init[1];
+            o = color(copy[1].x, copy[k].y, t.c[2].x + t.c[1].x);
+            p = color(total(copy), ctr[0].x + init[0].y, t.c[k].y);
+        }"#;
+    let p = compile(src).unwrap();
+    for u in [0.25f64, 0.75] {
+        let mut f = plane_fragment();
+        f.uv = [u as _, 0.5];
+        let o = run_program(&p, &f, &[], u32::MAX);
+        let uf = f64::from(u as f32);
+        let k = if u > 0.5 { 2.0 } else { 1.0 };
+        // copy: (0, 10), (u, 11), (2u, 12) with element k's y set to 0.
+        let ys = [10.0, 11.0, 12.0];
+        let ys_k: Vec<f64> = (0..3)
+            .map(|i| if i as f64 == k { 0.0 } else { ys[i] })
+            .collect();
+        let c1x = if u > 0.5 { 7.0 } else { 2.0 * uf };
+        check(&o, "o", &[uf, 0.0, 4.0 * uf + c1x], 1e-6);
+        let total = 3.0 * uf + ys_k.iter().sum::<f64>();
+        check(&o, "p", &[total, 3.0 + 2.0, 11.0 + k], 1e-5);
+    }
+    assert_errors(&[
+        (
+            "struct V2 { float x; float y; }; shader s() { V2 a[2]; a[0] = 1; }",
+            "expected a `V2`, found an int",
+        ),
+        (
+            "struct V2 { float x; float y; }; shader s() { V2 a[2] = { V2(1, 2) }; }",
+            "`a` has 2 elements; the list gives 1",
+        ),
+        (
+            "struct V2 { float x; float y; }; shader s() { V2 a[2] = 3; }",
+            "`a` is an array of 2 `V2`: it takes a `{ … }` list or an array of 2, not an int",
+        ),
+    ]);
+}
+
+/// String variables and outputs (MaterialX's `geompropvalueuniform` of strings, `constant`
+/// and `dot` of strings): declared, assigned, compared, set by `getattribute` (never found:
+/// geometry attributes are numbers) or by an `if` whose condition is known while
+/// compiling, held in struct fields, and passed from a layer's string output to the next
+/// layer's string input. A string picked by a condition known only while shading, and a
+/// non-string assigned to a string, are errors.
+#[test]
+fn string_variables_and_outputs() {
+    let src = r#"
+        struct Res { string filename; float k; };
+        shader s(string which = "b", output string name = "", output color o = 0) {
+            string a = "a", c;
+            c = which;
+            if (getattribute("no_such_attribute", a) == 0)
+                a = "fallback";
+            Res r = Res("x.png", 1);
+            if (which == "b") r.filename = "y.png";
+            name = r.filename;
+            o = color(a == "fallback", c == "b" && name == "y.png", u);
+        }"#;
+    let p = compile(src).unwrap();
+    let o = run_program(&p, &plane_fragment(), &[], u32::MAX);
+    check(&o, "o", &[1.0, 1.0, f64::from(plane_fragment().uv[0])], 0.0);
+    let names: Vec<&str> = p.outputs.iter().map(|o| o.name.as_str()).collect();
+    assert!(
+        !names.contains(&"name"),
+        "a string is no program output: {names:?}"
+    );
+    let first = "shader first(string pick = \"q\", output string label = \"\") { label = pick; }";
+    let second =
+        "shader second(string label = \"\", output color Ci = 0) { Ci = color(label == \"v\"); }";
+    for (value, want) in [("v", 1.0), ("w", 0.0)] {
+        let group = format!(
+            "param string pick \"{value}\" ;\nshader first a ;\nshader second b ;\nconnect a.label b.label ;\n"
+        );
+        let dir = folder(
+            "strings_group",
+            &[
+                ("first.osl", first),
+                ("second.osl", second),
+                ("g.oslgroup", &group),
+            ],
+        );
+        let compiled = shadenet::shader::load(&dir.join("g.oslgroup"), &[], &[]).unwrap();
+        let o = run_program(&compiled.program, &plane_fragment(), &[], u32::MAX);
+        assert_close(&o.get("Ci"), &[want; 3], 0.0, value);
+    }
+    assert_errors(&[
+        (
+            "shader s(output float o = 0) { string a = \"x\"; if (u > 0.5) a = \"y\"; o = a == \"y\"; }",
+            "a string is \"y\" or \"x\" by a condition known only while shading",
+        ),
+        (
+            "shader s() { string a = 1; }",
+            "`a` is a string: not an int",
+        ),
+        (
+            "shader s() { string a; a = u; }",
+            "`a` is a string: not a float",
+        ),
+        (
+            "shader s() { string a; a += \"b\"; }",
+            "strings are only assigned with `=`",
+        ),
+    ]);
+}
+
+/// `blackbody` is Planck's law integrated against the CIE 1931 matching functions in the
+/// Rec. 709 colour system, as OSL computes it: CIE Illuminant A (a blackbody at 2856 K)
+/// comes out at its published chromaticity (0.44757, 0.40745), 6504 K close to D65's
+/// white, hotter is bluer, brightness grows with the temperature, and below Draper's point
+/// (800 K) it is OSL's dim red. `wavelength_color` is the matching functions at one
+/// wavelength (scaled by 1/2.52): green at 530 nm, black outside 380–780 nm.
+#[test]
+fn blackbody_and_wavelength_color_are_osls() {
+    let src = "shader s(float t = 1000, float l = 500, output color bb = 0, output color w = 0) {
+                   bb = blackbody(t); w = wavelength_color(l); }";
+    let p = compile(src).unwrap();
+    let shade = |t: f64, l: f64| {
+        let mut q = p.clone();
+        shadenet::shader::set_param(&mut q, "t", &[t]).unwrap();
+        shadenet::shader::set_param(&mut q, "l", &[l]).unwrap();
+        let o = run_program(&q, &plane_fragment(), &[], u32::MAX);
+        (o.get("bb"), o.get("w"), o.get32("bb"))
+    };
+    // Rec. 709 RGB → CIE xy (the standard matrix, written out independently).
+    let xy = |c: &[f64]| {
+        let m = [
+            [0.4124, 0.3576, 0.1805],
+            [0.2126, 0.7152, 0.0722],
+            [0.0193, 0.1192, 0.9505],
+        ];
+        let v: Vec<f64> = m
+            .iter()
+            .map(|r| r[0] * c[0] + r[1] * c[1] + r[2] * c[2])
+            .collect();
+        let s = v[0] + v[1] + v[2];
+        (v[0] / s, v[1] / s)
+    };
+    let (a, _, a32) = shade(2856.0, 500.0);
+    let (x, y) = xy(&a);
+    assert!(
+        (x - 0.44757).abs() < 2e-3 && (y - 0.40745).abs() < 2e-3,
+        "A: {x} {y}"
+    );
+    for (k, (u, v)) in a.iter().zip(&a32).enumerate() {
+        assert!(
+            (u - v).abs() <= 1e-5 * u.abs().max(1.0),
+            "f32 {k}: {u} vs {v}"
+        );
+    }
+    let (d, _, _) = shade(6504.0, 500.0);
+    let (x, y) = xy(&d);
+    assert!(
+        (x - 0.3127).abs() < 5e-3 && (y - 0.3290).abs() < 8e-3,
+        "6504 K: {x} {y}"
+    );
+    let (hot, _, _) = shade(20000.0, 500.0);
+    assert!(hot[2] > hot[0] && a[0] > a[2], "hot {hot:?}, A {a:?}");
+    let luma = |c: &[f64]| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+    assert!(luma(&d) > 10.0 * luma(&a) && luma(&a) > 0.0);
+    let (cold, _, _) = shade(500.0, 500.0);
+    assert_close(&cold, &[1e-6, 0.0, 0.0], 0.0, "below Draper's point");
+    let (_, green, _) = shade(1000.0, 530.0);
+    assert!(
+        green[1] > green[0] && green[1] > green[2] && green[1] < 1.0,
+        "{green:?}"
+    );
+    for l in [300.0, 780.0, 900.0] {
+        let (_, w, _) = shade(1000.0, l);
+        assert_close(&w, &[0.0; 3], 0.0, &format!("{l} nm"));
+    }
+}

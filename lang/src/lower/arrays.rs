@@ -111,14 +111,15 @@ impl<'a> Lower<'a> {
                 }
             },
         };
-        self.bind_array(name, ty, values, uniform);
+        self.bind_array(name, Some(ty), values, uniform);
     }
 
-    /// Binds array `name` with element values `values` in the innermost scope.
+    /// Binds array `name` with element values `values` in the innermost scope (`ty`
+    /// `None`: the elements are structs, each bound as a struct variable).
     pub(crate) fn bind_array(
         &mut self,
         name: &ast::Ident,
-        ty: Ty,
+        ty: Option<Ty>,
         values: Vec<Val>,
         uniform: bool,
     ) {
@@ -128,7 +129,7 @@ impl<'a> Lower<'a> {
                 name: element(&name.name, k),
                 span: name.span,
             };
-            self.declare(&id, v, uniform);
+            self.bind_value(&id, v, uniform);
         }
         self.declare(name, Val::ArrayVar { len, ty }, uniform);
     }
@@ -139,13 +140,16 @@ impl<'a> Lower<'a> {
         &mut self,
         b: &mut Builder,
         id: &ast::Ident,
-        (len, ty): (usize, Ty),
+        len: usize,
         value: &'a Expr,
-        uniform: bool,
     ) -> Val {
-        let elems = match (&value.kind, self.expr(b, value)) {
-            (_, Val::Array(elems)) if elems.len() == len => elems,
-            (_, other) => {
+        let old = match self.read_var(&id.name) {
+            Some(Val::Array(old)) if old.len() == len => old,
+            _ => return Self::poison(b, Ty::Float),
+        };
+        let elems = match self.expr(b, value) {
+            Val::Array(elems) if elems.len() == len => elems,
+            other => {
                 self.error(
                     format!(
                         "`{}` is an array of {len}: it takes an array of {len}, not {}",
@@ -155,19 +159,20 @@ impl<'a> Lower<'a> {
                     value.span,
                     "not an array of that length",
                 );
-                return Self::poison(b, ty);
+                return old[0].clone();
             }
         };
         let elems: Vec<Val> = elems
             .into_iter()
-            .map(|v| self.coerce(b, v, ty, value.span))
+            .zip(&old)
+            .map(|(v, like)| self.fit(b, v, like, value.span))
             .collect();
         for (k, e) in elems.iter().enumerate() {
             let el = ast::Ident {
                 name: element(&id.name, k),
                 span: id.span,
             };
-            self.rebind(&el, e.clone(), uniform, value.span);
+            self.store(&el, e.clone(), value.span);
         }
         Val::Array(elems)
     }
@@ -222,11 +227,11 @@ impl<'a> Lower<'a> {
             }
         };
         let pos = self.position(b, index, elems.len());
-        self.pick(b, &elems, &pos)
+        self.pick(b, &elems, &pos, index.span)
     }
 
     /// The element of `elems` at `pos` (a chain of selects for a run-time position).
-    pub(crate) fn pick(&mut self, b: &mut Builder, elems: &[Val], pos: &Position) -> Val {
+    pub(crate) fn pick(&mut self, b: &mut Builder, elems: &[Val], pos: &Position, at: Span) -> Val {
         match *pos {
             Position::Known(k) => elems[k].clone(),
             Position::Computed(i, vi) => {
@@ -234,7 +239,7 @@ impl<'a> Lower<'a> {
                 for (k, e) in elems.iter().enumerate().skip(1) {
                     let kk = b.int(k as i32);
                     let here = b.binary(BinOp::Eq, i, kk);
-                    acc = self.merge(b, here, vi, e.clone(), acc);
+                    acc = self.merge(b, (here, vi), e.clone(), acc, at);
                 }
                 acc
             }
@@ -266,6 +271,53 @@ impl<'a> Lower<'a> {
         self.assign_element(b, (id, At::Component(k)), rhs, span)
     }
 
+    /// `a[index].f op= value` for an array of structs `a`: the element read once, its field
+    /// `f` changed, the element stored back as `a[index] = …` would; the field's new value
+    /// is the expression's.
+    pub(crate) fn assign_element_field(
+        &mut self,
+        b: &mut Builder,
+        (id, index, f): (&ast::Ident, &'a Expr, &ast::Ident),
+        (op, value): (AssignOp, &'a Expr),
+        span: Span,
+    ) -> Val {
+        let Some(Val::Array(elems)) = self.read_var(&id.name) else {
+            return self.unknown(b, id, "name");
+        };
+        let pos = self.position(b, index, elems.len());
+        if matches!(pos, Position::Bad) {
+            return Self::poison(b, Ty::Float);
+        }
+        let elem = self.pick(b, &elems, &pos, index.span);
+        let Val::Struct(s, mut fields) = elem.clone() else {
+            self.error("only struct elements have fields", f.span, "not a struct");
+            return Self::poison(b, Ty::Float);
+        };
+        let old = self.field_of(b, elem, f);
+        let new = match super::arith_of(op) {
+            _ if op == AssignOp::Set => self.expr(b, value),
+            Some(bin) => {
+                let v = self.expr(b, value);
+                self.binary_vals(b, bin, (old.clone(), span), (v, value.span), span)
+            }
+            None => {
+                self.error("bitwise assignments are not built", span, "not built yet");
+                return old;
+            }
+        };
+        let new = self.fit(b, new, &old, value.span);
+        if let Some(slot) = fields.iter_mut().find(|(n, _)| *n == f.name) {
+            slot.1 = new.clone();
+        }
+        self.assign_element(
+            b,
+            (id, At::Pos(pos)),
+            Rhs::Val(Val::Struct(s, fields)),
+            span,
+        );
+        new
+    }
+
     /// [`Lower::assign_index`] or [`Lower::assign_component`]: element `at` of `id`.
     fn assign_element(
         &mut self,
@@ -279,7 +331,7 @@ impl<'a> Lower<'a> {
         };
         let (len, ty) = match var.val {
             Val::ArrayVar { len, ty } => (len, ty),
-            Val::V { ty, .. } if ty.is_triple() => (3, Ty::Float),
+            Val::V { ty, .. } if ty.is_triple() => (3, Some(Ty::Float)),
             other => {
                 self.error(
                     format!("{} cannot be indexed", super::an(other.type_name())),
@@ -291,11 +343,12 @@ impl<'a> Lower<'a> {
         };
         let pos = match at {
             At::Index(index) => self.position(b, index, len),
+            At::Pos(pos) => pos,
             At::Component(k) if k < len => Position::Known(k),
             At::Component(_) => Position::Bad,
         };
         if matches!(pos, Position::Bad) {
-            return Self::poison(b, ty);
+            return Self::poison(b, ty.unwrap_or(Ty::Float));
         }
         let triple = matches!(var.val, Val::V { .. });
         let mut elems: Vec<Val> = match &var.val {
@@ -311,18 +364,31 @@ impl<'a> Lower<'a> {
                 _ => Vec::new(),
             },
         };
+        let Some(first) = elems.first().cloned() else {
+            return Self::poison(b, Ty::Float);
+        };
         let rhs = match rhs {
-            Rhs::Val(v) => self.coerce(b, v, ty, span),
-            Rhs::Expr(AssignOp::Set, value) => self.expr_as(b, value, ty),
+            Rhs::Val(v) => self.fit(b, v, &first, span),
+            Rhs::Expr(AssignOp::Set, value) => {
+                let v = match (&first, ty) {
+                    (_, Some(ty)) => self.expr_as(b, value, ty),
+                    (Val::Struct(s, _), None) => match self.struct_def(s) {
+                        Some(def) => self.expr_for_struct(b, value, def),
+                        None => self.expr(b, value),
+                    },
+                    _ => self.expr(b, value),
+                };
+                self.fit(b, v, &first, value.span)
+            }
             Rhs::Expr(op, value) => {
                 let Some(bin) = super::arith_of(op) else {
                     self.error("bitwise assignments are not built", span, "not built yet");
-                    return Self::poison(b, ty);
+                    return first;
                 };
-                let old = self.pick(b, &elems, &pos);
+                let old = self.pick(b, &elems, &pos, span);
                 let v = self.expr(b, value);
                 let v = self.binary_vals(b, bin, (old, span), (v, value.span), span);
-                self.coerce(b, v, ty, span)
+                self.fit(b, v, &first, span)
             }
         };
         match pos {
@@ -331,7 +397,7 @@ impl<'a> Lower<'a> {
                 for (k, e) in elems.iter_mut().enumerate() {
                     let kk = b.int(k as i32);
                     let here = b.binary(BinOp::Eq, i, kk);
-                    *e = self.merge(b, here, vi, rhs.clone(), e.clone());
+                    *e = self.merge(b, (here, vi), rhs.clone(), e.clone(), span);
                 }
             }
             Position::Bad => {}
@@ -356,10 +422,30 @@ impl<'a> Lower<'a> {
                     name: element(&id.name, k),
                     span: id.span,
                 };
-                self.rebind(&el, e, var.uniform, span);
+                self.store(&el, e, span);
             }
         }
         rhs
+    }
+
+    /// `v` as a value of `like`'s kind: converted to its type (a value), or checked to be
+    /// the same struct (an error otherwise, and `like` kept).
+    pub(crate) fn fit(&mut self, b: &mut Builder, v: Val, like: &Val, span: Span) -> Val {
+        match like {
+            Val::V { ty, .. } => self.coerce(b, v, *ty, span),
+            Val::Struct(s, _) => {
+                if matches!(&v, Val::Struct(t, _) if t == s) {
+                    return v;
+                }
+                self.error(
+                    format!("expected a `{s}`, found {}", super::an(v.type_name())),
+                    span,
+                    "wrong type",
+                );
+                like.clone()
+            }
+            _ => v,
+        }
     }
 
     /// Where `index` points in a sequence of `len`: a constant position (out of range: an
@@ -413,6 +499,8 @@ enum At<'a> {
     Index(&'a Expr),
     /// `v.x` … (0, 1 or 2).
     Component(usize),
+    /// An index already lowered.
+    Pos(Position),
 }
 
 /// Where an index points.
@@ -440,8 +528,21 @@ impl<'a> Lower<'a> {
         arg: Val,
         span: Span,
     ) {
-        let Some(ty) = self.declared_type(&p.ty) else {
-            return;
+        // The element an argument's elements must be like: a value of the declared type,
+        // or a struct of the declared struct type.
+        let like = match &p.ty.base {
+            ast::BaseType::Struct(n) if self.struct_def(&n.name).is_some() => {
+                let def = self.struct_def(&n.name).expect("checked");
+                self.struct_zero(b, def, 0)
+            }
+            _ => match self.declared_type(&p.ty) {
+                Some(ty) => Self::poison(b, ty),
+                None => return,
+            },
+        };
+        let ty = match &like {
+            Val::V { ty, .. } => Some(*ty),
+            _ => None,
         };
         let want = p.array.as_ref().and_then(|a| a.len.as_ref()).and_then(|l| {
             match super::eval(l).as_deref() {
@@ -453,7 +554,7 @@ impl<'a> Lower<'a> {
             Val::Array(elems) if want.is_none_or(|n| n == elems.len()) => {
                 let elems = elems
                     .into_iter()
-                    .map(|v| self.coerce(b, v, ty, span))
+                    .map(|v| self.fit(b, v, &like, span))
                     .collect();
                 self.bind_array(&p.name, ty, elems, false);
             }
@@ -468,7 +569,7 @@ impl<'a> Lower<'a> {
                     span,
                     "not such an array",
                 );
-                self.bind_array(&p.name, ty, vec![Self::poison(b, ty)], false);
+                self.bind_array(&p.name, ty, vec![like], false);
             }
         }
     }
@@ -519,7 +620,7 @@ impl<'a> Lower<'a> {
                 None => self.expr_as(b, e, ty),
             })
             .collect();
-        self.bind_array(&p.name, ty, values, uniform);
+        self.bind_array(&p.name, Some(ty), values, uniform);
     }
 }
 

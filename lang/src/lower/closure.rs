@@ -41,6 +41,10 @@ const CLOSURES: &[(&str, &str)] = &[
         "(normal N, color albedo, float roughness)",
     ),
     ("translucent_bsdf", "(normal N, color albedo)"),
+    (
+        "subsurface_bssrdf",
+        "(normal N, color albedo, color radius, float anisotropy) (OSL 1.14) or (normal N, color albedo, float transmission_depth, color transmission_color, float anisotropy)",
+    ),
     ("sheen_bsdf", "(normal N, color albedo, float roughness)"),
     (
         "dielectric_bsdf",
@@ -64,7 +68,6 @@ const UNBUILT: &[(&str, &str)] = &[
     ("background", "background shaders are not built"),
     ("holdout", "holdouts are not built"),
     ("debug", "debug closures are not built"),
-    ("subsurface_bssrdf", "subsurface scattering is not built"),
     ("chiang_hair_bsdf", "no hair BSDF yet"),
     ("anisotropic_vdf", "volumes are not built"),
     ("medium_vdf", "volumes are not built"),
@@ -220,6 +223,7 @@ impl<'a> Lower<'a> {
                     "transmission",
                 )
             }
+            "subsurface_bssrdf" => self.subsurface(b, args)?,
             "transparent" => {
                 self.operands(b, args, &[])?;
                 // Straight through: a smooth dielectric of index 1 that only transmits.
@@ -274,6 +278,40 @@ impl<'a> Lower<'a> {
             _ => return None,
         };
         Some(c)
+    }
+
+    /// `subsurface_bssrdf(N, albedo, radius, anisotropy)` (OSL 1.14) or `(N, albedo,
+    /// transmission_depth, transmission_color, anisotropy)`: MaterialX's `subsurface_bsdf`
+    /// lobe, Lambertian reflection of the albedo until volumes exist (see
+    /// `closure::subsurface`); the radius (before 1.14 `transmission_color`) and the
+    /// anisotropy are kept on the lobe as the native atom keeps them.
+    fn subsurface(&mut self, b: &mut Builder, args: &[(Val, Span)]) -> Option<Closure> {
+        use Ty::{Color as C, Float as F, Normal as N};
+        let (n, color, radius, anisotropy) = match args.len() {
+            4 => {
+                let v = self.operands(b, args, &[N, C, C, F])?;
+                (v[0], v[1], v[2], v[3])
+            }
+            _ => {
+                let v = self.operands(b, args, &[N, C, F, C, F])?;
+                (v[0], v[1], v[3], v[4])
+            }
+        };
+        let kind = LobeKind::Subsurface {
+            color,
+            radius,
+            anisotropy,
+        };
+        let no_tangent = b.zero(Type::Vec3);
+        let frame = frame_at(b, n, no_tangent);
+        let weight = b.color([1.0; 3]);
+        Some(Closure::lobe(Lobe {
+            kind,
+            weight,
+            frame,
+            component: "diffuse",
+            unbuilt: None,
+        }))
     }
 
     /// `microfacet(distribution, N, [U,] α[x, αy], η, refract)`: a GGX dielectric that
@@ -503,15 +541,18 @@ impl<'a> Lower<'a> {
         }
     }
 
-    /// The value of a variable after a condition `c` chose between `then` and `els`: a
-    /// select for values, both closures weighted by the condition for closures.
+    /// The value of a variable after a condition `c` (`vc`: whether it varies) chose
+    /// between `then` and `els`: a select for values, both closures weighted by the
+    /// condition for closures, arrays and structs part by part; for two different strings
+    /// the one a compile-time condition picks, else an error at `at` (strings are
+    /// compile-time values).
     pub(crate) fn merge(
         &mut self,
         b: &mut Builder,
-        c: Value,
-        vc: bool,
+        (c, vc): (Value, bool),
         then: Val,
         els: Val,
+        at: Span,
     ) -> Val {
         match (then, els) {
             (
@@ -536,16 +577,31 @@ impl<'a> Lower<'a> {
             (Val::Array(t), Val::Array(e)) if t.len() == e.len() => Val::Array(
                 t.into_iter()
                     .zip(e)
-                    .map(|(t, e)| self.merge(b, c, vc, t, e))
+                    .map(|(t, e)| self.merge(b, (c, vc), t, e, at))
                     .collect(),
             ),
             (Val::Struct(n, t), Val::Struct(_, e)) if t.len() == e.len() => Val::Struct(
                 n,
                 t.into_iter()
                     .zip(e)
-                    .map(|((f, t), (_, e))| (f, self.merge(b, c, vc, t, e)))
+                    .map(|((f, t), (_, e))| (f, self.merge(b, (c, vc), t, e, at)))
                     .collect(),
             ),
+            (Val::Str(t), Val::Str(e)) if t == e => Val::Str(t),
+            (Val::Str(t), Val::Str(e)) => match super::unroll::known(b.program(), c) {
+                Some(true) => Val::Str(t),
+                Some(false) => Val::Str(e),
+                None => {
+                    self.error(
+                        format!(
+                            "a string is \"{t}\" or \"{e}\" by a condition known only while shading (strings are compile-time values)"
+                        ),
+                        at,
+                        "assigned under this condition",
+                    );
+                    Val::Str(t)
+                }
+            },
             (t, _) => t,
         }
     }

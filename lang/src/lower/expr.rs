@@ -61,6 +61,11 @@ impl<'a> Lower<'a> {
                 varying,
             };
         }
+        if osl && ty == Ty::Bool && to.is_triple() {
+            // A comparison is an int in OSL: widened as one (`color(a == b)`).
+            v = b.convert(shadenet_graph::Type::Int, v);
+            ty = Ty::Int;
+        }
         if to == Ty::Matrix && matches!(ty, Ty::Int | Ty::Float) {
             // A number as a matrix: it on the diagonal (OSL's `matrix m = 1`).
             let f = if ty == Ty::Int {
@@ -609,7 +614,7 @@ impl<'a> Lower<'a> {
                 }
             };
             let (tv, ev) = (zero(self, tv), zero(self, ev));
-            return self.merge(b, c, vc, tv, ev);
+            return self.merge(b, (c, vc), tv, ev, then.span.to(els.span));
         }
         if tc != Ty::Bool {
             self.error(
@@ -638,6 +643,37 @@ impl<'a> Lower<'a> {
         }
     }
 
+    /// `s = value` for string variable `s`: `value` must be a string (strings are
+    /// compile-time values: an assignment under a varying condition is refused where the
+    /// arms meet, [`Lower::merge`]).
+    fn assign_string(
+        &mut self,
+        b: &mut Builder,
+        op: AssignOp,
+        id: &ast::Ident,
+        value: &'a Expr,
+        span: Span,
+    ) -> Val {
+        if op != AssignOp::Set {
+            self.error("strings are only assigned with `=`", span, "a string");
+            return Val::Str(String::new());
+        }
+        match self.expr(b, value) {
+            s @ Val::Str(_) => {
+                self.rebind(id, s.clone(), true, span);
+                s
+            }
+            other => {
+                self.error(
+                    format!("`{}` is a string: not {}", id.name, an(other.type_name())),
+                    value.span,
+                    "not a string",
+                );
+                Val::Str(String::new())
+            }
+        }
+    }
+
     /// `x op= value`: the variable rebound to the new value, which is the expression's.
     fn assign(
         &mut self,
@@ -656,6 +692,17 @@ impl<'a> Lower<'a> {
             )
         {
             return self.assign_matrix_element(b, &id, (i, j), (op, value), span);
+        }
+        // `a[i].f` of an array of structs.
+        if let ExprKind::Member { base, field } = &target.kind
+            && let ExprKind::Index { base: array, index } = &base.kind
+            && let Some(id) = super::structs::place(array)
+            && matches!(
+                self.lookup(&id.name).map(|v| &v.val),
+                Some(Val::ArrayVar { ty: None, .. })
+            )
+        {
+            return self.assign_element_field(b, (&id, index, field), (op, value), span);
         }
         // `a[i]`, `s.a[i]` (the field's hidden array variable), `s.f`, `s.f.g`.
         if let ExprKind::Index { base, index } = &target.kind
@@ -692,8 +739,8 @@ impl<'a> Lower<'a> {
         let ty = match var.val {
             Val::V { ty, .. } => ty,
             Val::Closure(_) => return self.assign_closure(b, op, id, target, value, span),
-            Val::ArrayVar { len, ty } if op == AssignOp::Set => {
-                return self.assign_array(b, id, (len, ty), value, var.uniform);
+            Val::ArrayVar { len, .. } if op == AssignOp::Set => {
+                return self.assign_array(b, id, len, value);
             }
             Val::StructVar(s) => {
                 let v = match arith_of(op) {
@@ -734,10 +781,7 @@ impl<'a> Lower<'a> {
                 );
                 return Self::poison(b, Ty::Float);
             }
-            Val::Str(_) => {
-                self.error("strings cannot be assigned", id.span, "a string");
-                return Self::poison(b, Ty::Float);
-            }
+            Val::Str(_) => return self.assign_string(b, op, id, value, span),
         };
         let rhs = match op {
             AssignOp::Set => self.expr_as(b, value, ty),

@@ -207,9 +207,17 @@ impl<'a> Lower<'a> {
                         "here",
                     ),
                 },
-                LayerInput::Connected(_, at) => {
-                    self.error("string parameters cannot be connected", at, "here")
-                }
+                // An upstream string output: the string it holds when compiled.
+                LayerInput::Connected(s @ Val::Str(_), _) => self.declare(&p.name, s, true),
+                LayerInput::Connected(v, at) => self.error(
+                    format!(
+                        "string parameter `{}` takes a string output, not {}",
+                        p.name.name,
+                        super::an(v.type_name())
+                    ),
+                    at,
+                    "not a string",
+                ),
             }
             return;
         }

@@ -374,7 +374,7 @@ impl<'a> Lower<'a> {
                 varying,
             })
             .collect();
-        self.pick(b, &elems, &pos)
+        self.pick(b, &elems, &pos, i.span.to(j.span))
     }
 
     /// The IR position of `M[i][j]`: known for constant indices, else `j·4 + i` computed
@@ -432,7 +432,7 @@ impl<'a> Lower<'a> {
         let rhs = match super::arith_of(op) {
             _ if op == ast::AssignOp::Set => self.expr_as(b, value, Ty::Float),
             Some(bin) => {
-                let old = self.pick(b, &elems, &pos);
+                let old = self.pick(b, &elems, &pos, span);
                 let v = self.expr(b, value);
                 let v = self.binary_vals(b, bin, (old, span), (v, value.span), span);
                 self.coerce(b, v, Ty::Float, span)
@@ -448,7 +448,7 @@ impl<'a> Lower<'a> {
                 for (k, e) in elems.iter_mut().enumerate() {
                     let kk = b.int(k as i32);
                     let here = b.binary(BinOp::Eq, at, kk);
-                    *e = self.merge(b, here, vi, rhs.clone(), e.clone());
+                    *e = self.merge(b, (here, vi), rhs.clone(), e.clone(), span);
                 }
             }
             Position::Bad => {}

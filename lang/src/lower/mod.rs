@@ -28,6 +28,7 @@ mod loops;
 mod matrix;
 mod osl;
 mod returns;
+mod spectral;
 mod spline;
 mod stmt;
 mod structs;
@@ -134,8 +135,9 @@ pub(crate) enum Val {
     ArrayVar {
         /// Its length.
         len: usize,
-        /// The element type.
-        ty: Ty,
+        /// The element type; `None` for an array of structs (each element a struct
+        /// variable).
+        ty: Option<Ty>,
     },
     /// An OSL struct's fields by name, of the struct type named, as an expression's value.
     Struct(String, Vec<(String, Val)>),
@@ -465,7 +467,11 @@ impl<'a> Lower<'a> {
             self.array_param(b, p, a);
             return;
         }
-        if p.ty.base == ast::BaseType::String {
+        if p.ty.base == ast::BaseType::String && p.ty.output.is_none() {
+            if let Some(input) = self.inputs.remove(&p.name.name) {
+                self.layer_input(b, p, input);
+                return;
+            }
             // A string parameter is a compile-time constant (a texture name).
             match p.default.as_ref().map(|d| &d.kind) {
                 Some(ast::ExprKind::Str(text)) => {

@@ -36,6 +36,8 @@ pub(crate) const NAMES: &[&str] = &[
     "dot",
     "cross",
     "luminance",
+    "blackbody",
+    "wavelength_color",
     "linearstep",
     "atan2",
     "backfacing",
@@ -81,8 +83,6 @@ const UNBUILT: &[(&str, &str)] = &[
         "environment",
         "environment lookups are not built for OSL yet",
     ),
-    ("blackbody", "blackbody is not built for OSL yet"),
-    ("wavelength_color", "wavelength_color is not built yet"),
 ];
 
 impl<'a> Lower<'a> {
@@ -269,6 +269,28 @@ impl<'a> Lower<'a> {
             self.bind_struct(&p.name, def, v, false);
             return;
         }
+        if p.ty.base == ast::BaseType::String {
+            // A string output: what the shader leaves in it is known when it compiles; a
+            // group passes it to the string inputs it connects (not a program output).
+            let val = match p.default.as_ref().map(|d| (d, self.expr(b, d))) {
+                None => Val::Str(String::new()),
+                Some((_, s @ Val::Str(_))) => s,
+                Some((d, other)) => {
+                    self.error(
+                        format!(
+                            "`{}` is a string: not {}",
+                            p.name.name,
+                            super::an(other.type_name())
+                        ),
+                        d.span,
+                        "not a string",
+                    );
+                    Val::Str(String::new())
+                }
+            };
+            self.declare(&p.name, val, true);
+            return;
+        }
         let Some(ty) = self.declared_type(&p.ty) else {
             return;
         };
@@ -374,6 +396,10 @@ impl<'a> Lower<'a> {
             }
             ("cross", [(x, tx, _), (y, ty, _)]) if tx.is_geometric() && ty.is_geometric() => {
                 out(b.binary(BinOp::Cross, *x, *y), Ty::Vector)
+            }
+            ("blackbody", [(t, Ty::Float, _)]) => out(Self::blackbody(b, *t), Ty::Color),
+            ("wavelength_color", [(l, Ty::Float, _)]) => {
+                out(Self::wavelength_color(b, *l), Ty::Color)
             }
             ("luminance", [(c, Ty::Color, _)]) => {
                 let w = b.color(LUMA_REC709);

@@ -120,6 +120,10 @@ impl<'a> Lower<'a> {
             }
             return;
         }
+        if d.ty.base == ast::BaseType::String && self.dialect == crate::Dialect::Osl {
+            self.string_decl(b, d);
+            return;
+        }
         let Some(ty) = self.declared_type(&d.ty) else {
             return;
         };
@@ -146,6 +150,36 @@ impl<'a> Lower<'a> {
                 );
             }
             self.declare(&v.name, val, uniform);
+        }
+    }
+
+    /// `string s [= x], …;`: string variables, compile-time values like every string here
+    /// (`""` until assigned).
+    fn string_decl(&mut self, b: &mut Builder, d: &'a ast::Decl) {
+        for v in &d.vars {
+            if let Some(a) = &v.array {
+                self.error("arrays of strings are not built yet", a.span, "an array");
+                continue;
+            }
+            let val = match &v.init {
+                None => Val::Str(String::new()),
+                Some(e) => match self.expr(b, e) {
+                    s @ Val::Str(_) => s,
+                    other => {
+                        self.error(
+                            format!(
+                                "`{}` is a string: not {}",
+                                v.name.name,
+                                super::an(other.type_name())
+                            ),
+                            e.span,
+                            "not a string",
+                        );
+                        Val::Str(String::new())
+                    }
+                },
+            };
+            self.declare(&v.name, val, true);
         }
     }
 
@@ -178,27 +212,41 @@ impl<'a> Lower<'a> {
         }
     }
 
-    /// The closure variables `stmts` assign that are visible here.
+    /// The variables `stmts` assign that hold compile-time things — closures (lobe lists)
+    /// and strings — visible here (array elements and struct fields by their hidden
+    /// names). A region cannot carry them: an `if` assigning one is lowered flat
+    /// ([`Lower::flat_if`]), a loop unrolled.
     pub(crate) fn assigned_closures(&self, stmts: &[&'a Stmt]) -> Vec<ast::Ident> {
-        let mut names: Vec<ast::Ident> = Vec::new();
-        for s in stmts {
-            walk_stmt(s, &mut |e| {
-                if let ExprKind::Assign { target, .. } = &e.kind
-                    && let ExprKind::Ident(id) = &target.kind
-                    && !names.iter().any(|n| n.name == id.name)
-                {
-                    names.push(id.clone());
-                }
-            });
-        }
-        names.retain(|n| matches!(self.lookup(&n.name).map(|v| &v.val), Some(Val::Closure(_))));
-        names
+        self.assigned_places(stmts)
+            .into_iter()
+            .filter(|n| {
+                matches!(
+                    self.lookup(&n.name).map(|v| &v.val),
+                    Some(Val::Closure(_) | Val::Str(_))
+                )
+            })
+            .collect()
     }
 
     /// The outer variables `stmts` assign, in order of first assignment, that are visible
     /// here (the values an `if`, `illuminance` or loop region must yield); where they hold a
     /// `break` or `continue`, the enclosing loops' flags too.
     pub(crate) fn assigned_outer(&self, stmts: &[&'a Stmt]) -> Vec<(ast::Ident, Ty)> {
+        self.assigned_places(stmts)
+            .into_iter()
+            .filter_map(|n| match self.lookup(&n.name) {
+                Some(Var {
+                    val: Val::V { ty, .. },
+                    ..
+                }) => Some((n, *ty)),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// Every variable `stmts` may assign (arrays and structs expanded to their hidden
+    /// variables), with the return and loop flags they may set.
+    fn assigned_places(&self, stmts: &[&'a Stmt]) -> Vec<ast::Ident> {
         let mut names: Vec<ast::Ident> = Vec::new();
         for s in stmts {
             walk_stmt(s, &mut |e| {
@@ -215,7 +263,7 @@ impl<'a> Lower<'a> {
                     if let ExprKind::Index { base, .. } = t {
                         t = &base.kind;
                     }
-                    let Some(mut id) = super::structs::place_of(t) else {
+                    let Some(mut id) = super::structs::place_of(t).or_else(|| indexed(t)) else {
                         continue;
                     };
                     // `v.x` of a triple variable changes `v`.
@@ -247,17 +295,7 @@ impl<'a> Lower<'a> {
             }
         }
         // An array or a struct stands for its hidden variables.
-        names
-            .into_iter()
-            .flat_map(|n| self.expand(n))
-            .filter_map(|n| match self.lookup(&n.name) {
-                Some(Var {
-                    val: Val::V { ty, .. },
-                    ..
-                }) => Some((n, *ty)),
-                _ => None,
-            })
-            .collect()
+        names.into_iter().flat_map(|n| self.expand(n)).collect()
     }
 
     /// The arguments of a call of `callee` that it may assign: those passed for an
@@ -512,7 +550,7 @@ impl<'a> Lower<'a> {
         );
         for ((n, t), e) in names.iter().zip(then).zip(els) {
             let (Some(t), Some(e)) = (t, e) else { continue };
-            let val = self.merge(b, c, vc, t, e);
+            let val = self.merge(b, (c, vc), t, e, n.span);
             if n.name.starts_with('$') {
                 self.set_flag(&n.name, val);
             } else {
@@ -960,6 +998,16 @@ fn walk_stmt<'s>(s: &'s Stmt, f: &mut dyn FnMut(&'s Expr)) {
 }
 
 /// The span of an assignment (or `++`/`--`) inside `e`, if any.
+/// The array a write into a field of one of its elements changes (`a[i].f`, `s.a[i].f.g`:
+/// the array whole).
+fn indexed(t: &ExprKind) -> Option<ast::Ident> {
+    match t {
+        ExprKind::Index { base, .. } => super::structs::place(base).or_else(|| indexed(&base.kind)),
+        ExprKind::Member { base, .. } => indexed(&base.kind),
+        _ => None,
+    }
+}
+
 fn assignment_in(e: &Expr) -> Option<Span> {
     let mut at = None;
     walk_expr(e, &mut |x| {

@@ -140,8 +140,8 @@ impl<'a> Lower<'a> {
         match v {
             Val::Array(elems) => {
                 let ty = match elems.first() {
-                    Some(Val::V { ty, .. }) => *ty,
-                    _ => Ty::Float,
+                    Some(Val::V { ty, .. }) => Some(*ty),
+                    _ => None,
                 };
                 self.bind_array(id, ty, elems, uniform);
             }
@@ -216,11 +216,10 @@ impl<'a> Lower<'a> {
         v: &'a ast::VarDecl,
     ) {
         if let Some(a) = &v.array {
-            self.error(
-                "arrays of structs are not built yet",
-                a.span,
-                "an array of structs",
-            );
+            if let Some(len) = self.array_len(a, v.init.as_ref()) {
+                let elems = self.struct_array_init(b, def, (&v.name, len), v.init.as_ref());
+                self.bind_array(&v.name, None, elems, false);
+            }
             return;
         }
         let value = match &v.init {
@@ -246,6 +245,60 @@ impl<'a> Lower<'a> {
             }
         };
         self.bind_struct(&v.name, def, value, false);
+    }
+
+    /// The elements of an array of `len` structs of type `def` named `name`: zero, the
+    /// items of a `{ … }` list (each one struct), or an array value of that length.
+    fn struct_array_init(
+        &mut self,
+        b: &mut Builder,
+        def: &'a ast::StructDef,
+        (name, len): (&ast::Ident, usize),
+        init: Option<&'a Expr>,
+    ) -> Vec<Val> {
+        let zero = self.struct_zero(b, def, 0);
+        let given: Vec<Val> = match init.map(|e| (e, &e.kind)) {
+            None => return vec![zero; len],
+            Some((_, ExprKind::InitList(items))) if items.len() == len => items
+                .iter()
+                .map(|x| {
+                    let v = self.expr_for_struct(b, x, def);
+                    self.fit(b, v, &zero, x.span)
+                })
+                .collect(),
+            Some((e, ExprKind::InitList(items))) => {
+                self.error(
+                    format!(
+                        "`{}` has {len} elements; the list gives {}",
+                        name.name,
+                        items.len()
+                    ),
+                    e.span,
+                    "wrong number of values",
+                );
+                return vec![zero; len];
+            }
+            Some((e, _)) => match self.expr(b, e) {
+                Val::Array(vs) if vs.len() == len => vs
+                    .into_iter()
+                    .map(|v| self.fit(b, v, &zero, e.span))
+                    .collect(),
+                other => {
+                    self.error(
+                        format!(
+                            "`{}` is an array of {len} `{}`: it takes a `{{ … }}` list or an array of {len}, not {}",
+                            name.name,
+                            def.name.name,
+                            super::an(other.type_name())
+                        ),
+                        e.span,
+                        "not an array of that length",
+                    );
+                    return vec![zero; len];
+                }
+            },
+        };
+        given
     }
 
     /// Expression `e` where a struct of type `def` is expected (a declaration's initialiser,

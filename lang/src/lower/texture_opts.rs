@@ -11,9 +11,10 @@
 //!   format, as without it).
 //! - `"alpha"`: an output float that receives the lookup's alpha.
 //! - `"subimage"`: only `""` (the first image; named layers are not built).
-//! - `"missingcolor"`, `"missingalpha"`: taken (a color, a float) and unused: a file that
-//!   cannot be read is an error when the material loads, so nothing is ever missing at a
-//!   lookup.
+//! - `"missingcolor"`, `"missingalpha"`: what a lookup of the empty file name `""` returns
+//!   (black and 0 without them; MaterialX's OSL passes `""` for an unset file, as its
+//!   nodes' defaults do). Any other file that cannot be read is an error when the material
+//!   loads, so nothing else is ever missing at a lookup.
 //!
 //! Names and modes are strings, so compile-time values. Any other token is an error naming
 //! it.
@@ -50,6 +51,10 @@ struct Options<'a> {
     colorspace: ColorSpace,
     /// The expression receiving the alpha, if any, and its argument number (from 1).
     alpha: Option<(usize, &'a Expr)>,
+    /// `"missingcolor"`'s value (a triple), if given, and whether it varies.
+    missing_color: Option<(shadenet_graph::ir::Value, bool)>,
+    /// `"missingalpha"`'s value, if given, and whether it varies.
+    missing_alpha: Option<(shadenet_graph::ir::Value, bool)>,
 }
 
 impl<'a> Lower<'a> {
@@ -82,6 +87,9 @@ impl<'a> Lower<'a> {
         let Some(o) = self.texture_options(&vals[3..], &args[3..]) else {
             return Self::poison(b, Ty::Color);
         };
+        if file.is_empty() {
+            return self.missing_texture(b, &o);
+        }
         let file = TextureFile {
             path: file,
             colorspace: o.colorspace,
@@ -105,12 +113,37 @@ impl<'a> Lower<'a> {
         }
     }
 
+    /// A lookup of the file `""`: the missing color (black unless given), its alpha the
+    /// missing alpha (0 unless given); no texture is opened.
+    fn missing_texture(&mut self, b: &mut Builder, o: &Options<'a>) -> Val {
+        let (c, varying) = match o.missing_color {
+            Some((c, vy)) => (b.retype(shadenet_graph::Type::Color, c), vy),
+            None => (b.color([0.0; 3]), false),
+        };
+        if let Some((n, target)) = o.alpha {
+            let (a, vy) = o.missing_alpha.unwrap_or_else(|| (b.float(0.0), false));
+            let a = Val::V {
+                v: a,
+                ty: Ty::Float,
+                varying: vy,
+            };
+            self.store_output_arg(b, target, a, (n, "texture"));
+        }
+        Val::V {
+            v: c,
+            ty: Ty::Color,
+            varying,
+        }
+    }
+
     /// The optional token–value pairs `vals` (expressions `args`); `None` after an error.
     fn texture_options(&mut self, vals: &[(Val, Span)], args: &'a [Expr]) -> Option<Options<'a>> {
         let mut o = Options {
             sampling: Sampling::default(),
             colorspace: ColorSpace::Auto,
             alpha: None,
+            missing_color: None,
+            missing_alpha: None,
         };
         let mut ok = true;
         for (k, pair) in vals.chunks(2).enumerate() {
@@ -172,8 +205,26 @@ impl<'a> Lower<'a> {
                     ok = false;
                 }
                 ("alpha", None) => o.alpha = args.get(2 * k + 1).map(|e| (2 * k + 5, e)),
-                ("missingcolor", None) if matches!(value, Val::V { ty, .. } if ty.is_triple()) => {}
-                ("missingalpha", None) if matches!(value, Val::V { ty: Ty::Float, .. }) => {}
+                ("missingcolor", None) => match value {
+                    Val::V { v, ty, varying } if ty.is_triple() => {
+                        o.missing_color = Some((*v, *varying))
+                    }
+                    _ => {
+                        bad(self, "a color");
+                        ok = false;
+                    }
+                },
+                ("missingalpha", None) => match value {
+                    Val::V {
+                        v,
+                        ty: Ty::Float,
+                        varying,
+                    } => o.missing_alpha = Some((*v, *varying)),
+                    _ => {
+                        bad(self, "a float");
+                        ok = false;
+                    }
+                },
                 ("swrap" | "twrap" | "wrap" | "interp" | "colorspace" | "subimage", None) => {
                     bad(self, "a string");
                     ok = false;

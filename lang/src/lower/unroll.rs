@@ -76,7 +76,7 @@ impl<'a> Lower<'a> {
 }
 
 /// The constant truth of condition `c`, where it reads no parameter (nor anything varying).
-fn known(p: &Program, c: Value) -> Option<bool> {
+pub(crate) fn known(p: &Program, c: Value) -> Option<bool> {
     if super::reads_param(p, c) {
         return None;
     }
