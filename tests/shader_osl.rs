@@ -104,14 +104,16 @@ fn functions_with_output_parameters_and_overloads() {
 }
 
 /// The noise family is OSL's: `snoise`/`"perlin"` is `osl_noise::perlin`, `noise` is
-/// `0.5 (perlin + 1)`, `cellnoise`/`"cell"` is `osl_noise::cell`, in 2D `(x, y)` and 3D,
-/// float or vector by the type assigned to.
+/// `0.5 (perlin + 1)`, `cellnoise`/`"cell"` is `osl_noise::cell`, `hashnoise`/`"hash"`
+/// `osl_noise::hash`, in 1D `(x)`, 2D `(x, y)`, 3D `(p)` and 4D `(p, t)`, float or vector
+/// by the type assigned to.
 #[test]
 fn noise_is_osls() {
     let src = r#"
         shader n(output color a = 0, output vector vp = 0, output color vc = 0,
                  output color d2 = 0, output color c14 = 0, output color vc1 = 0,
-                 output color vc4 = 0) {
+                 output color vc4 = 0, output color p14 = 0, output vector vp1 = 0,
+                 output vector vp4 = 0, output color h = 0, output color vh = 0) {
             point q = P * 3.7 + point(0.3, -1.2, 5.1);
             a = color(snoise(q), noise(q), cellnoise(q));
             vp = noise("perlin", q);
@@ -120,6 +122,12 @@ fn noise_is_osls() {
             c14 = color(cellnoise(u * 9), cellnoise(q, v * 9), noise("cell", q, u * 9));
             vc1 = cellnoise(u * 9);
             vc4 = noise("cell", q, v * 9);
+            p14 = color(snoise(u * 9), snoise(q, v * 9), noise(q, u * 9));
+            vp1 = snoise(u * 9);
+            vp4 = noise("perlin", q, v * 9);
+            h = color(hashnoise(u * 9), hashnoise(q), noise("hash", q, v * 9))
+                + color(hashnoise(u * 9, v * 9), 0, 0);
+            vh = hashnoise(q, u * 9);
         }"#;
     let p = compile(src).unwrap();
     let mut f = plane_fragment();
@@ -172,6 +180,35 @@ fn noise_is_osls() {
             .map(|x| *x as f64)
             .collect();
         assert_eq!(o.get32("vc4"), vc4, "4D vector cell noise, point {k}");
+        let p14 = [
+            osl_noise::perlin1(uv9[0]),
+            osl_noise::perlin4(q, uv9[1]),
+            0.5 * (osl_noise::perlin4(q, uv9[0]) + 1.0),
+        ];
+        let p14: Vec<f64> = p14.iter().map(|x| *x as f64).collect();
+        assert_eq!(o.get32("p14"), p14, "1D and 4D Perlin noise, point {k}");
+        let vp1: Vec<f64> = osl_noise::vperlin1(uv9[0])
+            .iter()
+            .map(|x| *x as f64)
+            .collect();
+        assert_eq!(o.get32("vp1"), vp1, "1D vector Perlin noise, point {k}");
+        let vp4: Vec<f64> = osl_noise::vperlin4(q, uv9[1])
+            .iter()
+            .map(|x| *x as f64)
+            .collect();
+        assert_eq!(o.get32("vp4"), vp4, "4D vector Perlin noise, point {k}");
+        let h = [
+            osl_noise::hash1(uv9[0]) + osl_noise::hash2(uv9),
+            osl_noise::hash3(q),
+            osl_noise::hash4(q, uv9[1]),
+        ];
+        let h: Vec<f64> = h.iter().map(|x| *x as f64).collect();
+        assert_eq!(o.get32("h"), h, "hash noise, point {k}");
+        let vh: Vec<f64> = osl_noise::vhash4(q, uv9[0])
+            .iter()
+            .map(|x| *x as f64)
+            .collect();
+        assert_eq!(o.get32("vh"), vh, "4D vector hash noise, point {k}");
     }
 }
 
@@ -394,8 +431,8 @@ fn errors_name_the_place_and_the_problem() {
             "the simplex generators are not built yet",
         ),
         (
-            "surface s() { float x = noise(u); }",
-            "1D and 4D Perlin noise are not built yet",
+            "surface s() { float x = pnoise(u, 4); }",
+            "`pnoise`: periodic noise is not built yet",
         ),
         (
             "surface s() { float x = noise(\"fancy\", P); }",
@@ -1511,4 +1548,73 @@ fn blackbody_and_wavelength_color_are_osls() {
         let (_, w, _) = shade(1000.0, l);
         assert_close(&w, &[0.0; 3], 0.0, &format!("{l} nm"));
     }
+}
+
+/// `raytype(name)` reads the ray type the renderer shades with: 1 for its own type, 0 for
+/// another and for a name the renderer does not have (OSL's renderer-defined names);
+/// specialization to one ray type folds it to a constant.
+#[test]
+fn raytype_reads_the_ray() {
+    use shadenet::graph::ir::{RAY_CAMERA, RAY_REFLECTION, RAY_SHADOW};
+    let src = "shader s(output float o = 0) {
+                   o = raytype(\"camera\") + 2 * raytype(\"reflection\") + 4 * raytype(\"glossy\"); }";
+    let p = compile(src).unwrap();
+    for (ray, want) in [(RAY_CAMERA, 1.0), (RAY_REFLECTION, 2.0), (RAY_SHADOW, 0.0)] {
+        let mut f = plane_fragment();
+        f.ray_type = ray;
+        let o = run_program(&p, &f, &[], u32::MAX);
+        check(&o, "o", &[want], 0.0);
+    }
+    let spec = Specialization {
+        ray_types: RAY_REFLECTION as u32,
+        ..Specialization::default()
+    };
+    let (o, _) = opt::run(&p, &spec);
+    assert!(
+        !o.exprs
+            .iter()
+            .any(|e| matches!(e.op, shadenet::graph::ir::Op::Stream(_))),
+        "specialized to reflection rays, the ray type folds: {:?}",
+        o.exprs
+    );
+    assert_errors(&[(
+        "shader s() { int k = raytype(1); }",
+        "`raytype` takes (string name)",
+    )]);
+}
+
+/// `isconnected(param)` is what the group makes of the parameter: 1 for an input an earlier
+/// layer's output feeds, 2 for an output a later layer reads, 3 for both, 0 otherwise and
+/// in a lone shader; anything but a parameter is an error.
+#[test]
+fn isconnected_reads_the_group() {
+    let first = "shader first(float k = 1, output float o = 0, output float spare = 0) {
+                     o = k + 10 * isconnected(o) + 100 * isconnected(spare); }";
+    let mid = "shader mid(float x = 0, output float y = 0) { y = x + 1000 * isconnected(x)
+                   + 10000 * isconnected(y); }";
+    let last = "shader last(float a = 0, float b = 5, output color Ci = 0) {
+                    Ci = color(a, isconnected(a) + 10 * isconnected(b), 0); }";
+    let group = "shader first f ;\nshader mid m ;\nshader last l ;\n\
+                 connect f.o m.x ;\nconnect m.y l.a ;\n";
+    let dir = folder(
+        "isconnected",
+        &[
+            ("first.osl", first),
+            ("mid.osl", mid),
+            ("last.osl", last),
+            ("g.oslgroup", group),
+        ],
+    );
+    let compiled = shadenet::shader::load(&dir.join("g.oslgroup"), &[], &[]).unwrap();
+    let o = run_program(&compiled.program, &plane_fragment(), &[], u32::MAX);
+    // f.o = 1 + 10·2 = 21; m.y = 21 + 1000·1 + 10000·2 = 21021; l: a connected (1), b not.
+    assert_close(&o.get("Ci"), &[21021.0, 1.0, 0.0], 0.0, "Ci");
+    let lone =
+        compile("shader s(float k = 0, output float o = 0) { o = isconnected(k); }").unwrap();
+    let o = run_program(&lone, &plane_fragment(), &[], u32::MAX);
+    check(&o, "o", &[0.0], 0.0);
+    assert_errors(&[(
+        "shader s(output float o = 0) { float z = 1; o = isconnected(z); }",
+        "`isconnected` takes the name of one of the shader's parameters",
+    )]);
 }

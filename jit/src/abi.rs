@@ -387,6 +387,42 @@ fn osl_vcell1(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
 fn osl_vcell4(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
     o.copy_from_slice(&osl_noise::vcell4([a[0], a[1], a[2]], a[3]));
 }
+fn osl_hash1(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = osl_noise::hash1(a[0]);
+}
+fn osl_hash2(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = osl_noise::hash2([a[0], a[1]]);
+}
+fn osl_hash3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = osl_noise::hash3([a[0], a[1], a[2]]);
+}
+fn osl_hash4(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = osl_noise::hash4([a[0], a[1], a[2]], a[3]);
+}
+fn osl_vhash1(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&osl_noise::vhash1(a[0]));
+}
+fn osl_vhash2(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&osl_noise::vhash2([a[0], a[1]]));
+}
+fn osl_vhash3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&osl_noise::vhash3([a[0], a[1], a[2]]));
+}
+fn osl_vhash4(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&osl_noise::vhash4([a[0], a[1], a[2]], a[3]));
+}
+fn osl_perlin1(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = osl_noise::perlin1(a[0]);
+}
+fn osl_perlin4(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = osl_noise::perlin4([a[0], a[1], a[2]], a[3]);
+}
+fn osl_vperlin1(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&osl_noise::vperlin1(a[0]));
+}
+fn osl_vperlin4(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&osl_noise::vperlin4([a[0], a[1], a[2]], a[3]));
+}
 fn mx_fractal2(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
     o[0] = osl_noise::fractal2([a[0], a[1]], int(a[2]), a[3], a[4]);
 }
@@ -892,6 +928,18 @@ mem_helpers! {
     osl_cell4: 4 -> 1,
     osl_vcell1: 1 -> 3,
     osl_vcell4: 4 -> 3,
+    osl_perlin1: 1 -> 1,
+    osl_perlin4: 4 -> 1,
+    osl_vperlin1: 1 -> 3,
+    osl_vperlin4: 4 -> 3,
+    osl_hash1: 1 -> 1,
+    osl_hash2: 2 -> 1,
+    osl_hash3: 3 -> 1,
+    osl_hash4: 4 -> 1,
+    osl_vhash1: 1 -> 3,
+    osl_vhash2: 2 -> 3,
+    osl_vhash3: 3 -> 3,
+    osl_vhash4: 4 -> 3,
     mx_fractal2: 5 -> 1 => mx_fractal2_x4,
     mx_fractal3: 6 -> 1 => mx_fractal3_x4,
     mx_vfractal2: 5 -> 3 => mx_vfractal2_x4,

@@ -1227,6 +1227,173 @@ fn sn_osl_vcell4(p: vec3<f32>, t: f32) -> vec3<f32> {
     );
 }
 
+// OSL 1D grad: x times one of +-1 ... +-8.
+fn sn_osl_grad1(hash: u32, x: f32) -> f32 {
+    let h = hash & 15u;
+    let g = f32(1u + (h & 7u));
+    return select(g, -g, (h & 8u) != 0u) * x;
+}
+
+// OSL 4D grad: the dot product with a vector to one of the hypercube's edges.
+fn sn_osl_grad4(hash: u32, x: f32, y: f32, z: f32, w: f32) -> f32 {
+    let h = hash & 31u;
+    let u = select(y, x, h < 24u);
+    let v = select(z, y, h < 16u);
+    let s = select(w, z, h < 8u);
+    return select(u, -u, (h & 1u) != 0u) + select(v, -v, (h & 2u) != 0u)
+        + select(s, -s, (h & 4u) != 0u);
+}
+
+// OIIO::lerp: a (1 - t) + b t.
+fn sn_osl_lerp(a: f32, b: f32, t: f32) -> f32 {
+    return a * (1.0f - t) + b * t;
+}
+
+// OSL inthash of four keys (start 0xdeadbeef + 29): one bjmix, then bjfinal(a + w, b, c).
+fn sn_osl_inthash4(x: u32, y: u32, z: u32, w: u32) -> u32 {
+    let s = 0xdeadbeefu + 29u;
+    let m = sn_bjmix(s + x, s + y, s + z);
+    return sn_bjfinal(m.x + w, m.y, m.z);
+}
+
+// OSL inthash of one key (start 0xdeadbeef + 17).
+fn sn_osl_inthash1(x: u32) -> u32 {
+    let s = 0xdeadbeefu + 17u;
+    return sn_bjfinal(s + x, s, s);
+}
+
+// 1D Perlin of byte `shift / 8` of the two corner hashes (mask 0xffffffff: the scalar).
+fn sn_osl_perlin1_of(h0: u32, h1: u32, shift: u32, mask: u32, f: f32) -> f32 {
+    let g0 = sn_osl_grad1((h0 >> shift) & mask, f);
+    let g1 = sn_osl_grad1((h1 >> shift) & mask, f - 1.0f);
+    return 0.25f * sn_osl_lerp(g0, g1, sn_fade(f));
+}
+
+fn sn_osl_perlin1(x: f32) -> f32 {
+    let i = sn_osl_ifloor(x);
+    return sn_osl_perlin1_of(sn_osl_inthash1(i), sn_osl_inthash1(i + 1u), 0u, 0xffffffffu,
+        sn_cell_frac(x));
+}
+
+fn sn_osl_vperlin1(x: f32) -> vec3<f32> {
+    let i = sn_osl_ifloor(x);
+    let h0 = sn_osl_inthash1(i);
+    let h1 = sn_osl_inthash1(i + 1u);
+    let f = sn_cell_frac(x);
+    return vec3<f32>(
+        sn_osl_perlin1_of(h0, h1, 0u, 255u, f),
+        sn_osl_perlin1_of(h0, h1, 8u, 255u, f),
+        sn_osl_perlin1_of(h0, h1, 16u, 255u, f),
+    );
+}
+
+// The hashes of a 4D cell's corners: trilerp's order at w, then at w + 1 (bit 3).
+fn sn_osl_corners4(x: u32, y: u32, z: u32, w: u32) -> array<u32, 16> {
+    var h: array<u32, 16>;
+    for (var k = 0u; k < 16u; k++) {
+        h[k] = sn_osl_inthash4(x + (k & 1u), y + ((k >> 1u) & 1u), z + ((k >> 2u) & 1u),
+            w + ((k >> 3u) & 1u));
+    }
+    return h;
+}
+
+// lerp(trilerp(g[0..8]), trilerp(g[8..16]), fade(fw)) of the 4D gradients of byte
+// `shift / 8` of each corner hash, times OSL's scale4.
+fn sn_osl_perlin4_of(h: array<u32, 16>, shift: u32, mask: u32, f: vec4<f32>) -> f32 {
+    var lo: array<f32, 8>;
+    var hi: array<f32, 8>;
+    for (var k = 0u; k < 8u; k++) {
+        let x0 = sn_osl_off(f.x, k, 0u);
+        let y0 = sn_osl_off(f.y, k, 1u);
+        let z0 = sn_osl_off(f.z, k, 2u);
+        lo[k] = sn_osl_grad4((h[k] >> shift) & mask, x0, y0, z0, f.w);
+        hi[k] = sn_osl_grad4((h[k + 8u] >> shift) & mask, x0, y0, z0, f.w - 1.0f);
+    }
+    let u = sn_fade(f.x);
+    let v = sn_fade(f.y);
+    let t = sn_fade(f.z);
+    let r = sn_osl_lerp(sn_osl_trilerp(lo, u, v, t), sn_osl_trilerp(hi, u, v, t), sn_fade(f.w));
+    return 0.8344f * r;
+}
+
+fn sn_osl_perlin4(p: vec3<f32>, t: f32) -> f32 {
+    let h = sn_osl_corners4(sn_osl_ifloor(p.x), sn_osl_ifloor(p.y), sn_osl_ifloor(p.z),
+        sn_osl_ifloor(t));
+    let f = vec4<f32>(sn_cell_frac(p.x), sn_cell_frac(p.y), sn_cell_frac(p.z), sn_cell_frac(t));
+    return sn_osl_perlin4_of(h, 0u, 0xffffffffu, f);
+}
+
+fn sn_osl_vperlin4(p: vec3<f32>, t: f32) -> vec3<f32> {
+    let h = sn_osl_corners4(sn_osl_ifloor(p.x), sn_osl_ifloor(p.y), sn_osl_ifloor(p.z),
+        sn_osl_ifloor(t));
+    let f = vec4<f32>(sn_cell_frac(p.x), sn_cell_frac(p.y), sn_cell_frac(p.z), sn_cell_frac(t));
+    return vec3<f32>(
+        sn_osl_perlin4_of(h, 0u, 255u, f),
+        sn_osl_perlin4_of(h, 8u, 255u, f),
+        sn_osl_perlin4_of(h, 16u, 255u, f),
+    );
+}
+
+// OSL hashnoise: cell noise of the coordinates' bits (HashNoise::transformToUint).
+fn sn_osl_hash1(x: f32) -> f32 {
+    return sn_bits_to_01(sn_osl_inthash1(bitcast<u32>(x)));
+}
+
+fn sn_osl_hash2(p: vec2<f32>) -> f32 {
+    return sn_bits_to_01(sn_inthash2(bitcast<u32>(p.x), bitcast<u32>(p.y)));
+}
+
+fn sn_osl_hash3(p: vec3<f32>) -> f32 {
+    return sn_bits_to_01(sn_inthash3(bitcast<u32>(p.x), bitcast<u32>(p.y), bitcast<u32>(p.z)));
+}
+
+fn sn_osl_hash4(p: vec3<f32>, t: f32) -> f32 {
+    let k = bitcast<vec3<u32>>(p);
+    return sn_bits_to_01(sn_osl_inthash4(k.x, k.y, k.z, bitcast<u32>(t)));
+}
+
+fn sn_osl_vhash1(x_in: f32) -> vec3<f32> {
+    let x = bitcast<u32>(x_in);
+    return vec3<f32>(
+        sn_bits_to_01(sn_inthash2(x, 0u)),
+        sn_bits_to_01(sn_inthash2(x, 1u)),
+        sn_bits_to_01(sn_inthash2(x, 2u)),
+    );
+}
+
+fn sn_osl_vhash2(p: vec2<f32>) -> vec3<f32> {
+    let x = bitcast<u32>(p.x);
+    let y = bitcast<u32>(p.y);
+    return vec3<f32>(
+        sn_bits_to_01(sn_inthash3(x, y, 0u)),
+        sn_bits_to_01(sn_inthash3(x, y, 1u)),
+        sn_bits_to_01(sn_inthash3(x, y, 2u)),
+    );
+}
+
+fn sn_osl_vhash3(p: vec3<f32>) -> vec3<f32> {
+    let s = 0xdeadbeefu + 29u;
+    let k = bitcast<vec3<u32>>(p);
+    let m = sn_bjmix(s + k.x, s + k.y, s + k.z);
+    return vec3<f32>(
+        sn_bits_to_01(sn_bjfinal(m.x, m.y, m.z)),
+        sn_bits_to_01(sn_bjfinal(m.x + 1u, m.y, m.z)),
+        sn_bits_to_01(sn_bjfinal(m.x + 2u, m.y, m.z)),
+    );
+}
+
+fn sn_osl_vhash4(p: vec3<f32>, t: f32) -> vec3<f32> {
+    let s = 0xdeadbeefu + 33u;
+    let k = bitcast<vec3<u32>>(p);
+    let m = sn_bjmix(s + k.x, s + k.y, s + k.z);
+    let a = m.x + bitcast<u32>(t);
+    return vec3<f32>(
+        sn_bits_to_01(sn_bjfinal(a, m.y, m.z)),
+        sn_bits_to_01(sn_bjfinal(a, m.y + 1u, m.z)),
+        sn_bits_to_01(sn_bjfinal(a, m.y + 2u, m.z)),
+    );
+}
+
 // MaterialX fractal noise: octaves clamped to [0, 32] (osl_noise::MAX_OCTAVES).
 fn sn_mx_fractal2(p_in: vec2<f32>, octaves: i32, lacunarity: f32, diminish: f32) -> f32 {
     var p = p_in;

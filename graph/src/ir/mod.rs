@@ -492,6 +492,30 @@ named_enum! {
         OslVCell1 = "osl_vcell1",
         /// OSL `vector cellnoise(p, t)` (vec3, float → vec3).
         OslVCell4 = "osl_vcell4",
+        /// OSL `snoise(x)` (float → float, about [-1, 1]).
+        OslPerlin1 = "osl_perlin1",
+        /// OSL `snoise(p, t)` (vec3, float → float).
+        OslPerlin4 = "osl_perlin4",
+        /// OSL `vector snoise(x)` (float → vec3).
+        OslVPerlin1 = "osl_vperlin1",
+        /// OSL `vector snoise(p, t)` (vec3, float → vec3).
+        OslVPerlin4 = "osl_vperlin4",
+        /// OSL `hashnoise(x)`: a hash of the float's bits (float → float in [0, 1]).
+        OslHash1 = "osl_hash1",
+        /// OSL `hashnoise(x, y)` (vec2 → float).
+        OslHash2 = "osl_hash2",
+        /// OSL `hashnoise(p)` (vec3 → float).
+        OslHash3 = "osl_hash3",
+        /// OSL `hashnoise(p, t)` (vec3, float → float).
+        OslHash4 = "osl_hash4",
+        /// OSL `vector hashnoise(x)` (float → vec3).
+        OslVHash1 = "osl_vhash1",
+        /// OSL `vector hashnoise(x, y)` (vec2 → vec3).
+        OslVHash2 = "osl_vhash2",
+        /// OSL `vector hashnoise(p)` (vec3 → vec3).
+        OslVHash3 = "osl_vhash3",
+        /// OSL `vector hashnoise(p, t)` (vec3, float → vec3).
+        OslVHash4 = "osl_vhash4",
         /// MaterialX fractal noise of `osl_perlin2`: (p: vec2, octaves: int, lacunarity:
         /// float, diminish: float) → float.
         MxFractal2 = "mx_fractal2",

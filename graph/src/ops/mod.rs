@@ -565,10 +565,10 @@ pub fn osl_intrinsic_operands(i: Intrinsic) -> Option<&'static [Type]> {
     const WORLEY2: &[Type] = &[Type::Vec2, Type::Float, Type::Int, Type::Int];
     const WORLEY3: &[Type] = &[Type::Vec3, Type::Float, Type::Int, Type::Int];
     Some(match i {
-        OslPerlin2 | OslVPerlin2 | OslCell2 | OslVCell2 => V2,
-        OslPerlin3 | OslVPerlin3 | OslCell3 | OslVCell3 => V3,
-        OslCell1 | OslVCell1 => F1,
-        OslCell4 | OslVCell4 => V3F,
+        OslPerlin2 | OslVPerlin2 | OslCell2 | OslVCell2 | OslHash2 | OslVHash2 => V2,
+        OslPerlin3 | OslVPerlin3 | OslCell3 | OslVCell3 | OslHash3 | OslVHash3 => V3,
+        OslCell1 | OslVCell1 | OslPerlin1 | OslVPerlin1 | OslHash1 | OslVHash1 => F1,
+        OslCell4 | OslVCell4 | OslPerlin4 | OslVPerlin4 | OslHash4 | OslVHash4 => V3F,
         MxFractal2 | MxVFractal2 => FRACTAL2,
         MxFractal3 | MxVFractal3 => FRACTAL3,
         MxWorley2 | MxWorley2V2 | MxWorley2V3 => WORLEY2,
@@ -584,7 +584,8 @@ fn osl_intrinsic_type(i: Intrinsic, args: &[Type]) -> Option<Type> {
         return None;
     }
     Some(match i {
-        OslVPerlin2 | OslVPerlin3 | OslVCell1 | OslVCell2 | OslVCell3 | OslVCell4 | MxVFractal2
+        OslVPerlin1 | OslVPerlin2 | OslVPerlin3 | OslVPerlin4 | OslVCell1 | OslVCell2
+        | OslVCell3 | OslVCell4 | OslVHash1 | OslVHash2 | OslVHash3 | OslVHash4 | MxVFractal2
         | MxVFractal3 | MxWorley2V3 | MxWorley3V3 => Type::Vec3,
         MxWorley2V2 | MxWorley3V2 => Type::Vec2,
         _ => Type::Float,
@@ -806,6 +807,18 @@ fn osl_intrinsic<F: Real>(i: Intrinsic, args: &[Val<F>]) -> Val<F> {
         Intrinsic::OslCell4 => Val::Float(o::cell4(v3(), f1)),
         Intrinsic::OslVCell1 => Val::Vec3(o::vcell1(arg(0).as_float())),
         Intrinsic::OslVCell4 => Val::Vec3(o::vcell4(v3(), f1)),
+        Intrinsic::OslPerlin1 => Val::Float(o::perlin1(arg(0).as_float())),
+        Intrinsic::OslPerlin4 => Val::Float(o::perlin4(v3(), f1)),
+        Intrinsic::OslVPerlin1 => Val::Vec3(o::vperlin1(arg(0).as_float())),
+        Intrinsic::OslVPerlin4 => Val::Vec3(o::vperlin4(v3(), f1)),
+        Intrinsic::OslHash1 => Val::Float(o::hash1(arg(0).as_float())),
+        Intrinsic::OslHash2 => Val::Float(o::hash2(v2())),
+        Intrinsic::OslHash3 => Val::Float(o::hash3(v3())),
+        Intrinsic::OslHash4 => Val::Float(o::hash4(v3(), f1)),
+        Intrinsic::OslVHash1 => Val::Vec3(o::vhash1(arg(0).as_float())),
+        Intrinsic::OslVHash2 => Val::Vec3(o::vhash2(v2())),
+        Intrinsic::OslVHash3 => Val::Vec3(o::vhash3(v3())),
+        Intrinsic::OslVHash4 => Val::Vec3(o::vhash4(v3(), f1)),
         Intrinsic::MxFractal2 => Val::Float(o::fractal2(v2(), n, f2, f3)),
         Intrinsic::MxFractal3 => Val::Float(o::fractal3(v3(), n, f2, f3)),
         Intrinsic::MxVFractal2 => Val::Vec3(o::vfractal2(v2(), n, f2, f3)),

@@ -114,6 +114,9 @@ impl<'a> Lower<'a> {
         if self.dialect == Dialect::Osl && name == "getattribute" {
             return self.getattribute(b, vals, args, span);
         }
+        if self.dialect == Dialect::Osl && name == "isconnected" {
+            return self.isconnected(b, args, span);
+        }
         if self.dialect == Dialect::Osl && name == "texture" && vals.len() > 3 {
             return self.osl_texture(b, &vals, args, span);
         }

@@ -72,6 +72,14 @@ fn compile_here(loaded: &LoadedGroup) -> Result<Program, Diagnostics> {
                 LayerInput::Connected(v.clone(), c.span),
             );
         }
+        for c in &g.connections {
+            if c.to.0.name == layer.name.name {
+                *lower.connections.entry(c.to.1.name.clone()).or_default() |= 1;
+            }
+            if c.from.0.name == layer.name.name {
+                *lower.connections.entry(c.from.1.name.clone()).or_default() |= 2;
+            }
+        }
         let out = lower.osl_layer(&mut b, shader, ci.clone());
         for (name, input) in &lower.inputs {
             let at = match input {

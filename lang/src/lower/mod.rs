@@ -283,6 +283,12 @@ pub(crate) struct Lower<'a> {
     pub(crate) want_struct: Option<String>,
     /// Inside an inlined function that returns before its end ([`returns`]).
     pub(crate) returns: Option<returns::Returns<'a>>,
+    /// The shader's parameters by name, with OSL's `isconnected` bits: 1 connected to an
+    /// earlier layer of a group, 2 (an output) connected to a later one.
+    pub(crate) shader_params: HashMap<String, i32>,
+    /// The group's connection bits of this layer's parameters, by name (set by the group
+    /// before the layer is lowered).
+    pub(crate) connections: HashMap<String, i32>,
 }
 
 /// Compiles shader `name` (the file's only or first shader when `None`) of a parsed file to
@@ -394,6 +400,8 @@ impl<'a> Lower<'a> {
             structs,
             want_struct: None,
             returns: None,
+            shader_params: HashMap::new(),
+            connections: HashMap::new(),
         }
     }
 

@@ -51,6 +51,8 @@ pub(crate) const NAMES: &[&str] = &[
     "aastep",
     "getattribute",
     "transformc",
+    "raytype",
+    "isconnected",
 ];
 
 /// RSL builtins that OSL does not have (or has as closures: `diffuse`, `phong`).
@@ -74,7 +76,6 @@ const UNBUILT: &[(&str, &str)] = &[
         "error",
         "side effects (printf, format, warning, error) are not built yet",
     ),
-    ("raytype", "ray types are not readable by shaders yet"),
     (
         "splineinverse",
         "splineinverse is not built yet (spline is)",
@@ -115,6 +116,8 @@ impl<'a> Lower<'a> {
             },
         );
         for p in &shader.params {
+            let bits = self.connections.get(&p.name.name).copied().unwrap_or(0);
+            self.shader_params.insert(p.name.name.clone(), bits);
             self.param(b, p);
         }
         self.scopes.push(HashMap::new());
@@ -328,6 +331,9 @@ impl<'a> Lower<'a> {
         if name == "transformc" {
             return Some(self.transformc(b, args, span));
         }
+        if name == "raytype" {
+            return Some(self.raytype(b, args, span));
+        }
         let vs = super::numbers(b, args)?;
         let varying = vs.iter().any(|v| v.2);
         let out = |v: Value, ty: Ty| Some(Val::V { v, ty, varying });
@@ -519,13 +525,14 @@ impl<'a> Lower<'a> {
             );
             return Self::poison(b, out_ty);
         }
+        // (which family: 0 Perlin, 1 cell, 2 hash; signed Perlin)
         let kind = match generator {
-            "perlin" | "snoise" => (true, false),
-            "uperlin" | "noise" => (false, false),
-            "cell" | "cellnoise" => (false, true),
+            "perlin" | "snoise" => (0, true),
+            "uperlin" | "noise" => (0, false),
+            "cell" | "cellnoise" => (1, false),
+            "hash" | "hashnoise" => (2, false),
             other => {
                 let why = match other {
-                    "hash" | "hashnoise" => "the hash generator is not built yet".to_string(),
                     "simplex" | "usimplex" => {
                         "the simplex generators are not built yet".to_string()
                     }
@@ -576,35 +583,31 @@ impl<'a> Lower<'a> {
                 return Self::poison(b, out_ty);
             }
         };
-        let (signed, cell) = kind;
+        let (family, signed) = kind;
         let vector = out_ty != Ty::Float;
         use Intrinsic as I;
-        let f = match (cell, vector, dim) {
-            (false, false, 2) => I::OslPerlin2,
-            (false, false, 3) => I::OslPerlin3,
-            (false, true, 2) => I::OslVPerlin2,
-            (false, true, 3) => I::OslVPerlin3,
-            (true, false, 1) => I::OslCell1,
-            (true, false, 2) => I::OslCell2,
-            (true, false, 3) => I::OslCell3,
-            (true, false, _) => I::OslCell4,
-            (true, true, 1) => I::OslVCell1,
-            (true, true, 2) => I::OslVCell2,
-            (true, true, 3) => I::OslVCell3,
-            (true, true, _) => I::OslVCell4,
-            (false, ..) => {
-                self.error(
-                    format!(
-                        "`{name}`: 1D and 4D Perlin noise are not built yet (built: `{name}(x, y)` and `{name}(point)`; cell noise in every dimension)"
-                    ),
-                    span,
-                    "not built yet",
-                );
-                return Self::poison(b, out_ty);
-            }
+        let forms = match family {
+            0 => [
+                [I::OslPerlin1, I::OslPerlin2, I::OslPerlin3, I::OslPerlin4],
+                [
+                    I::OslVPerlin1,
+                    I::OslVPerlin2,
+                    I::OslVPerlin3,
+                    I::OslVPerlin4,
+                ],
+            ],
+            1 => [
+                [I::OslCell1, I::OslCell2, I::OslCell3, I::OslCell4],
+                [I::OslVCell1, I::OslVCell2, I::OslVCell3, I::OslVCell4],
+            ],
+            _ => [
+                [I::OslHash1, I::OslHash2, I::OslHash3, I::OslHash4],
+                [I::OslVHash1, I::OslVHash2, I::OslVHash3, I::OslVHash4],
+            ],
         };
+        let f = forms[usize::from(vector)][dim - 1];
         let mut v = b.call(f, &operands);
-        if !cell && !signed {
+        if family == 0 && !signed {
             // OSL's unsigned Perlin noise: 0.5 · (n + 1).
             let one = b.float(1.0);
             let one = b.splat_to(if vector { Type::Vec3 } else { Type::Float }, one);
@@ -704,6 +707,61 @@ pub(crate) fn declare_outputs(b: &mut Builder, outputs: Vec<(String, Val)>) {
 }
 
 impl<'a> Lower<'a> {
+    /// `isconnected(param)`: OSL's connection bits of a shader parameter, known when the
+    /// group is lowered — 1 where a group connects an earlier layer's output to it, 2 where
+    /// it is an output a later layer reads, 3 both, 0 otherwise (a lone shader's).
+    pub(crate) fn isconnected(&mut self, b: &mut Builder, args: &[ast::Expr], span: Span) -> Val {
+        let bits = match args {
+            [
+                ast::Expr {
+                    kind: ast::ExprKind::Ident(id),
+                    ..
+                },
+            ] => self.shader_params.get(&id.name).copied(),
+            _ => None,
+        };
+        let Some(bits) = bits else {
+            self.error(
+                "`isconnected` takes the name of one of the shader's parameters",
+                span,
+                "not a shader parameter",
+            );
+            return Self::poison(b, Ty::Int);
+        };
+        Val::V {
+            v: b.int(bits),
+            ty: Ty::Int,
+            varying: false,
+        }
+    }
+
+    /// `raytype(name)`: 1 where the ray being shaded is of type `name`, else 0 — the IR's
+    /// ray-type stream compared with the type's bit, which specialization folds for a
+    /// material that sees one type. Our names are `camera`, `shadow`, `reflection`,
+    /// `refraction` and `diffuse`; as in OSL, where the renderer names the types, a name
+    /// the renderer does not have is never the ray's type (0).
+    fn raytype(&mut self, b: &mut Builder, args: &[(Val, Span)], span: Span) -> Val {
+        let [(Val::Str(name), _)] = args else {
+            self.error("`raytype` takes (string name)", span, "wrong arguments");
+            return Self::poison(b, Ty::Int);
+        };
+        let Some(bit) = shadenet_graph::ir::ray_type_from_name(name) else {
+            return Val::V {
+                v: b.int(0),
+                ty: Ty::Int,
+                varying: false,
+            };
+        };
+        let ray = b.stream(Stream::RayType);
+        let k = b.int(bit);
+        let is = b.binary(BinOp::Eq, ray, k);
+        Val::V {
+            v: b.convert(Type::Int, is),
+            ty: Ty::Int,
+            varying: true,
+        }
+    }
+
     /// `transformc(from, to, c)`: colour `c` (or any triple, as a colour) from colour
     /// space `from` to `to`, both `"rgb"` or `"hsv"` (OSL's names; the same space is the
     /// identity); other spaces are an error naming them.
