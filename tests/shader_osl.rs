@@ -431,8 +431,8 @@ fn errors_name_the_place_and_the_problem() {
             "the simplex generators are not built yet",
         ),
         (
-            "surface s() { float x = pnoise(u, 4); }",
-            "`pnoise`: periodic noise is not built yet",
+            "surface s() { float x = noise(\"gabor\", u); }",
+            "`noise`: gabor noise is not built yet",
         ),
         (
             "surface s() { float x = noise(\"fancy\", P); }",
@@ -1617,4 +1617,72 @@ fn isconnected_reads_the_group() {
         "shader s(output float o = 0) { float z = 1; o = isconnected(z); }",
         "`isconnected` takes the name of one of the shader's parameters",
     )]);
+}
+
+/// `pnoise`/`psnoise`: periodic Perlin noise is `osl_noise::pperlin*` (float and vector, 1D
+/// to 4D) bit for bit, `pnoise`'s default `0.5 (n + 1)` of it; `pnoise("cell", …)` is cell
+/// noise of the coordinates wrapped into the period (OSL's `wrap`); periodic hash noise and
+/// mismatched period shapes are errors.
+#[test]
+fn periodic_noise_is_osls() {
+    let src = r#"
+        shader n(float px = 3.5, output color a = 0, output color b = 0, output vector c = 0,
+                 output color d = 0) {
+            point q = P * 3.7 + point(0.3, -1.2, 5.1);
+            point pp = point(px, 2, 5);
+            a = color(psnoise(u * 9, px), psnoise(u * 9, v * 9, px, 4), psnoise(q, pp));
+            b = color(psnoise(q, v * 9, pp, 3), pnoise(q, pp), pnoise("perlin", u * 9, px));
+            c = psnoise(q, v * 9, pp, 3);
+            d = pnoise("cell", q, pp);
+        }"#;
+    let p = compile(src).unwrap();
+    let mut f = plane_fragment();
+    for (pos, uv) in [
+        ([0.123, 0.456, 0.0], [0.11, 0.93]),
+        ([-2.5, 7.25, 1.0], [0.5, 0.75]),
+    ] {
+        f.p = pos;
+        f.uv = uv;
+        let o = run_program(&p, &f, &[], u32::MAX);
+        let q: [f32; 3] = std::array::from_fn(|i| pos[i] * 3.7 + [0.3, -1.2, 5.1][i]);
+        let pp = [3.5f32, 2.0, 5.0];
+        let (u9, v9) = (uv[0] * 9.0, uv[1] * 9.0);
+        let f64s = |v: &[f32]| v.iter().map(|x| *x as f64).collect::<Vec<_>>();
+        let a = [
+            osl_noise::pperlin1(u9, 3.5),
+            osl_noise::pperlin2([u9, v9], [3.5, 4.0]),
+            osl_noise::pperlin3(q, pp),
+        ];
+        assert_eq!(o.get32("a"), f64s(&a), "a at {pos:?}");
+        let b = [
+            osl_noise::pperlin4(q, v9, pp, 3.0),
+            0.5 * (osl_noise::pperlin3(q, pp) + 1.0),
+            osl_noise::pperlin1(u9, 3.5),
+        ];
+        assert_eq!(o.get32("b"), f64s(&b), "b at {pos:?}");
+        assert_eq!(
+            o.get32("c"),
+            f64s(&osl_noise::vpperlin4(q, v9, pp, 3.0)),
+            "c"
+        );
+        let wrapped: [f32; 3] = std::array::from_fn(|k| {
+            let per = pp[k].floor().max(1.0);
+            q[k] - per * (q[k] / per).floor()
+        });
+        assert_eq!(
+            o.get32("d"),
+            f64s(&osl_noise::vcell3(wrapped)),
+            "d at {pos:?}"
+        );
+    }
+    assert_errors(&[
+        (
+            "shader s() { float x = pnoise(\"hash\", u, 2); }",
+            "periodic hash noise is not built yet",
+        ),
+        (
+            "shader s() { float x = psnoise(P, 2); }",
+            "each followed by as many periods",
+        ),
+    ]);
 }

@@ -411,6 +411,34 @@ fn osl_vhash3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
 fn osl_vhash4(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
     o.copy_from_slice(&osl_noise::vhash4([a[0], a[1], a[2]], a[3]));
 }
+fn osl_pperlin1(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = osl_noise::pperlin1(a[0], a[1]);
+}
+fn osl_pperlin2(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = osl_noise::pperlin2([a[0], a[1]], [a[2], a[3]]);
+}
+fn osl_pperlin3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = osl_noise::pperlin3([a[0], a[1], a[2]], [a[3], a[4], a[5]]);
+}
+fn osl_pperlin4(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = osl_noise::pperlin4([a[0], a[1], a[2]], a[3], [a[4], a[5], a[6]], a[7]);
+}
+fn osl_vpperlin1(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&osl_noise::vpperlin1(a[0], a[1]));
+}
+fn osl_vpperlin2(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&osl_noise::vpperlin2([a[0], a[1]], [a[2], a[3]]));
+}
+fn osl_vpperlin3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&osl_noise::vpperlin3(
+        [a[0], a[1], a[2]],
+        [a[3], a[4], a[5]],
+    ));
+}
+fn osl_vpperlin4(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    let (p, pp) = ([a[0], a[1], a[2]], [a[4], a[5], a[6]]);
+    o.copy_from_slice(&osl_noise::vpperlin4(p, a[3], pp, a[7]));
+}
 fn osl_perlin1(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
     o[0] = osl_noise::perlin1(a[0]);
 }
@@ -940,6 +968,14 @@ mem_helpers! {
     osl_vhash2: 2 -> 3,
     osl_vhash3: 3 -> 3,
     osl_vhash4: 4 -> 3,
+    osl_pperlin1: 2 -> 1,
+    osl_pperlin2: 4 -> 1,
+    osl_pperlin3: 6 -> 1,
+    osl_pperlin4: 8 -> 1,
+    osl_vpperlin1: 2 -> 3,
+    osl_vpperlin2: 4 -> 3,
+    osl_vpperlin3: 6 -> 3,
+    osl_vpperlin4: 8 -> 3,
     mx_fractal2: 5 -> 1 => mx_fractal2_x4,
     mx_fractal3: 6 -> 1 => mx_fractal3_x4,
     mx_vfractal2: 5 -> 3 => mx_vfractal2_x4,

@@ -1334,6 +1334,123 @@ fn sn_osl_vperlin4(p: vec3<f32>, t: f32) -> vec3<f32> {
     );
 }
 
+// Periodic Perlin noise (psnoise): the corner keys wrap, OSL's imod(c + d, period) with
+// period = max(1, ifloor(p)) (HashScalarPeriodic).
+fn sn_osl_period(p: f32) -> i32 {
+    return max(1i, sn_f2i(floor(p)));
+}
+
+fn sn_osl_key(c: u32, d: u32, period: i32) -> u32 {
+    let r = (bitcast<i32>(c) + i32(d)) % period;
+    return bitcast<u32>(select(r, r + period, r < 0i));
+}
+
+fn sn_osl_pperlin1_h(x: f32, px: f32) -> vec2<u32> {
+    let i = sn_osl_ifloor(x);
+    let per = sn_osl_period(px);
+    return vec2<u32>(sn_osl_inthash1(sn_osl_key(i, 0u, per)), sn_osl_inthash1(sn_osl_key(i, 1u, per)));
+}
+
+fn sn_osl_pperlin1(x: f32, px: f32) -> f32 {
+    let h = sn_osl_pperlin1_h(x, px);
+    return sn_osl_perlin1_of(h.x, h.y, 0u, 0xffffffffu, sn_cell_frac(x));
+}
+
+fn sn_osl_vpperlin1(x: f32, px: f32) -> vec3<f32> {
+    let h = sn_osl_pperlin1_h(x, px);
+    let f = sn_cell_frac(x);
+    return vec3<f32>(
+        sn_osl_perlin1_of(h.x, h.y, 0u, 255u, f),
+        sn_osl_perlin1_of(h.x, h.y, 8u, 255u, f),
+        sn_osl_perlin1_of(h.x, h.y, 16u, 255u, f),
+    );
+}
+
+fn sn_osl_pcorners2(p: vec2<f32>, pp: vec2<f32>) -> vec4<u32> {
+    let x = sn_osl_ifloor(p.x);
+    let y = sn_osl_ifloor(p.y);
+    let px = sn_osl_period(pp.x);
+    let py = sn_osl_period(pp.y);
+    return vec4<u32>(
+        sn_inthash2(sn_osl_key(x, 0u, px), sn_osl_key(y, 0u, py)),
+        sn_inthash2(sn_osl_key(x, 1u, px), sn_osl_key(y, 0u, py)),
+        sn_inthash2(sn_osl_key(x, 0u, px), sn_osl_key(y, 1u, py)),
+        sn_inthash2(sn_osl_key(x, 1u, px), sn_osl_key(y, 1u, py)),
+    );
+}
+
+fn sn_osl_pperlin2(p: vec2<f32>, pp: vec2<f32>) -> f32 {
+    let h = sn_osl_pcorners2(p, pp);
+    return sn_osl_perlin2_of(h, 0u, 0xffffffffu, sn_cell_frac(p.x), sn_cell_frac(p.y));
+}
+
+fn sn_osl_vpperlin2(p: vec2<f32>, pp: vec2<f32>) -> vec3<f32> {
+    let h = sn_osl_pcorners2(p, pp);
+    let fx = sn_cell_frac(p.x);
+    let fy = sn_cell_frac(p.y);
+    return vec3<f32>(
+        sn_osl_perlin2_of(h, 0u, 255u, fx, fy),
+        sn_osl_perlin2_of(h, 8u, 255u, fx, fy),
+        sn_osl_perlin2_of(h, 16u, 255u, fx, fy),
+    );
+}
+
+fn sn_osl_pcorners3(p: vec3<f32>, pp: vec3<f32>) -> array<u32, 8> {
+    let x = sn_osl_ifloor(p.x);
+    let y = sn_osl_ifloor(p.y);
+    let z = sn_osl_ifloor(p.z);
+    let per = vec3<i32>(sn_osl_period(pp.x), sn_osl_period(pp.y), sn_osl_period(pp.z));
+    var h: array<u32, 8>;
+    for (var k = 0u; k < 8u; k++) {
+        h[k] = sn_inthash3(sn_osl_key(x, k & 1u, per.x), sn_osl_key(y, (k >> 1u) & 1u, per.y),
+            sn_osl_key(z, (k >> 2u) & 1u, per.z));
+    }
+    return h;
+}
+
+fn sn_osl_pperlin3(p: vec3<f32>, pp: vec3<f32>) -> f32 {
+    let f = vec3<f32>(sn_cell_frac(p.x), sn_cell_frac(p.y), sn_cell_frac(p.z));
+    return sn_osl_perlin3_of(sn_osl_pcorners3(p, pp), 0u, 0xffffffffu, f);
+}
+
+fn sn_osl_vpperlin3(p: vec3<f32>, pp: vec3<f32>) -> vec3<f32> {
+    let h = sn_osl_pcorners3(p, pp);
+    let f = vec3<f32>(sn_cell_frac(p.x), sn_cell_frac(p.y), sn_cell_frac(p.z));
+    return vec3<f32>(
+        sn_osl_perlin3_of(h, 0u, 255u, f),
+        sn_osl_perlin3_of(h, 8u, 255u, f),
+        sn_osl_perlin3_of(h, 16u, 255u, f),
+    );
+}
+
+fn sn_osl_pcorners4(p: vec3<f32>, t: f32, pp: vec3<f32>, pt: f32) -> array<u32, 16> {
+    let c = vec4<u32>(sn_osl_ifloor(p.x), sn_osl_ifloor(p.y), sn_osl_ifloor(p.z), sn_osl_ifloor(t));
+    let per = vec4<i32>(sn_osl_period(pp.x), sn_osl_period(pp.y), sn_osl_period(pp.z),
+        sn_osl_period(pt));
+    var h: array<u32, 16>;
+    for (var k = 0u; k < 16u; k++) {
+        h[k] = sn_osl_inthash4(sn_osl_key(c.x, k & 1u, per.x),
+            sn_osl_key(c.y, (k >> 1u) & 1u, per.y), sn_osl_key(c.z, (k >> 2u) & 1u, per.z),
+            sn_osl_key(c.w, (k >> 3u) & 1u, per.w));
+    }
+    return h;
+}
+
+fn sn_osl_pperlin4(p: vec3<f32>, t: f32, pp: vec3<f32>, pt: f32) -> f32 {
+    let f = vec4<f32>(sn_cell_frac(p.x), sn_cell_frac(p.y), sn_cell_frac(p.z), sn_cell_frac(t));
+    return sn_osl_perlin4_of(sn_osl_pcorners4(p, t, pp, pt), 0u, 0xffffffffu, f);
+}
+
+fn sn_osl_vpperlin4(p: vec3<f32>, t: f32, pp: vec3<f32>, pt: f32) -> vec3<f32> {
+    let h = sn_osl_pcorners4(p, t, pp, pt);
+    let f = vec4<f32>(sn_cell_frac(p.x), sn_cell_frac(p.y), sn_cell_frac(p.z), sn_cell_frac(t));
+    return vec3<f32>(
+        sn_osl_perlin4_of(h, 0u, 255u, f),
+        sn_osl_perlin4_of(h, 8u, 255u, f),
+        sn_osl_perlin4_of(h, 16u, 255u, f),
+    );
+}
+
 // OSL hashnoise: cell noise of the coordinates' bits (HashNoise::transformToUint).
 fn sn_osl_hash1(x: f32) -> f32 {
     return sn_bits_to_01(sn_osl_inthash1(bitcast<u32>(x)));

@@ -516,6 +516,22 @@ named_enum! {
         OslVHash3 = "osl_vhash3",
         /// OSL `vector hashnoise(p, t)` (vec3, float → vec3).
         OslVHash4 = "osl_vhash4",
+        /// OSL `psnoise(x, px)`: periodic Perlin noise (float, period → float).
+        OslPPerlin1 = "osl_pperlin1",
+        /// OSL `psnoise(x, y, px, py)` (vec2, vec2 periods → float).
+        OslPPerlin2 = "osl_pperlin2",
+        /// OSL `psnoise(p, pp)` (vec3, vec3 periods → float).
+        OslPPerlin3 = "osl_pperlin3",
+        /// OSL `psnoise(p, t, pp, pt)` (vec3, float, vec3, float → float).
+        OslPPerlin4 = "osl_pperlin4",
+        /// OSL `vector psnoise(x, px)` (float, float → vec3).
+        OslVPPerlin1 = "osl_vpperlin1",
+        /// OSL `vector psnoise(x, y, px, py)` (vec2, vec2 → vec3).
+        OslVPPerlin2 = "osl_vpperlin2",
+        /// OSL `vector psnoise(p, pp)` (vec3, vec3 → vec3).
+        OslVPPerlin3 = "osl_vpperlin3",
+        /// OSL `vector psnoise(p, t, pp, pt)` (vec3, float, vec3, float → vec3).
+        OslVPPerlin4 = "osl_vpperlin4",
         /// MaterialX fractal noise of `osl_perlin2`: (p: vec2, octaves: int, lacunarity:
         /// float, diminish: float) → float.
         MxFractal2 = "mx_fractal2",

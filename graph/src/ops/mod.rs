@@ -560,6 +560,10 @@ pub fn osl_intrinsic_operands(i: Intrinsic) -> Option<&'static [Type]> {
     const V3: &[Type] = &[Type::Vec3];
     const F1: &[Type] = &[Type::Float];
     const V3F: &[Type] = &[Type::Vec3, Type::Float];
+    const F2: &[Type] = &[Type::Float, Type::Float];
+    const V2V2: &[Type] = &[Type::Vec2, Type::Vec2];
+    const V3V3: &[Type] = &[Type::Vec3, Type::Vec3];
+    const V3FV3F: &[Type] = &[Type::Vec3, Type::Float, Type::Vec3, Type::Float];
     const FRACTAL2: &[Type] = &[Type::Vec2, Type::Int, Type::Float, Type::Float];
     const FRACTAL3: &[Type] = &[Type::Vec3, Type::Int, Type::Float, Type::Float];
     const WORLEY2: &[Type] = &[Type::Vec2, Type::Float, Type::Int, Type::Int];
@@ -569,6 +573,10 @@ pub fn osl_intrinsic_operands(i: Intrinsic) -> Option<&'static [Type]> {
         OslPerlin3 | OslVPerlin3 | OslCell3 | OslVCell3 | OslHash3 | OslVHash3 => V3,
         OslCell1 | OslVCell1 | OslPerlin1 | OslVPerlin1 | OslHash1 | OslVHash1 => F1,
         OslCell4 | OslVCell4 | OslPerlin4 | OslVPerlin4 | OslHash4 | OslVHash4 => V3F,
+        OslPPerlin1 | OslVPPerlin1 => F2,
+        OslPPerlin2 | OslVPPerlin2 => V2V2,
+        OslPPerlin3 | OslVPPerlin3 => V3V3,
+        OslPPerlin4 | OslVPPerlin4 => V3FV3F,
         MxFractal2 | MxVFractal2 => FRACTAL2,
         MxFractal3 | MxVFractal3 => FRACTAL3,
         MxWorley2 | MxWorley2V2 | MxWorley2V3 => WORLEY2,
@@ -585,8 +593,9 @@ fn osl_intrinsic_type(i: Intrinsic, args: &[Type]) -> Option<Type> {
     }
     Some(match i {
         OslVPerlin1 | OslVPerlin2 | OslVPerlin3 | OslVPerlin4 | OslVCell1 | OslVCell2
-        | OslVCell3 | OslVCell4 | OslVHash1 | OslVHash2 | OslVHash3 | OslVHash4 | MxVFractal2
-        | MxVFractal3 | MxWorley2V3 | MxWorley3V3 => Type::Vec3,
+        | OslVCell3 | OslVCell4 | OslVHash1 | OslVHash2 | OslVHash3 | OslVHash4 | OslVPPerlin1
+        | OslVPPerlin2 | OslVPPerlin3 | OslVPPerlin4 | MxVFractal2 | MxVFractal3 | MxWorley2V3
+        | MxWorley3V3 => Type::Vec3,
         MxWorley2V2 | MxWorley3V2 => Type::Vec2,
         _ => Type::Float,
     })
@@ -781,11 +790,12 @@ pub fn intrinsic<F: Real>(i: Intrinsic, args: &[Val<F>]) -> Val<F> {
 fn osl_intrinsic<F: Real>(i: Intrinsic, args: &[Val<F>]) -> Val<F> {
     use osl_noise as o;
     let arg = |k: usize| args.get(k).copied().unwrap_or(Val::Int(0));
-    let v2 = || {
-        let p = arg(0);
+    let vec2 = |k: usize| {
+        let p = arg(k);
         let f = p.floats();
         [0, 1].map(|c| f.get(c).copied().unwrap_or(F::ZERO))
     };
+    let v2 = || vec2(0);
     let v3 = || arg(0).as_vec3();
     let (n, f1, i2, i3) = (
         arg(1).as_int(),
@@ -819,6 +829,14 @@ fn osl_intrinsic<F: Real>(i: Intrinsic, args: &[Val<F>]) -> Val<F> {
         Intrinsic::OslVHash2 => Val::Vec3(o::vhash2(v2())),
         Intrinsic::OslVHash3 => Val::Vec3(o::vhash3(v3())),
         Intrinsic::OslVHash4 => Val::Vec3(o::vhash4(v3(), f1)),
+        Intrinsic::OslPPerlin1 => Val::Float(o::pperlin1(arg(0).as_float(), f1)),
+        Intrinsic::OslPPerlin2 => Val::Float(o::pperlin2(v2(), vec2(1))),
+        Intrinsic::OslPPerlin3 => Val::Float(o::pperlin3(v3(), arg(1).as_vec3())),
+        Intrinsic::OslPPerlin4 => Val::Float(o::pperlin4(v3(), f1, arg(2).as_vec3(), f3)),
+        Intrinsic::OslVPPerlin1 => Val::Vec3(o::vpperlin1(arg(0).as_float(), f1)),
+        Intrinsic::OslVPPerlin2 => Val::Vec3(o::vpperlin2(v2(), vec2(1))),
+        Intrinsic::OslVPPerlin3 => Val::Vec3(o::vpperlin3(v3(), arg(1).as_vec3())),
+        Intrinsic::OslVPPerlin4 => Val::Vec3(o::vpperlin4(v3(), f1, arg(2).as_vec3(), f3)),
         Intrinsic::MxFractal2 => Val::Float(o::fractal2(v2(), n, f2, f3)),
         Intrinsic::MxFractal3 => Val::Float(o::fractal3(v3(), n, f2, f3)),
         Intrinsic::MxVFractal2 => Val::Vec3(o::vfractal2(v2(), n, f2, f3)),

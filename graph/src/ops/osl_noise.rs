@@ -171,27 +171,35 @@ fn sliceup(h: u32) -> [u32; 3] {
     [h & 0xff, (h >> 8) & 0xff, (h >> 16) & 0xff]
 }
 
-/// The hashes of a 2D cell's corners, in `bilerp`'s order.
-fn corners2(x: i32, y: i32) -> [u32; 4] {
-    let (x1, y1) = (x.wrapping_add(1), y.wrapping_add(1));
-    [
-        inthash2(x as u32, y as u32),
-        inthash2(x1 as u32, y as u32),
-        inthash2(x as u32, y1 as u32),
-        inthash2(x1 as u32, y1 as u32),
-    ]
+/// The hash key of lattice coordinate `c` (plus `d`, 0 or 1): the coordinate itself, or
+/// for periodic noise (`period` ≥ 1; 0: none) OSL's `imod(c + d, period)`, in `[0,
+/// period)`.
+fn key(c: i32, d: usize, period: i32) -> u32 {
+    let c = c.wrapping_add(d as i32);
+    if period > 0 {
+        c.rem_euclid(period) as u32
+    } else {
+        c as u32
+    }
+}
+
+/// OSL `HashScalarPeriodic`'s period of a coordinate: `max(1, ifloor(p))`.
+fn period<F: Real>(p: F) -> i32 {
+    p.floor().to_i32().max(1)
+}
+
+/// The hashes of a 2D cell's corners, in `bilerp`'s order (`per`: the periods, 0 none).
+fn corners2(x: i32, y: i32, per: [i32; 2]) -> [u32; 4] {
+    std::array::from_fn(|k| inthash2(key(x, k & 1, per[0]), key(y, (k >> 1) & 1, per[1])))
 }
 
 /// The hashes of a 3D cell's corners, in `trilerp`'s order.
-fn corners3(x: i32, y: i32, z: i32) -> [u32; 8] {
+fn corners3(x: i32, y: i32, z: i32, per: [i32; 3]) -> [u32; 8] {
     std::array::from_fn(|k| {
-        let dx = (k & 1) as i32;
-        let dy = ((k >> 1) & 1) as i32;
-        let dz = ((k >> 2) & 1) as i32;
         inthash3(
-            x.wrapping_add(dx) as u32,
-            y.wrapping_add(dy) as u32,
-            z.wrapping_add(dz) as u32,
+            key(x, k & 1, per[0]),
+            key(y, (k >> 1) & 1, per[1]),
+            key(z, (k >> 2) & 1, per[2]),
         )
     })
 }
@@ -219,10 +227,15 @@ fn offsets3<F: Real>(fx: F, fy: F, fz: F) -> [[F; 3]; 8] {
 /// OSL `snoise(x, y)`: signed 2D Perlin noise, `0.6616 · bilerp(grad …)`, about [−1, 1];
 /// 0 at every lattice point.
 pub fn perlin2<F: Real>(p: [F; 2]) -> F {
+    perlin2_at(p, [0; 2])
+}
+
+/// [`perlin2`] on a lattice with periods `per` (0: none).
+fn perlin2_at<F: Real>(p: [F; 2], per: [i32; 2]) -> F {
     let (x, fx) = floorfrac(p[0]);
     let (y, fy) = floorfrac(p[1]);
     let (u, v) = (fade(fx), fade(fy));
-    let h = corners2(x, y);
+    let h = corners2(x, y, per);
     let o = offsets2(fx, fy);
     let g = std::array::from_fn(|k| grad2(h[k], o[k][0], o[k][1]));
     F::from_f64(0.6616) * bilerp(g, u, v)
@@ -231,11 +244,16 @@ pub fn perlin2<F: Real>(p: [F; 2]) -> F {
 /// OSL `snoise(p)`: signed 3D Perlin noise, `0.9820 · trilerp(grad …)`, about [−1, 1];
 /// 0 at every lattice point.
 pub fn perlin3<F: Real>(p: [F; 3]) -> F {
+    perlin3_at(p, [0; 3])
+}
+
+/// [`perlin3`] on a lattice with periods `per` (0: none).
+fn perlin3_at<F: Real>(p: [F; 3], per: [i32; 3]) -> F {
     let (x, fx) = floorfrac(p[0]);
     let (y, fy) = floorfrac(p[1]);
     let (z, fz) = floorfrac(p[2]);
     let (u, v, w) = (fade(fx), fade(fy), fade(fz));
-    let h = corners3(x, y, z);
+    let h = corners3(x, y, z, per);
     let o = offsets3(fx, fy, fz);
     let g = std::array::from_fn(|k| grad3(h[k], o[k][0], o[k][1], o[k][2]));
     F::from_f64(0.9820) * trilerp(g, u, v, w)
@@ -244,10 +262,15 @@ pub fn perlin3<F: Real>(p: [F; 3]) -> F {
 /// OSL `vector snoise(x, y)`: each component a 2D Perlin noise whose corner gradients come
 /// from one byte of the corner's hash (OSL `HashVector`'s `sliceup`).
 pub fn vperlin2<F: Real>(p: [F; 2]) -> [F; 3] {
+    vperlin2_at(p, [0; 2])
+}
+
+/// [`vperlin2`] on a lattice with periods `per` (0: none).
+fn vperlin2_at<F: Real>(p: [F; 2], per: [i32; 2]) -> [F; 3] {
     let (x, fx) = floorfrac(p[0]);
     let (y, fy) = floorfrac(p[1]);
     let (u, v) = (fade(fx), fade(fy));
-    let h = corners2(x, y).map(sliceup);
+    let h = corners2(x, y, per).map(sliceup);
     let o = offsets2(fx, fy);
     std::array::from_fn(|c| {
         let g = std::array::from_fn(|k| grad2(h[k][c], o[k][0], o[k][1]));
@@ -257,11 +280,16 @@ pub fn vperlin2<F: Real>(p: [F; 2]) -> [F; 3] {
 
 /// OSL `vector snoise(p)`: [`vperlin2`] in 3D.
 pub fn vperlin3<F: Real>(p: [F; 3]) -> [F; 3] {
+    vperlin3_at(p, [0; 3])
+}
+
+/// [`vperlin3`] on a lattice with periods `per` (0: none).
+fn vperlin3_at<F: Real>(p: [F; 3], per: [i32; 3]) -> [F; 3] {
     let (x, fx) = floorfrac(p[0]);
     let (y, fy) = floorfrac(p[1]);
     let (z, fz) = floorfrac(p[2]);
     let (u, v, w) = (fade(fx), fade(fy), fade(fz));
-    let h = corners3(x, y, z).map(sliceup);
+    let h = corners3(x, y, z, per).map(sliceup);
     let o = offsets3(fx, fy, fz);
     std::array::from_fn(|c| {
         let g = std::array::from_fn(|k| grad3(h[k][c], o[k][0], o[k][1], o[k][2]));
@@ -292,10 +320,10 @@ fn lerp<F: Real>(a: F, b: F, t: F) -> F {
 }
 
 /// The hashes of a 4D cell's corners: `trilerp`'s order at `w`, then at `w + 1`.
-fn corners4(x: i32, y: i32, z: i32, w: i32) -> [u32; 16] {
+fn corners4(c: [i32; 4], per: [i32; 4]) -> [u32; 16] {
     std::array::from_fn(|k| {
-        let d = |bit: usize, c: i32| c.wrapping_add(((k >> bit) & 1) as i32) as u32;
-        inthash4(d(0, x), d(1, y), d(2, z), d(3, w))
+        let d = |a: usize| key(c[a], (k >> a) & 1, per[a]);
+        inthash4(d(0), d(1), d(2), d(3))
     })
 }
 
@@ -315,20 +343,30 @@ fn offsets4<F: Real>(f: [F; 4]) -> [[F; 4]; 16] {
 /// OSL `snoise(x)`: signed 1D Perlin noise, `0.25 · lerp(grad …)`, about [−1, 1]; 0 at
 /// every integer.
 pub fn perlin1<F: Real>(x: F) -> F {
+    perlin1_at(x, 0)
+}
+
+/// [`perlin1`] on a lattice with period `per` (0: none).
+fn perlin1_at<F: Real>(x: F, per: i32) -> F {
     let (xi, fx) = floorfrac(x);
     let u = fade(fx);
-    let (h0, h1) = (inthash1(xi as u32), inthash1(xi.wrapping_add(1) as u32));
+    let (h0, h1) = (inthash1(key(xi, 0, per)), inthash1(key(xi, 1, per)));
     F::from_f64(0.25) * lerp(grad1(h0, fx), grad1(h1, fx - F::ONE), u)
 }
 
 /// OSL `vector snoise(x)`: [`perlin1`] per component, the gradients from one byte of the
 /// corner's hash each (`sliceup`).
 pub fn vperlin1<F: Real>(x: F) -> [F; 3] {
+    vperlin1_at(x, 0)
+}
+
+/// [`vperlin1`] on a lattice with period `per` (0: none).
+fn vperlin1_at<F: Real>(x: F, per: i32) -> [F; 3] {
     let (xi, fx) = floorfrac(x);
     let u = fade(fx);
     let (h0, h1) = (
-        sliceup(inthash1(xi as u32)),
-        sliceup(inthash1(xi.wrapping_add(1) as u32)),
+        sliceup(inthash1(key(xi, 0, per))),
+        sliceup(inthash1(key(xi, 1, per))),
     );
     std::array::from_fn(|c| {
         F::from_f64(0.25) * lerp(grad1(h0[c], fx), grad1(h1[c], fx - F::ONE), u)
@@ -348,22 +386,74 @@ fn perlin4_of<F: Real>(h: &[u32; 16], o: &[[F; 4]; 16], fade4: [F; 4]) -> F {
 /// OSL `snoise(p, t)`: signed 4D Perlin noise, `0.8344 · lerp(trilerp(…), trilerp(…))`,
 /// about [−1, 1]; 0 at every lattice point.
 pub fn perlin4<F: Real>(p: [F; 3], t: F) -> F {
-    let c = [p[0], p[1], p[2], t].map(floorfrac);
+    perlin4_at([p[0], p[1], p[2], t], [0; 4])
+}
+
+/// [`perlin4`] of `(x, y, z, t)` on a lattice with periods `per` (0: none).
+fn perlin4_at<F: Real>(p: [F; 4], per: [i32; 4]) -> F {
+    let c = p.map(floorfrac);
     let f = c.map(|(_, f)| f);
-    let h = corners4(c[0].0, c[1].0, c[2].0, c[3].0);
+    let h = corners4(c.map(|(i, _)| i), per);
     F::from_f64(0.8344) * perlin4_of(&h, &offsets4(f), f.map(fade))
 }
 
 /// OSL `vector snoise(p, t)`: [`perlin4`] per component, one hash byte each.
 pub fn vperlin4<F: Real>(p: [F; 3], t: F) -> [F; 3] {
-    let c = [p[0], p[1], p[2], t].map(floorfrac);
+    vperlin4_at([p[0], p[1], p[2], t], [0; 4])
+}
+
+/// [`vperlin4`] of `(x, y, z, t)` on a lattice with periods `per` (0: none).
+fn vperlin4_at<F: Real>(p: [F; 4], per: [i32; 4]) -> [F; 3] {
+    let c = p.map(floorfrac);
     let f = c.map(|(_, f)| f);
-    let h = corners4(c[0].0, c[1].0, c[2].0, c[3].0).map(sliceup);
+    let h = corners4(c.map(|(i, _)| i), per).map(sliceup);
     let o = offsets4(f);
     std::array::from_fn(|comp| {
         let hc = h.map(|s| s[comp]);
         F::from_f64(0.8344) * perlin4_of(&hc, &o, f.map(fade))
     })
+}
+
+// ---- periodic Perlin noise (`psnoise`): the lattice wraps (OSL `HashScalarPeriodic`) ----
+
+/// OSL `psnoise(x, px)`: [`perlin1`] whose lattice repeats every `max(1, ifloor(px))`.
+pub fn pperlin1<F: Real>(x: F, px: F) -> F {
+    perlin1_at(x, period(px))
+}
+
+/// OSL `psnoise(x, y, px, py)`.
+pub fn pperlin2<F: Real>(p: [F; 2], pp: [F; 2]) -> F {
+    perlin2_at(p, pp.map(period))
+}
+
+/// OSL `psnoise(p, pp)`.
+pub fn pperlin3<F: Real>(p: [F; 3], pp: [F; 3]) -> F {
+    perlin3_at(p, pp.map(period))
+}
+
+/// OSL `psnoise(p, t, pp, pt)`.
+pub fn pperlin4<F: Real>(p: [F; 3], t: F, pp: [F; 3], pt: F) -> F {
+    perlin4_at([p[0], p[1], p[2], t], [pp[0], pp[1], pp[2], pt].map(period))
+}
+
+/// OSL `vector psnoise(x, px)`.
+pub fn vpperlin1<F: Real>(x: F, px: F) -> [F; 3] {
+    vperlin1_at(x, period(px))
+}
+
+/// OSL `vector psnoise(x, y, px, py)`.
+pub fn vpperlin2<F: Real>(p: [F; 2], pp: [F; 2]) -> [F; 3] {
+    vperlin2_at(p, pp.map(period))
+}
+
+/// OSL `vector psnoise(p, pp)`.
+pub fn vpperlin3<F: Real>(p: [F; 3], pp: [F; 3]) -> [F; 3] {
+    vperlin3_at(p, pp.map(period))
+}
+
+/// OSL `vector psnoise(p, t, pp, pt)`.
+pub fn vpperlin4<F: Real>(p: [F; 3], t: F, pp: [F; 3], pt: F) -> [F; 3] {
+    vperlin4_at([p[0], p[1], p[2], t], [pp[0], pp[1], pp[2], pt].map(period))
 }
 
 // ---- cell noise ----
@@ -1193,6 +1283,48 @@ mod tests {
             assert_eq!(vperlin1(p[0])[0], perlin1(p[0]));
             assert_eq!(vperlin4(p, p[1])[0], perlin4(p, p[1]));
         }
+    }
+
+    #[test]
+    fn periodic_perlin_repeats_and_is_perlin_inside_one_period() {
+        for p in points(3000, 40.0) {
+            // Periods 1 to 7 from the point (a fractional period floors; below 1 is 1).
+            let per = p.map(|c| (c.abs() % 7.0).floor().max(0.5) + 0.25);
+            let whole = per.map(|c| c.floor().max(1.0));
+            // One period on: the same value (coordinates on an 1/8 grid stay exact).
+            let q = p.map(|c| (c * 8.0).round() / 8.0);
+            let on: [f32; 3] = std::array::from_fn(|k| q[k] + whole[k]);
+            assert_eq!(pperlin1(q[0], per[0]), pperlin1(on[0], per[0]));
+            assert_eq!(
+                pperlin2([q[0], q[1]], [per[0], per[1]]),
+                pperlin2([on[0], on[1]], [per[0], per[1]])
+            );
+            assert_eq!(pperlin3(q, per), pperlin3(on, per));
+            assert_eq!(
+                pperlin4(q, q[0], per, per[1]),
+                pperlin4(on, on[0] + whole[1] - whole[0], per, per[1])
+            );
+            assert_eq!(vpperlin3(q, per), vpperlin3(on, per));
+            assert_eq!(
+                vpperlin4(q, q[1], per, per[2]),
+                vpperlin4(on, q[1] + whole[2], per, per[2])
+            );
+            // Inside [0, P − 1) no corner wraps: the plain noise.
+            let inside = whole.map(|w| (w - 1.0).max(0.0));
+            let r: [f32; 3] = std::array::from_fn(|k| (p[k].abs() / 40.0) * inside[k]);
+            if inside.iter().all(|w| *w > 0.0) {
+                assert_eq!(pperlin3(r, per), perlin3(r));
+                assert_eq!(vpperlin1(r[0], per[0]), vperlin1(r[0]));
+                assert_eq!(
+                    vpperlin2([r[0], r[1]], [per[0], per[1]]),
+                    vperlin2([r[0], r[1]])
+                );
+            }
+        }
+        // A period below 1 is 1: every corner hashes the same key, so the lattice's
+        // gradients agree and the noise is that one gradient's ramp.
+        assert_eq!(pperlin1(0.3f32, 0.0), pperlin1(0.3, 1.0));
+        assert_eq!(pperlin1(5.25f32, -4.0), pperlin1(0.25, 1.0));
     }
 
     #[test]

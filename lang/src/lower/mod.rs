@@ -26,6 +26,7 @@ mod group;
 pub mod light;
 mod loops;
 mod matrix;
+mod noise;
 mod osl;
 mod returns;
 mod spectral;
