@@ -1139,8 +1139,7 @@ fn sn_osl_perlin3(p: vec3<f32>) -> f32 {
 }
 
 // OSL HashVector's sliceup: component c from byte c of each corner hash.
-fn sn_osl_vperlin2(p: vec2<f32>) -> vec3<f32> {
-    let h = sn_osl_corners2(sn_osl_ifloor(p.x), sn_osl_ifloor(p.y));
+fn sn_osl_vperlin2_of(h: vec4<u32>, p: vec2<f32>) -> vec3<f32> {
     let fx = sn_cell_frac(p.x);
     let fy = sn_cell_frac(p.y);
     return vec3<f32>(
@@ -1150,14 +1149,22 @@ fn sn_osl_vperlin2(p: vec2<f32>) -> vec3<f32> {
     );
 }
 
-fn sn_osl_vperlin3(p: vec3<f32>) -> vec3<f32> {
-    let h = sn_osl_corners3(sn_osl_ifloor(p.x), sn_osl_ifloor(p.y), sn_osl_ifloor(p.z));
+fn sn_osl_vperlin2(p: vec2<f32>) -> vec3<f32> {
+    return sn_osl_vperlin2_of(sn_osl_corners2(sn_osl_ifloor(p.x), sn_osl_ifloor(p.y)), p);
+}
+
+fn sn_osl_vperlin3_of(h: array<u32, 8>, p: vec3<f32>) -> vec3<f32> {
     let f = vec3<f32>(sn_cell_frac(p.x), sn_cell_frac(p.y), sn_cell_frac(p.z));
     return vec3<f32>(
         sn_osl_perlin3_of(h, 0u, 255u, f),
         sn_osl_perlin3_of(h, 8u, 255u, f),
         sn_osl_perlin3_of(h, 16u, 255u, f),
     );
+}
+
+fn sn_osl_vperlin3(p: vec3<f32>) -> vec3<f32> {
+    let h = sn_osl_corners3(sn_osl_ifloor(p.x), sn_osl_ifloor(p.y), sn_osl_ifloor(p.z));
+    return sn_osl_vperlin3_of(h, p);
 }
 
 fn sn_osl_cell2(p: vec2<f32>) -> f32 {
@@ -1275,16 +1282,19 @@ fn sn_osl_perlin1(x: f32) -> f32 {
         sn_cell_frac(x));
 }
 
+// Vector 1D Perlin: component c from byte c of the two corner hashes `h`.
+fn sn_osl_vperlin1_of(h: vec2<u32>, f: f32) -> vec3<f32> {
+    return vec3<f32>(
+        sn_osl_perlin1_of(h.x, h.y, 0u, 255u, f),
+        sn_osl_perlin1_of(h.x, h.y, 8u, 255u, f),
+        sn_osl_perlin1_of(h.x, h.y, 16u, 255u, f),
+    );
+}
+
 fn sn_osl_vperlin1(x: f32) -> vec3<f32> {
     let i = sn_osl_ifloor(x);
-    let h0 = sn_osl_inthash1(i);
-    let h1 = sn_osl_inthash1(i + 1u);
-    let f = sn_cell_frac(x);
-    return vec3<f32>(
-        sn_osl_perlin1_of(h0, h1, 0u, 255u, f),
-        sn_osl_perlin1_of(h0, h1, 8u, 255u, f),
-        sn_osl_perlin1_of(h0, h1, 16u, 255u, f),
-    );
+    let h = vec2<u32>(sn_osl_inthash1(i), sn_osl_inthash1(i + 1u));
+    return sn_osl_vperlin1_of(h, sn_cell_frac(x));
 }
 
 // The hashes of a 4D cell's corners: trilerp's order at w, then at w + 1 (bit 3).
@@ -1323,15 +1333,19 @@ fn sn_osl_perlin4(p: vec3<f32>, t: f32) -> f32 {
     return sn_osl_perlin4_of(h, 0u, 0xffffffffu, f);
 }
 
-fn sn_osl_vperlin4(p: vec3<f32>, t: f32) -> vec3<f32> {
-    let h = sn_osl_corners4(sn_osl_ifloor(p.x), sn_osl_ifloor(p.y), sn_osl_ifloor(p.z),
-        sn_osl_ifloor(t));
+fn sn_osl_vperlin4_of(h: array<u32, 16>, p: vec3<f32>, t: f32) -> vec3<f32> {
     let f = vec4<f32>(sn_cell_frac(p.x), sn_cell_frac(p.y), sn_cell_frac(p.z), sn_cell_frac(t));
     return vec3<f32>(
         sn_osl_perlin4_of(h, 0u, 255u, f),
         sn_osl_perlin4_of(h, 8u, 255u, f),
         sn_osl_perlin4_of(h, 16u, 255u, f),
     );
+}
+
+fn sn_osl_vperlin4(p: vec3<f32>, t: f32) -> vec3<f32> {
+    let h = sn_osl_corners4(sn_osl_ifloor(p.x), sn_osl_ifloor(p.y), sn_osl_ifloor(p.z),
+        sn_osl_ifloor(t));
+    return sn_osl_vperlin4_of(h, p, t);
 }
 
 // Periodic Perlin noise (psnoise): the corner keys wrap, OSL's imod(c + d, period) with
@@ -1357,13 +1371,7 @@ fn sn_osl_pperlin1(x: f32, px: f32) -> f32 {
 }
 
 fn sn_osl_vpperlin1(x: f32, px: f32) -> vec3<f32> {
-    let h = sn_osl_pperlin1_h(x, px);
-    let f = sn_cell_frac(x);
-    return vec3<f32>(
-        sn_osl_perlin1_of(h.x, h.y, 0u, 255u, f),
-        sn_osl_perlin1_of(h.x, h.y, 8u, 255u, f),
-        sn_osl_perlin1_of(h.x, h.y, 16u, 255u, f),
-    );
+    return sn_osl_vperlin1_of(sn_osl_pperlin1_h(x, px), sn_cell_frac(x));
 }
 
 fn sn_osl_pcorners2(p: vec2<f32>, pp: vec2<f32>) -> vec4<u32> {
@@ -1385,14 +1393,7 @@ fn sn_osl_pperlin2(p: vec2<f32>, pp: vec2<f32>) -> f32 {
 }
 
 fn sn_osl_vpperlin2(p: vec2<f32>, pp: vec2<f32>) -> vec3<f32> {
-    let h = sn_osl_pcorners2(p, pp);
-    let fx = sn_cell_frac(p.x);
-    let fy = sn_cell_frac(p.y);
-    return vec3<f32>(
-        sn_osl_perlin2_of(h, 0u, 255u, fx, fy),
-        sn_osl_perlin2_of(h, 8u, 255u, fx, fy),
-        sn_osl_perlin2_of(h, 16u, 255u, fx, fy),
-    );
+    return sn_osl_vperlin2_of(sn_osl_pcorners2(p, pp), p);
 }
 
 fn sn_osl_pcorners3(p: vec3<f32>, pp: vec3<f32>) -> array<u32, 8> {
@@ -1414,13 +1415,7 @@ fn sn_osl_pperlin3(p: vec3<f32>, pp: vec3<f32>) -> f32 {
 }
 
 fn sn_osl_vpperlin3(p: vec3<f32>, pp: vec3<f32>) -> vec3<f32> {
-    let h = sn_osl_pcorners3(p, pp);
-    let f = vec3<f32>(sn_cell_frac(p.x), sn_cell_frac(p.y), sn_cell_frac(p.z));
-    return vec3<f32>(
-        sn_osl_perlin3_of(h, 0u, 255u, f),
-        sn_osl_perlin3_of(h, 8u, 255u, f),
-        sn_osl_perlin3_of(h, 16u, 255u, f),
-    );
+    return sn_osl_vperlin3_of(sn_osl_pcorners3(p, pp), p);
 }
 
 fn sn_osl_pcorners4(p: vec3<f32>, t: f32, pp: vec3<f32>, pt: f32) -> array<u32, 16> {
@@ -1442,13 +1437,7 @@ fn sn_osl_pperlin4(p: vec3<f32>, t: f32, pp: vec3<f32>, pt: f32) -> f32 {
 }
 
 fn sn_osl_vpperlin4(p: vec3<f32>, t: f32, pp: vec3<f32>, pt: f32) -> vec3<f32> {
-    let h = sn_osl_pcorners4(p, t, pp, pt);
-    let f = vec4<f32>(sn_cell_frac(p.x), sn_cell_frac(p.y), sn_cell_frac(p.z), sn_cell_frac(t));
-    return vec3<f32>(
-        sn_osl_perlin4_of(h, 0u, 255u, f),
-        sn_osl_perlin4_of(h, 8u, 255u, f),
-        sn_osl_perlin4_of(h, 16u, 255u, f),
-    );
+    return sn_osl_vperlin4_of(sn_osl_pcorners4(p, t, pp, pt), p, t);
 }
 
 // OSL hashnoise: cell noise of the coordinates' bits (HashNoise::transformToUint).

@@ -75,15 +75,7 @@ impl<'a> Lower<'a> {
             None => (0..len).map(|_| Self::poison(b, ty)).collect(),
             Some((e, ExprKind::InitList(items))) => {
                 if items.len() != len {
-                    self.error(
-                        format!(
-                            "`{}` has {len} elements; the list gives {}",
-                            name.name,
-                            items.len()
-                        ),
-                        e.span,
-                        "wrong number of values",
-                    );
+                    self.list_length_error(name, len, items.len(), e.span);
                 }
                 (0..len)
                     .map(|k| match items.get(k) {
@@ -112,6 +104,21 @@ impl<'a> Lower<'a> {
             },
         };
         self.bind_array(name, Some(ty), values, uniform);
+    }
+
+    /// The error for a `{ … }` list of `given` items initialising array `name` of `len`.
+    pub(crate) fn list_length_error(
+        &mut self,
+        name: &ast::Ident,
+        len: usize,
+        given: usize,
+        at: Span,
+    ) {
+        self.error(
+            format!("`{}` has {len} elements; the list gives {given}", name.name),
+            at,
+            "wrong number of values",
+        );
     }
 
     /// Binds array `name` with element values `values` in the innermost scope (`ty`

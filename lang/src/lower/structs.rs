@@ -267,15 +267,7 @@ impl<'a> Lower<'a> {
                 })
                 .collect(),
             Some((e, ExprKind::InitList(items))) => {
-                self.error(
-                    format!(
-                        "`{}` has {len} elements; the list gives {}",
-                        name.name,
-                        items.len()
-                    ),
-                    e.span,
-                    "wrong number of values",
-                );
+                self.list_length_error(name, len, items.len(), e.span);
                 return vec![zero; len];
             }
             Some((e, _)) => match self.expr(b, e) {
