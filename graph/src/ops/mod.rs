@@ -90,6 +90,9 @@ pub trait Real:
     fn to_i32(self) -> i32;
     /// Conversion from i32 (rounded to nearest).
     fn from_i32(i: i32) -> Self;
+    /// The bits of this value as an f32: an f32's own bits untouched (a signalling NaN
+    /// stays one), an f64 rounded to f32 first.
+    fn f32_bits(self) -> u32;
 }
 
 /// The math library at one precision, by the names [`Real`] uses.
@@ -191,6 +194,11 @@ macro_rules! impl_real {
             #[inline]
             fn from_i32(i: i32) -> Self {
                 i as $t
+            }
+            #[inline]
+            #[allow(clippy::unnecessary_cast)]
+            fn f32_bits(self) -> u32 {
+                (self as f32).to_bits()
             }
         }
     };

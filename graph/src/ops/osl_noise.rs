@@ -463,9 +463,10 @@ fn ifloor<F: Real>(x: F) -> u32 {
     x.floor().to_i32() as u32
 }
 
-/// OSL `HashNoise::transformToUint`: the bits of the coordinate as an f32.
+/// OSL `HashNoise::transformToUint`: the bits of the coordinate as an f32 (a NaN's payload
+/// included, as OSL's `bitcast` keeps it: no conversion on the way).
 fn fbits<F: Real>(x: F) -> u32 {
-    (x.to_f64() as f32).to_bits()
+    x.f32_bits()
 }
 
 /// OSL `inthash` of one to four keys.
@@ -1185,6 +1186,19 @@ mod tests {
                 }
             }
         }
+        // The bits as they are, a signalling NaN's included (a conversion on the way would
+        // quiet it, and the GPU, which bitcasts, would disagree).
+        let snan = f32::from_bits(0x7fbf_02b2);
+        assert_eq!(hash1(snan), bits_to_01::<f32>(inthash1(0x7fbf_02b2)));
+        assert_eq!(
+            hash4([snan; 3], 0.1),
+            bits_to_01::<f32>(inthash4(
+                0x7fbf_02b2,
+                0x7fbf_02b2,
+                0x7fbf_02b2,
+                0.1f32.to_bits()
+            ))
+        );
         // Discontinuous everywhere, unlike cell noise.
         for (a, b) in [
             (0.9999, 1.0),

@@ -1,11 +1,10 @@
 //! OSL's side of the lowering: a `surface` or `shader` with OSL's globals (`P`, `I`, `N`,
 //! `Ng`, `u`, `v`, `dPdu`, `dPdv`, `time`, `Ci`), its output parameters as the program's
-//! outputs, and the builtins whose meaning differs from RSL's: the noise family with OSL's
-//! generators (`noise`, `snoise`, `cellnoise` with `"perlin"`, `"uperlin"`, `"cell"`; a
-//! float or a vector by the type the result is assigned to) and OSL's extra math. The
-//! closures are [`super::closure`]'s. It owns OSL's language rules; the noise itself is
-//! `shadenet_graph::ops::osl_noise` (OSL's generators, ported), reached through the IR's
-//! intrinsics.
+//! outputs, and the builtins whose meaning differs from RSL's: OSL's extra math, `raytype`,
+//! `isconnected`, `transformc`, the spectral colours ([`super::spectral`]). The noise family
+//! is [`super::noise`]'s (the generators themselves `shadenet_graph::ops::osl_noise`, OSL's
+//! code ported, reached through the IR's intrinsics), the closures [`super::closure`]'s. It
+//! owns OSL's language rules.
 
 use super::{Lower, Ty, Val};
 use crate::ast::{self, ShaderKind};
