@@ -1167,53 +1167,9 @@ fn sn_osl_vperlin3(p: vec3<f32>) -> vec3<f32> {
     return sn_osl_vperlin3_of(h, p);
 }
 
-fn sn_osl_cell2(p: vec2<f32>) -> f32 {
-    return sn_bits_to_01(sn_inthash2(sn_osl_ifloor(p.x), sn_osl_ifloor(p.y)));
-}
-
-fn sn_osl_cell3(p: vec3<f32>) -> f32 {
-    return sn_bits_to_01(
-        sn_inthash3(sn_osl_ifloor(p.x), sn_osl_ifloor(p.y), sn_osl_ifloor(p.z)));
-}
-
-// OSL inthashVec of two keys: inthash(x, y, component).
-fn sn_osl_vcell2(p: vec2<f32>) -> vec3<f32> {
-    let x = sn_osl_ifloor(p.x);
-    let y = sn_osl_ifloor(p.y);
-    return vec3<f32>(
-        sn_bits_to_01(sn_inthash3(x, y, 0u)),
-        sn_bits_to_01(sn_inthash3(x, y, 1u)),
-        sn_bits_to_01(sn_inthash3(x, y, 2u)),
-    );
-}
-
-// OSL inthashVec of three keys: one bjmix, then bjfinal(a + component, b, c).
-fn sn_osl_vcell3(p: vec3<f32>) -> vec3<f32> {
-    let s = 0xdeadbeefu + 29u;
-    let m = sn_bjmix(s + sn_osl_ifloor(p.x), s + sn_osl_ifloor(p.y), s + sn_osl_ifloor(p.z));
-    return vec3<f32>(
-        sn_bits_to_01(sn_bjfinal(m.x, m.y, m.z)),
-        sn_bits_to_01(sn_bjfinal(m.x + 1u, m.y, m.z)),
-        sn_bits_to_01(sn_bjfinal(m.x + 2u, m.y, m.z)),
-    );
-}
-
-// OSL cellnoise(x): inthash of one key (start 0xdeadbeef + 17).
-fn sn_osl_cell1(x: f32) -> f32 {
-    let s = 0xdeadbeefu + 17u;
-    return sn_bits_to_01(sn_bjfinal(s + sn_osl_ifloor(x), s, s));
-}
-
-// OSL cellnoise(p, t): inthash of four keys, one bjmix, then bjfinal(a + t, b, c).
-fn sn_osl_cell4(p: vec3<f32>, t: f32) -> f32 {
-    let s = 0xdeadbeefu + 29u;
-    let m = sn_bjmix(s + sn_osl_ifloor(p.x), s + sn_osl_ifloor(p.y), s + sn_osl_ifloor(p.z));
-    return sn_bits_to_01(sn_bjfinal(m.x + sn_osl_ifloor(t), m.y, m.z));
-}
-
-// OSL inthashVec of one key: inthash(x, component).
-fn sn_osl_vcell1(x_in: f32) -> vec3<f32> {
-    let x = sn_osl_ifloor(x_in);
+// OSL inthashVec of one to four keys (component c hashed as one more key; three and four
+// keys share one bjmix): cell noise hashes the floors, hash noise the bits.
+fn sn_osl_vhash_keys1(x: u32) -> vec3<f32> {
     return vec3<f32>(
         sn_bits_to_01(sn_inthash2(x, 0u)),
         sn_bits_to_01(sn_inthash2(x, 1u)),
@@ -1221,17 +1177,74 @@ fn sn_osl_vcell1(x_in: f32) -> vec3<f32> {
     );
 }
 
-// OSL inthashVec of four keys (five with the component): one bjmix of x, y, z, then
-// bjfinal(a + t, b + component, c).
-fn sn_osl_vcell4(p: vec3<f32>, t: f32) -> vec3<f32> {
+fn sn_osl_vhash_keys2(x: u32, y: u32) -> vec3<f32> {
+    return vec3<f32>(
+        sn_bits_to_01(sn_inthash3(x, y, 0u)),
+        sn_bits_to_01(sn_inthash3(x, y, 1u)),
+        sn_bits_to_01(sn_inthash3(x, y, 2u)),
+    );
+}
+
+// Three keys: one bjmix, then bjfinal(a + component, b, c).
+fn sn_osl_vhash_keys3(k: vec3<u32>) -> vec3<f32> {
+    let s = 0xdeadbeefu + 29u;
+    let m = sn_bjmix(s + k.x, s + k.y, s + k.z);
+    return vec3<f32>(
+        sn_bits_to_01(sn_bjfinal(m.x, m.y, m.z)),
+        sn_bits_to_01(sn_bjfinal(m.x + 1u, m.y, m.z)),
+        sn_bits_to_01(sn_bjfinal(m.x + 2u, m.y, m.z)),
+    );
+}
+
+// Four keys (five with the component): one bjmix of x, y, z, then bjfinal(a + w, b +
+// component, c).
+fn sn_osl_vhash_keys4(k: vec3<u32>, w: u32) -> vec3<f32> {
     let s = 0xdeadbeefu + 33u;
-    let m = sn_bjmix(s + sn_osl_ifloor(p.x), s + sn_osl_ifloor(p.y), s + sn_osl_ifloor(p.z));
-    let a = m.x + sn_osl_ifloor(t);
+    let m = sn_bjmix(s + k.x, s + k.y, s + k.z);
+    let a = m.x + w;
     return vec3<f32>(
         sn_bits_to_01(sn_bjfinal(a, m.y, m.z)),
         sn_bits_to_01(sn_bjfinal(a, m.y + 1u, m.z)),
         sn_bits_to_01(sn_bjfinal(a, m.y + 2u, m.z)),
     );
+}
+
+fn sn_osl_ifloor3(p: vec3<f32>) -> vec3<u32> {
+    return vec3<u32>(sn_osl_ifloor(p.x), sn_osl_ifloor(p.y), sn_osl_ifloor(p.z));
+}
+
+fn sn_osl_cell1(x: f32) -> f32 {
+    return sn_bits_to_01(sn_osl_inthash1(sn_osl_ifloor(x)));
+}
+
+fn sn_osl_cell2(p: vec2<f32>) -> f32 {
+    return sn_bits_to_01(sn_inthash2(sn_osl_ifloor(p.x), sn_osl_ifloor(p.y)));
+}
+
+fn sn_osl_cell3(p: vec3<f32>) -> f32 {
+    let k = sn_osl_ifloor3(p);
+    return sn_bits_to_01(sn_inthash3(k.x, k.y, k.z));
+}
+
+fn sn_osl_cell4(p: vec3<f32>, t: f32) -> f32 {
+    let k = sn_osl_ifloor3(p);
+    return sn_bits_to_01(sn_osl_inthash4(k.x, k.y, k.z, sn_osl_ifloor(t)));
+}
+
+fn sn_osl_vcell1(x: f32) -> vec3<f32> {
+    return sn_osl_vhash_keys1(sn_osl_ifloor(x));
+}
+
+fn sn_osl_vcell2(p: vec2<f32>) -> vec3<f32> {
+    return sn_osl_vhash_keys2(sn_osl_ifloor(p.x), sn_osl_ifloor(p.y));
+}
+
+fn sn_osl_vcell3(p: vec3<f32>) -> vec3<f32> {
+    return sn_osl_vhash_keys3(sn_osl_ifloor3(p));
+}
+
+fn sn_osl_vcell4(p: vec3<f32>, t: f32) -> vec3<f32> {
+    return sn_osl_vhash_keys4(sn_osl_ifloor3(p), sn_osl_ifloor(t));
 }
 
 // OSL 1D grad: x times one of +-1 ... +-8.
@@ -1450,7 +1463,8 @@ fn sn_osl_hash2(p: vec2<f32>) -> f32 {
 }
 
 fn sn_osl_hash3(p: vec3<f32>) -> f32 {
-    return sn_bits_to_01(sn_inthash3(bitcast<u32>(p.x), bitcast<u32>(p.y), bitcast<u32>(p.z)));
+    let k = bitcast<vec3<u32>>(p);
+    return sn_bits_to_01(sn_inthash3(k.x, k.y, k.z));
 }
 
 fn sn_osl_hash4(p: vec3<f32>, t: f32) -> f32 {
@@ -1458,46 +1472,20 @@ fn sn_osl_hash4(p: vec3<f32>, t: f32) -> f32 {
     return sn_bits_to_01(sn_osl_inthash4(k.x, k.y, k.z, bitcast<u32>(t)));
 }
 
-fn sn_osl_vhash1(x_in: f32) -> vec3<f32> {
-    let x = bitcast<u32>(x_in);
-    return vec3<f32>(
-        sn_bits_to_01(sn_inthash2(x, 0u)),
-        sn_bits_to_01(sn_inthash2(x, 1u)),
-        sn_bits_to_01(sn_inthash2(x, 2u)),
-    );
+fn sn_osl_vhash1(x: f32) -> vec3<f32> {
+    return sn_osl_vhash_keys1(bitcast<u32>(x));
 }
 
 fn sn_osl_vhash2(p: vec2<f32>) -> vec3<f32> {
-    let x = bitcast<u32>(p.x);
-    let y = bitcast<u32>(p.y);
-    return vec3<f32>(
-        sn_bits_to_01(sn_inthash3(x, y, 0u)),
-        sn_bits_to_01(sn_inthash3(x, y, 1u)),
-        sn_bits_to_01(sn_inthash3(x, y, 2u)),
-    );
+    return sn_osl_vhash_keys2(bitcast<u32>(p.x), bitcast<u32>(p.y));
 }
 
 fn sn_osl_vhash3(p: vec3<f32>) -> vec3<f32> {
-    let s = 0xdeadbeefu + 29u;
-    let k = bitcast<vec3<u32>>(p);
-    let m = sn_bjmix(s + k.x, s + k.y, s + k.z);
-    return vec3<f32>(
-        sn_bits_to_01(sn_bjfinal(m.x, m.y, m.z)),
-        sn_bits_to_01(sn_bjfinal(m.x + 1u, m.y, m.z)),
-        sn_bits_to_01(sn_bjfinal(m.x + 2u, m.y, m.z)),
-    );
+    return sn_osl_vhash_keys3(bitcast<vec3<u32>>(p));
 }
 
 fn sn_osl_vhash4(p: vec3<f32>, t: f32) -> vec3<f32> {
-    let s = 0xdeadbeefu + 33u;
-    let k = bitcast<vec3<u32>>(p);
-    let m = sn_bjmix(s + k.x, s + k.y, s + k.z);
-    let a = m.x + bitcast<u32>(t);
-    return vec3<f32>(
-        sn_bits_to_01(sn_bjfinal(a, m.y, m.z)),
-        sn_bits_to_01(sn_bjfinal(a, m.y + 1u, m.z)),
-        sn_bits_to_01(sn_bjfinal(a, m.y + 2u, m.z)),
-    );
+    return sn_osl_vhash_keys4(bitcast<vec3<u32>>(p), bitcast<u32>(t));
 }
 
 // MaterialX fractal noise: octaves clamped to [0, 32] (osl_noise::MAX_OCTAVES).
