@@ -1016,10 +1016,10 @@ mod tests {
         (got - want).abs() <= 2e-6
     }
 
-    /// The values OSL's own unit test (`src/liboslnoise/oslnoise_test.cpp`, `test_perlin`
-    /// and `test_cell`) checks `snoise`, `vsnoise`, `cellnoise` and `vcellnoise` against.
+    /// The values OSL's own unit test (`src/liboslnoise/oslnoise_test.cpp`, `test_perlin`)
+    /// checks `snoise` and `vsnoise` against, 1D to 4D.
     #[test]
-    fn osl_unit_test_values() {
+    fn osl_unit_test_perlin_values() {
         let s2 = [
             0.0, 0.0874839, 0.0, 0.219915, 0.0, -0.32144, 0.3308, 0.567027, 0.0,
         ];
@@ -1065,23 +1065,6 @@ mod tests {
                     "vsnoise(p = {x}) = {b:?}, OSL {:?}",
                     v3[i]
                 );
-            }
-        }
-        let c2 = [0.860313, 0.241469];
-        let c3 = [0.611068, 0.149855];
-        let vc2 = [
-            [0.611068, 0.185824, 0.0413061],
-            [0.73866, 0.149855, 0.984101],
-        ];
-        let vc3 = [[0.111573, 0.3251, 0.339947], [0.576891, 0.646492, 0.270396]];
-        for i in 0..2 {
-            let x = 0.5 + i as f32;
-            assert!(close(cell2([x, x]), c2[i]));
-            assert!(close(cell3([x, x, x]), c3[i]));
-            let (a, b) = (vcell2([x, x]), vcell3([x, x, x]));
-            for c in 0..3 {
-                assert!(close(a[c], vc2[i][c]), "vcellnoise({x}, {x}) = {a:?}");
-                assert!(close(b[c], vc3[i][c]), "vcellnoise(p = {x}) = {b:?}");
             }
         }
         // 1D and 4D: `snoise(x)`, `snoise(p, t)` with p = (x, x, x), t = x.
@@ -1132,6 +1115,28 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// `test_cell`'s values of `cellnoise` and `vcellnoise`, 1D to 4D, and its boundary checks.
+    #[test]
+    fn osl_unit_test_cell_values() {
+        let c2 = [0.860313, 0.241469];
+        let c3 = [0.611068, 0.149855];
+        let vc2 = [
+            [0.611068, 0.185824, 0.0413061],
+            [0.73866, 0.149855, 0.984101],
+        ];
+        let vc3 = [[0.111573, 0.3251, 0.339947], [0.576891, 0.646492, 0.270396]];
+        for i in 0..2 {
+            let x = 0.5 + i as f32;
+            assert!(close(cell2([x, x]), c2[i]));
+            assert!(close(cell3([x, x, x]), c3[i]));
+            let (a, b) = (vcell2([x, x]), vcell3([x, x, x]));
+            for c in 0..3 {
+                assert!(close(a[c], vc2[i][c]), "vcellnoise({x}, {x}) = {a:?}");
+                assert!(close(b[c], vc3[i][c]), "vcellnoise(p = {x}) = {b:?}");
+            }
+        }
         let (c1, c4) = ([0.582426, 0.292355], [0.111573, 0.646492]);
         let vc1 = [
             [0.860313, 0.842521, 0.974821],
@@ -1150,6 +1155,17 @@ mod tests {
                 assert!(close(b[c], vc4[i][c]), "vcellnoise(p, t = {x}) = {b:?}");
             }
         }
+        // test_cell's boundary checks.
+        let c = |x: f32| cell2([x, 0.5]);
+        assert_eq!(c(1.0001), c(1.0));
+        assert_ne!(c(0.9999), c(1.0));
+        assert_eq!(c(-0.0001), c(-1.0));
+        assert_eq!(c(-1.0001), c(-2.0));
+    }
+
+    /// `test_hash`'s values of `hashnoise` and `vhashnoise`, 1D to 4D.
+    #[test]
+    fn osl_unit_test_hash_values() {
         // test_hash: `hashnoise` and `vhashnoise` at x = 0.5, 1.5 in 1D to 4D.
         let h = [
             [0.983315, 0.716016, 0.311887, 0.480826],
@@ -1208,12 +1224,6 @@ mod tests {
         ] {
             assert_ne!(hash1(a), hash1(b));
         }
-        // test_cell's boundary checks.
-        let c = |x: f32| cell2([x, 0.5]);
-        assert_eq!(c(1.0001), c(1.0));
-        assert_ne!(c(0.9999), c(1.0));
-        assert_eq!(c(-0.0001), c(-1.0));
-        assert_eq!(c(-1.0001), c(-2.0));
     }
 
     /// A small deterministic generator (xorshift) for sample points.

@@ -23,7 +23,7 @@ use super::builtins::st_uv;
 use super::{Lower, Ty, Val};
 use crate::ast::Expr;
 use crate::source::Span;
-use shadenet_graph::ir::{Builder, ColorSpace, Filter, Sampling, TextureFile, Wrap};
+use shadenet_graph::ir::{Builder, ColorSpace, Filter, Sampling, TextureFile, Value, Wrap};
 
 /// The wrap mode an OSL wrap name stands for: the IR's names (`periodic`, `clamp`,
 /// `mirror`, `black`), OSL's `default` and MaterialX's `constant`.
@@ -52,9 +52,9 @@ struct Options<'a> {
     /// The expression receiving the alpha, if any, and its argument number (from 1).
     alpha: Option<(usize, &'a Expr)>,
     /// `"missingcolor"`'s value (a triple), if given, and whether it varies.
-    missing_color: Option<(shadenet_graph::ir::Value, bool)>,
+    missing_color: Option<(Value, bool)>,
     /// `"missingalpha"`'s value, if given, and whether it varies.
-    missing_alpha: Option<(shadenet_graph::ir::Value, bool)>,
+    missing_alpha: Option<(Value, bool)>,
 }
 
 impl<'a> Lower<'a> {
@@ -87,52 +87,32 @@ impl<'a> Lower<'a> {
         let Some(o) = self.texture_options(&vals[3..], &args[3..]) else {
             return Self::poison(b, Ty::Color);
         };
-        if file.is_empty() {
-            return self.missing_texture(b, &o);
-        }
-        let file = TextureFile {
-            path: file,
-            colorspace: o.colorspace,
+        // The color and, where asked, the alpha: looked up, or the missing values of `""`.
+        let (color, alpha) = if file.is_empty() {
+            missing_texture(b, &o)
+        } else {
+            let file = TextureFile {
+                path: file,
+                colorspace: o.colorspace,
+            };
+            let uv = st_uv(b, s, t);
+            let index = b.texture_index(&file);
+            let c = b.texture(index, uv, o.sampling, false);
+            let a = o.alpha.map(|_| b.texture(index, uv, o.sampling, true));
+            ((c, true), a.map(|a| (a, true)))
         };
-        let uv = st_uv(b, s, t);
-        let index = b.texture_index(&file);
-        let c = b.texture(index, uv, o.sampling, false);
-        if let Some((n, target)) = o.alpha {
-            let a = b.texture(index, uv, o.sampling, true);
+        if let (Some((n, target)), Some((v, varying))) = (o.alpha, alpha) {
             let a = Val::V {
-                v: a,
+                v,
                 ty: Ty::Float,
-                varying: true,
+                varying,
             };
             self.store_output_arg(b, target, a, (n, "texture"));
         }
         Val::V {
-            v: c,
+            v: color.0,
             ty: Ty::Color,
-            varying: true,
-        }
-    }
-
-    /// A lookup of the file `""`: the missing color (black unless given), its alpha the
-    /// missing alpha (0 unless given); no texture is opened.
-    fn missing_texture(&mut self, b: &mut Builder, o: &Options<'a>) -> Val {
-        let (c, varying) = match o.missing_color {
-            Some((c, vy)) => (b.retype(shadenet_graph::Type::Color, c), vy),
-            None => (b.color([0.0; 3]), false),
-        };
-        if let Some((n, target)) = o.alpha {
-            let (a, vy) = o.missing_alpha.unwrap_or_else(|| (b.float(0.0), false));
-            let a = Val::V {
-                v: a,
-                ty: Ty::Float,
-                varying: vy,
-            };
-            self.store_output_arg(b, target, a, (n, "texture"));
-        }
-        Val::V {
-            v: c,
-            ty: Ty::Color,
-            varying,
+            varying: color.1,
         }
     }
 
@@ -243,4 +223,20 @@ impl<'a> Lower<'a> {
         }
         ok.then_some(o)
     }
+}
+
+/// A `texture` call's color and, where asked, its alpha, each with whether it varies.
+type Looked = ((Value, bool), Option<(Value, bool)>);
+
+/// A lookup of the file `""`: the missing color (black unless given) and, where the call
+/// asks for it, the missing alpha (0 unless given); no texture is opened.
+fn missing_texture(b: &mut Builder, o: &Options<'_>) -> Looked {
+    let color = match o.missing_color {
+        Some((c, vy)) => (b.retype(shadenet_graph::Type::Color, c), vy),
+        None => (b.color([0.0; 3]), false),
+    };
+    let alpha = o
+        .alpha
+        .map(|_| o.missing_alpha.unwrap_or_else(|| (b.float(0.0), false)));
+    (color, alpha)
 }
