@@ -9,7 +9,7 @@ use common::*;
 use shadenet::graph::NodeLibrary;
 use shadenet::graph::compile_json;
 use shadenet::graph::nodes::{LightDesc, LightKind};
-use shadenet::graph::ops::osl_noise;
+use shadenet::graph::ops::{osl_noise, osl_simplex};
 use shadenet::graph::opt::{self, Specialization};
 use shadenet::lang::Dialect;
 use shadenet::runtime::Backend;
@@ -425,10 +425,6 @@ fn errors_name_the_place_and_the_problem() {
         (
             "surface s() { Ci = microfacet(\"beckmann\", N, 0.1, 1.5, 0); }",
             "microfacet distribution \"beckmann\" is not built (only \"ggx\")",
-        ),
-        (
-            "surface s() { float x = noise(\"simplex\", P); }",
-            "the simplex generators are not built yet",
         ),
         (
             "surface s() { float x = noise(\"gabor\", u); }",
@@ -1619,10 +1615,75 @@ fn isconnected_reads_the_group() {
     )]);
 }
 
+/// `noise("simplex", …)` is `osl_simplex::simplex*` (float: seed 0; vector: seeds 0, 1, 2)
+/// and `"usimplex"` its `0.5 (n + 1)`, in 1D to 4D, bit for bit through the front end.
+#[test]
+fn simplex_noise_is_osls() {
+    let src = r#"
+        shader n(output color s = 0, output color u4 = 0, output vector v1 = 0,
+                 output vector v2 = 0, output color v3 = 0, output vector v4 = 0) {
+            point q = P * 3.7 + point(0.3, -1.2, 5.1);
+            s = color(noise("simplex", u * 9), noise("simplex", u * 9, v * 9),
+                      noise("simplex", q));
+            u4 = color(noise("simplex", q, v * 9), noise("usimplex", q), noise("usimplex", u * 9));
+            v1 = noise("simplex", u * 9);
+            v2 = noise("usimplex", u * 9, v * 9);
+            v3 = noise("simplex", q);
+            v4 = noise("simplex", q, u * 9);
+        }"#;
+    let p = compile(src).unwrap();
+    let mut f = plane_fragment();
+    let f64s = |v: &[f32]| v.iter().map(|x| *x as f64).collect::<Vec<_>>();
+    let unsigned = |x: f32| 0.5 * (x + 1.0);
+    for (k, (pos, uv)) in [
+        ([0.123, 0.456, 0.0], [0.11, 0.93]),
+        ([-2.5, 7.25, 1.0], [0.5, 0.5]),
+        ([13.1, -0.7, 3.3], [0.999, 0.001]),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        f.p = pos;
+        f.uv = uv;
+        let o = run_program(&p, &f, &[], u32::MAX);
+        let q: [f32; 3] = std::array::from_fn(|i| pos[i] * 3.7 + [0.3, -1.2, 5.1][i]);
+        let (u9, v9) = (uv[0] * 9.0, uv[1] * 9.0);
+        let want = [
+            osl_simplex::simplex1(u9, 0),
+            osl_simplex::simplex2([u9, v9], 0),
+            osl_simplex::simplex3(q, 0),
+        ];
+        assert_eq!(o.get32("s"), f64s(&want), "float simplex, point {k}");
+        let want = [
+            osl_simplex::simplex4(q, v9, 0),
+            unsigned(osl_simplex::simplex3(q, 0)),
+            unsigned(osl_simplex::simplex1(u9, 0)),
+        ];
+        assert_eq!(o.get32("u4"), f64s(&want), "4D and usimplex, point {k}");
+        assert_eq!(
+            o.get32("v1"),
+            f64s(&osl_simplex::vsimplex1(u9)),
+            "v1, point {k}"
+        );
+        let v2 = osl_simplex::vsimplex2([u9, v9]).map(unsigned);
+        assert_eq!(o.get32("v2"), f64s(&v2), "v2, point {k}");
+        assert_eq!(
+            o.get32("v3"),
+            f64s(&osl_simplex::vsimplex3(q)),
+            "v3, point {k}"
+        );
+        let v4 = osl_simplex::vsimplex4(q, u9);
+        assert_eq!(o.get32("v4"), f64s(&v4), "v4, point {k}");
+        // Vector noise's first component is the float noise; the others differ.
+        assert_eq!(v4[0], osl_simplex::simplex4(q, u9, 0));
+        assert!(v4[1] != v4[0] && v4[2] != v4[1], "seeds differ: {v4:?}");
+    }
+}
+
 /// `pnoise`/`psnoise`: periodic Perlin noise is `osl_noise::pperlin*` (float and vector, 1D
 /// to 4D) bit for bit, `pnoise`'s default `0.5 (n + 1)` of it; `pnoise("cell", …)` is cell
-/// noise of the coordinates wrapped into the period (OSL's `wrap`); periodic hash noise and
-/// mismatched period shapes are errors.
+/// noise of the coordinates wrapped into the period (OSL's `wrap`); periodic hash and simplex
+/// noise (OSL has neither) and mismatched period shapes are errors.
 #[test]
 fn periodic_noise_is_osls() {
     let src = r#"
@@ -1678,7 +1739,11 @@ fn periodic_noise_is_osls() {
     assert_errors(&[
         (
             "shader s() { float x = pnoise(\"hash\", u, 2); }",
-            "periodic hash noise is not built yet",
+            "OSL has no periodic \"hash\" noise",
+        ),
+        (
+            "shader s() { vector x = pnoise(\"usimplex\", P, 2); }",
+            "OSL has no periodic \"usimplex\" noise",
         ),
         (
             "shader s() { float x = psnoise(P, 2); }",

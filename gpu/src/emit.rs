@@ -454,11 +454,19 @@ pub fn op_expr(
         Op::Convert(a) => convert(program.ty(*a), ty, &arg(*a)),
         Op::Call(i, args) => {
             let mut parts: Vec<String> = args.iter().map(|a| arg(*a)).collect();
-            // rgb_to_hsv and the Worley noises take the key.
+            // rgb_to_hsv, the Worley and the simplex noises take the key.
             use Intrinsic as I;
             if matches!(
                 i,
                 I::RgbToHsv
+                    | I::OslSimplex1
+                    | I::OslSimplex2
+                    | I::OslSimplex3
+                    | I::OslSimplex4
+                    | I::OslVSimplex1
+                    | I::OslVSimplex2
+                    | I::OslVSimplex3
+                    | I::OslVSimplex4
                     | I::MxWorley2
                     | I::MxWorley2V2
                     | I::MxWorley2V3

@@ -29,7 +29,7 @@
 
 use shadenet_graph::ir::Sampling;
 use shadenet_graph::ops::osl_noise_x4 as x4;
-use shadenet_graph::ops::{self, cell_hsv_x4, math_x4, noise, noise_x4, osl_noise};
+use shadenet_graph::ops::{self, cell_hsv_x4, math_x4, noise, noise_x4, osl_noise, osl_simplex};
 use shadenet_runtime::ctx::{Fragment, SceneServices, ShadeEnv};
 use shadenet_runtime::interp;
 use shadenet_runtime::lights;
@@ -438,6 +438,30 @@ fn osl_vpperlin3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
 fn osl_vpperlin4(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
     let (p, pp) = ([a[0], a[1], a[2]], [a[4], a[5], a[6]]);
     o.copy_from_slice(&osl_noise::vpperlin4(p, a[3], pp, a[7]));
+}
+fn osl_simplex1(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = osl_simplex::simplex1(a[0], 0);
+}
+fn osl_simplex2(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = osl_simplex::simplex2([a[0], a[1]], 0);
+}
+fn osl_simplex3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = osl_simplex::simplex3([a[0], a[1], a[2]], 0);
+}
+fn osl_simplex4(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o[0] = osl_simplex::simplex4([a[0], a[1], a[2]], a[3], 0);
+}
+fn osl_vsimplex1(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&osl_simplex::vsimplex1(a[0]));
+}
+fn osl_vsimplex2(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&osl_simplex::vsimplex2([a[0], a[1]]));
+}
+fn osl_vsimplex3(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&osl_simplex::vsimplex3([a[0], a[1], a[2]]));
+}
+fn osl_vsimplex4(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&osl_simplex::vsimplex4([a[0], a[1], a[2]], a[3]));
 }
 fn osl_perlin1(_: &CallCtx, _: u32, a: &[f32], o: &mut [f32]) {
     o[0] = osl_noise::perlin1(a[0]);
@@ -976,6 +1000,14 @@ mem_helpers! {
     osl_vpperlin2: 4 -> 3,
     osl_vpperlin3: 6 -> 3,
     osl_vpperlin4: 8 -> 3,
+    osl_simplex1: 1 -> 1,
+    osl_simplex2: 2 -> 1,
+    osl_simplex3: 3 -> 1,
+    osl_simplex4: 4 -> 1,
+    osl_vsimplex1: 1 -> 3,
+    osl_vsimplex2: 2 -> 3,
+    osl_vsimplex3: 3 -> 3,
+    osl_vsimplex4: 4 -> 3,
     mx_fractal2: 5 -> 1 => mx_fractal2_x4,
     mx_fractal3: 6 -> 1 => mx_fractal3_x4,
     mx_vfractal2: 5 -> 3 => mx_vfractal2_x4,

@@ -1488,6 +1488,226 @@ fn sn_osl_vhash4(p: vec3<f32>, t: f32) -> vec3<f32> {
     return sn_osl_vhash_keys4(bitcast<vec3<u32>>(p), bitcast<u32>(t));
 }
 
+// OSL simplex noise, line by line from graph/src/ops/osl_simplex.rs (OSL simplexnoise.cpp):
+// corner hashes are bjfinal "scrambles" of the lattice coordinates and a seed (0 for float
+// noise, 0, 1, 2 for the components of vector noise). Constants are the source's float
+// literals; 2·G2, 2·G3, 3·G3, 2·G4, 3·G4, 4·G4 as the f32 products. The corner offsets
+// `x0 - o + G` pass `o` through the key (Mesa folds `(x - 1) + c` into `x + (c - 1)`), as do
+// the sums that skew the coordinates (a splatted point would read one value twice).
+fn sn_osl_scramble(v0: u32, v1: u32, v2: u32) -> u32 {
+    return sn_bjfinal(v0, v1, v2 ^ 0xdeadbeefu);
+}
+
+const SN_OSL_SGRAD2 = array<vec2<f32>, 8>(
+    vec2<f32>(-1.0f, -1.0f), vec2<f32>(1.0f, 0.0f), vec2<f32>(-1.0f, 0.0f),
+    vec2<f32>(1.0f, 1.0f), vec2<f32>(-1.0f, 1.0f), vec2<f32>(0.0f, -1.0f),
+    vec2<f32>(0.0f, 1.0f), vec2<f32>(1.0f, -1.0f));
+
+const SN_OSL_SGRAD3 = array<vec3<f32>, 16>(
+    vec3<f32>(1.0f, 0.0f, 1.0f), vec3<f32>(0.0f, 1.0f, 1.0f), vec3<f32>(-1.0f, 0.0f, 1.0f),
+    vec3<f32>(0.0f, -1.0f, 1.0f), vec3<f32>(1.0f, 0.0f, -1.0f), vec3<f32>(0.0f, 1.0f, -1.0f),
+    vec3<f32>(-1.0f, 0.0f, -1.0f), vec3<f32>(0.0f, -1.0f, -1.0f), vec3<f32>(1.0f, -1.0f, 0.0f),
+    vec3<f32>(1.0f, 1.0f, 0.0f), vec3<f32>(-1.0f, 1.0f, 0.0f), vec3<f32>(-1.0f, -1.0f, 0.0f),
+    vec3<f32>(1.0f, 0.0f, 1.0f), vec3<f32>(-1.0f, 0.0f, 1.0f), vec3<f32>(0.0f, 1.0f, -1.0f),
+    vec3<f32>(0.0f, -1.0f, -1.0f));
+
+// OSL grad4lut: block h / 8 has its zero on axis h / 8, the other axes' signs are bits 2, 1,
+// 0 of h (set: -1), the first of them the slowest.
+fn sn_osl_sgrad4(h: u32) -> vec4<f32> {
+    let zero = (h >> 3u) & 3u;
+    var g = vec4<f32>(0.0f);
+    var bit = 2i;
+    for (var k = 0u; k < 4u; k++) {
+        if (k != zero) {
+            g[k] = select(1.0f, -1.0f, ((h >> u32(bit)) & 1u) != 0u);
+            bit -= 1i;
+        }
+    }
+    return g;
+}
+
+fn sn_osl_sgrad1(i: i32, seed: u32) -> f32 {
+    let h = sn_osl_scramble(bitcast<u32>(i), seed, 0u);
+    let g = 1.0f + f32(h & 7u);
+    return select(g, -g, (h & 8u) != 0u);
+}
+
+fn sn_osl_simplex1_s(x: f32, seed: u32) -> f32 {
+    let i0 = sn_f2i(floor(x));
+    let x0 = sn_cell_frac(x);
+    let x1 = x0 - 1.0f;
+    let t0 = 1.0f - x0 * x0;
+    let t20 = t0 * t0;
+    let t40 = t20 * t20;
+    let n0 = t40 * sn_osl_sgrad1(i0, seed) * x0;
+    let t1 = 1.0f - x1 * x1;
+    let t21 = t1 * t1;
+    let t41 = t21 * t21;
+    let n1 = t41 * sn_osl_sgrad1(i0 + 1i, seed) * x1;
+    return 0.36f * (n0 + n1);
+}
+
+// A corner's t^4 (g . x), 0 outside its radius (t < 0 or NaN).
+fn sn_osl_scorner2(x: vec2<f32>, h: u32) -> f32 {
+    let t = 0.5f - x.x * x.x - x.y * x.y;
+    let g = SN_OSL_SGRAD2[h & 7u];
+    let t2 = t * t;
+    let t4 = t2 * t2;
+    return select(0.0f, t4 * (g.x * x.x + g.y * x.y), t >= 0.0f);
+}
+
+fn sn_osl_scorner3(x: vec3<f32>, h: u32) -> f32 {
+    let t = 0.5f - x.x * x.x - x.y * x.y - x.z * x.z;
+    let g = SN_OSL_SGRAD3[h & 15u];
+    let t2 = t * t;
+    let t4 = t2 * t2;
+    return select(0.0f, t4 * (g.x * x.x + g.y * x.y + g.z * x.z), t >= 0.0f);
+}
+
+fn sn_osl_scorner4(x: vec4<f32>, h: u32) -> f32 {
+    let t = 0.5f - x.x * x.x - x.y * x.y - x.z * x.z - x.w * x.w;
+    let g = sn_osl_sgrad4(h & 31u);
+    let t2 = t * t;
+    let t4 = t2 * t2;
+    return select(0.0f, t4 * (g.x * x.x + g.y * x.y + g.z * x.z + g.w * x.w), t >= 0.0f);
+}
+
+fn sn_osl_simplex2_s(p: vec2<f32>, seed: u32, k: u32) -> f32 {
+    let g2 = 0.211324865f;
+    let s = (p.x + sn_o(p.y, k)) * 0.366025403f;
+    let i = sn_f2i(floor(p.x + s));
+    let j = sn_f2i(floor(p.y + s));
+    let t = sn_itof(i + j) * g2;
+    let x0 = p.x - (sn_itof(i) - t);
+    let y0 = p.y - (sn_itof(j) - t);
+    let o = select(vec2<i32>(0i, 1i), vec2<i32>(1i, 0i), x0 > y0);
+    let x1 = vec2<f32>(x0 - sn_o(f32(o.x), k) + g2, y0 - sn_o(f32(o.y), k) + g2);
+    let one = sn_o(1.0f, k);
+    let x2 = vec2<f32>(x0 - one + 0.42264974f, y0 - one + 0.42264974f);
+    let n0 = sn_osl_scorner2(vec2<f32>(x0, y0),
+        sn_osl_scramble(bitcast<u32>(i), bitcast<u32>(j), seed));
+    let n1 = sn_osl_scorner2(x1, sn_osl_scramble(bitcast<u32>(i + o.x), bitcast<u32>(j + o.y),
+        seed));
+    let n2 = sn_osl_scorner2(x2, sn_osl_scramble(bitcast<u32>(i + 1i), bitcast<u32>(j + 1i),
+        seed));
+    return 64.0f * (n0 + n1 + n2);
+}
+
+fn sn_osl_shash3(c: vec3<i32>, seed: u32) -> u32 {
+    let k = bitcast<vec3<u32>>(c);
+    return sn_osl_scramble(k.x, k.y, sn_osl_scramble(k.z, seed, 0u));
+}
+
+fn sn_osl_simplex3_s(p: vec3<f32>, seed: u32, k: u32) -> f32 {
+    let g3 = 0.166666667f;
+    let s = (p.x + sn_o(p.y, k) + sn_o(p.z, k)) * 0.333333333f;
+    let c = vec3<i32>(sn_f2i(floor(p.x + s)), sn_f2i(floor(p.y + s)), sn_f2i(floor(p.z + s)));
+    let t = sn_itof(c.x + c.y + c.z) * g3;
+    let x0 = p - (vec3<f32>(sn_itof(c.x), sn_itof(c.y), sn_itof(c.z)) - t);
+    var o1: vec3<i32>;
+    var o2: vec3<i32>;
+    if (x0.x >= x0.y) {
+        if (x0.y >= x0.z) {
+            o1 = vec3<i32>(1i, 0i, 0i); o2 = vec3<i32>(1i, 1i, 0i);
+        } else if (x0.x >= x0.z) {
+            o1 = vec3<i32>(1i, 0i, 0i); o2 = vec3<i32>(1i, 0i, 1i);
+        } else {
+            o1 = vec3<i32>(0i, 0i, 1i); o2 = vec3<i32>(1i, 0i, 1i);
+        }
+    } else {
+        if (x0.y < x0.z) {
+            o1 = vec3<i32>(0i, 0i, 1i); o2 = vec3<i32>(0i, 1i, 1i);
+        } else if (x0.x < x0.z) {
+            o1 = vec3<i32>(0i, 1i, 0i); o2 = vec3<i32>(0i, 1i, 1i);
+        } else {
+            o1 = vec3<i32>(0i, 1i, 0i); o2 = vec3<i32>(1i, 1i, 0i);
+        }
+    }
+    let x1 = x0 - sn_o3(vec3<f32>(o1), k) + g3;
+    let x2 = x0 - sn_o3(vec3<f32>(o2), k) + 0.33333334f;
+    let x3 = x0 - sn_o(1.0f, k) + 0.5f;
+    let n0 = sn_osl_scorner3(x0, sn_osl_shash3(c, seed));
+    let n1 = sn_osl_scorner3(x1, sn_osl_shash3(c + o1, seed));
+    let n2 = sn_osl_scorner3(x2, sn_osl_shash3(c + o2, seed));
+    let n3 = sn_osl_scorner3(x3, sn_osl_shash3(c + vec3<i32>(1i), seed));
+    return 68.0f * (n0 + n1 + n2 + n3);
+}
+
+fn sn_osl_shash4(c: vec4<i32>, seed: u32) -> u32 {
+    let k = bitcast<vec4<u32>>(c);
+    return sn_osl_scramble(k.x, k.y, sn_osl_scramble(k.z, k.w, seed));
+}
+
+// 4D: OSL looks the corners' order up in a table of the six comparisons; for offsets without
+// NaN its entries are each coordinate's rank (ties to the later coordinate), computed here
+// (with a NaN offset every corner is outside its radius, whatever the order).
+fn sn_osl_simplex4_s(p3: vec3<f32>, w: f32, seed: u32, k: u32) -> f32 {
+    let g4 = 0.138196601f;
+    let p = vec4<f32>(p3, w);
+    let s = (p.x + sn_o(p.y, k) + sn_o(p.z, k) + sn_o(p.w, k)) * 0.309016994f;
+    let c = vec4<i32>(sn_f2i(floor(p.x + s)), sn_f2i(floor(p.y + s)), sn_f2i(floor(p.z + s)),
+        sn_f2i(floor(p.w + s)));
+    let t = sn_itof(c.x + c.y + c.z + c.w) * g4;
+    let x0 = p - (vec4<f32>(sn_itof(c.x), sn_itof(c.y), sn_itof(c.z), sn_itof(c.w)) - t);
+    let xy = x0.x > x0.y;
+    let xz = x0.x > x0.z;
+    let yz = x0.y > x0.z;
+    let xw = x0.x > x0.w;
+    let yw = x0.y > x0.w;
+    let zw = x0.z > x0.w;
+    let rank = vec4<u32>(u32(xy) + u32(xz) + u32(xw), u32(!xy) + u32(yz) + u32(yw),
+        u32(!xz) + u32(!yz) + u32(zw), u32(!xw) + u32(!yw) + u32(!zw));
+    let o1 = select(vec4<i32>(0i), vec4<i32>(1i), rank >= vec4<u32>(3u));
+    let o2 = select(vec4<i32>(0i), vec4<i32>(1i), rank >= vec4<u32>(2u));
+    let o3 = select(vec4<i32>(0i), vec4<i32>(1i), rank >= vec4<u32>(1u));
+    let x1 = x0 - sn_o4(vec4<f32>(o1), k) + g4;
+    let x2 = x0 - sn_o4(vec4<f32>(o2), k) + 0.2763932f;
+    let x3 = x0 - sn_o4(vec4<f32>(o3), k) + 0.41458982f;
+    let x4 = x0 - sn_o(1.0f, k) + 0.5527864f;
+    let n0 = sn_osl_scorner4(x0, sn_osl_shash4(c, seed));
+    let n1 = sn_osl_scorner4(x1, sn_osl_shash4(c + o1, seed));
+    let n2 = sn_osl_scorner4(x2, sn_osl_shash4(c + o2, seed));
+    let n3 = sn_osl_scorner4(x3, sn_osl_shash4(c + o3, seed));
+    let n4 = sn_osl_scorner4(x4, sn_osl_shash4(c + vec4<i32>(1i), seed));
+    return 54.0f * (n0 + n1 + n2 + n3 + n4);
+}
+
+fn sn_osl_simplex1(x: f32, k: u32) -> f32 {
+    return sn_osl_simplex1_s(x, 0u);
+}
+
+fn sn_osl_simplex2(p: vec2<f32>, k: u32) -> f32 {
+    return sn_osl_simplex2_s(p, 0u, k);
+}
+
+fn sn_osl_simplex3(p: vec3<f32>, k: u32) -> f32 {
+    return sn_osl_simplex3_s(p, 0u, k);
+}
+
+fn sn_osl_simplex4(p: vec3<f32>, t: f32, k: u32) -> f32 {
+    return sn_osl_simplex4_s(p, t, 0u, k);
+}
+
+fn sn_osl_vsimplex1(x: f32, k: u32) -> vec3<f32> {
+    return vec3<f32>(sn_osl_simplex1_s(x, 0u), sn_osl_simplex1_s(x, 1u),
+        sn_osl_simplex1_s(x, 2u));
+}
+
+fn sn_osl_vsimplex2(p: vec2<f32>, k: u32) -> vec3<f32> {
+    return vec3<f32>(sn_osl_simplex2_s(p, 0u, k), sn_osl_simplex2_s(p, 1u, k),
+        sn_osl_simplex2_s(p, 2u, k));
+}
+
+fn sn_osl_vsimplex3(p: vec3<f32>, k: u32) -> vec3<f32> {
+    return vec3<f32>(sn_osl_simplex3_s(p, 0u, k), sn_osl_simplex3_s(p, 1u, k),
+        sn_osl_simplex3_s(p, 2u, k));
+}
+
+fn sn_osl_vsimplex4(p: vec3<f32>, t: f32, k: u32) -> vec3<f32> {
+    return vec3<f32>(sn_osl_simplex4_s(p, t, 0u, k), sn_osl_simplex4_s(p, t, 1u, k),
+        sn_osl_simplex4_s(p, t, 2u, k));
+}
+
 // MaterialX fractal noise: octaves clamped to [0, 32] (osl_noise::MAX_OCTAVES).
 fn sn_mx_fractal2(p_in: vec2<f32>, octaves: i32, lacunarity: f32, diminish: f32) -> f32 {
     var p = p_in;

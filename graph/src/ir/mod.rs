@@ -532,6 +532,23 @@ named_enum! {
         OslVPPerlin3 = "osl_vpperlin3",
         /// OSL `vector psnoise(p, t, pp, pt)` (vec3, float, vec3, float → vec3).
         OslVPPerlin4 = "osl_vpperlin4",
+        /// OSL `noise("simplex", x)`: signed simplex noise (float → float, about [-1, 1];
+        /// [`crate::ops::osl_simplex`]).
+        OslSimplex1 = "osl_simplex1",
+        /// OSL `noise("simplex", x, y)` (vec2 → float).
+        OslSimplex2 = "osl_simplex2",
+        /// OSL `noise("simplex", p)` (vec3 → float).
+        OslSimplex3 = "osl_simplex3",
+        /// OSL `noise("simplex", p, t)` (vec3, float → float).
+        OslSimplex4 = "osl_simplex4",
+        /// OSL `vector noise("simplex", x)`: the float noise at seeds 0, 1, 2 (float → vec3).
+        OslVSimplex1 = "osl_vsimplex1",
+        /// OSL `vector noise("simplex", x, y)` (vec2 → vec3).
+        OslVSimplex2 = "osl_vsimplex2",
+        /// OSL `vector noise("simplex", p)` (vec3 → vec3).
+        OslVSimplex3 = "osl_vsimplex3",
+        /// OSL `vector noise("simplex", p, t)` (vec3, float → vec3).
+        OslVSimplex4 = "osl_vsimplex4",
         /// MaterialX fractal noise of `osl_perlin2`: (p: vec2, octaves: int, lacunarity:
         /// float, diminish: float) → float.
         MxFractal2 = "mx_fractal2",

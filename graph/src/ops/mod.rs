@@ -23,6 +23,7 @@ pub mod noise;
 pub mod noise_x4;
 pub mod osl_noise;
 pub mod osl_noise_x4;
+pub mod osl_simplex;
 pub mod sheen_albedo;
 pub mod simd;
 
@@ -577,10 +578,14 @@ pub fn osl_intrinsic_operands(i: Intrinsic) -> Option<&'static [Type]> {
     const WORLEY2: &[Type] = &[Type::Vec2, Type::Float, Type::Int, Type::Int];
     const WORLEY3: &[Type] = &[Type::Vec3, Type::Float, Type::Int, Type::Int];
     Some(match i {
-        OslPerlin2 | OslVPerlin2 | OslCell2 | OslVCell2 | OslHash2 | OslVHash2 => V2,
-        OslPerlin3 | OslVPerlin3 | OslCell3 | OslVCell3 | OslHash3 | OslVHash3 => V3,
-        OslCell1 | OslVCell1 | OslPerlin1 | OslVPerlin1 | OslHash1 | OslVHash1 => F1,
-        OslCell4 | OslVCell4 | OslPerlin4 | OslVPerlin4 | OslHash4 | OslVHash4 => V3F,
+        OslPerlin2 | OslVPerlin2 | OslCell2 | OslVCell2 | OslHash2 | OslVHash2 | OslSimplex2
+        | OslVSimplex2 => V2,
+        OslPerlin3 | OslVPerlin3 | OslCell3 | OslVCell3 | OslHash3 | OslVHash3 | OslSimplex3
+        | OslVSimplex3 => V3,
+        OslCell1 | OslVCell1 | OslPerlin1 | OslVPerlin1 | OslHash1 | OslVHash1 | OslSimplex1
+        | OslVSimplex1 => F1,
+        OslCell4 | OslVCell4 | OslPerlin4 | OslVPerlin4 | OslHash4 | OslVHash4 | OslSimplex4
+        | OslVSimplex4 => V3F,
         OslPPerlin1 | OslVPPerlin1 => F2,
         OslPPerlin2 | OslVPPerlin2 => V2V2,
         OslPPerlin3 | OslVPPerlin3 => V3V3,
@@ -602,8 +607,10 @@ fn osl_intrinsic_type(i: Intrinsic, args: &[Type]) -> Option<Type> {
     Some(match i {
         OslVPerlin1 | OslVPerlin2 | OslVPerlin3 | OslVPerlin4 | OslVCell1 | OslVCell2
         | OslVCell3 | OslVCell4 | OslVHash1 | OslVHash2 | OslVHash3 | OslVHash4 | OslVPPerlin1
-        | OslVPPerlin2 | OslVPPerlin3 | OslVPPerlin4 | MxVFractal2 | MxVFractal3 | MxWorley2V3
-        | MxWorley3V3 => Type::Vec3,
+        | OslVPPerlin2 | OslVPPerlin3 | OslVPPerlin4 | OslVSimplex1 | OslVSimplex2
+        | OslVSimplex3 | OslVSimplex4 | MxVFractal2 | MxVFractal3 | MxWorley2V3 | MxWorley3V3 => {
+            Type::Vec3
+        }
         MxWorley2V2 | MxWorley3V2 => Type::Vec2,
         _ => Type::Float,
     })
@@ -797,6 +804,7 @@ pub fn intrinsic<F: Real>(i: Intrinsic, args: &[Val<F>]) -> Val<F> {
 /// Evaluates an OSL/MaterialX noise intrinsic ([`osl_noise`]).
 fn osl_intrinsic<F: Real>(i: Intrinsic, args: &[Val<F>]) -> Val<F> {
     use osl_noise as o;
+    use osl_simplex as s;
     let arg = |k: usize| args.get(k).copied().unwrap_or(Val::Int(0));
     let vec2 = |k: usize| {
         let p = arg(k);
@@ -845,6 +853,14 @@ fn osl_intrinsic<F: Real>(i: Intrinsic, args: &[Val<F>]) -> Val<F> {
         Intrinsic::OslVPPerlin2 => Val::Vec3(o::vpperlin2(v2(), vec2(1))),
         Intrinsic::OslVPPerlin3 => Val::Vec3(o::vpperlin3(v3(), arg(1).as_vec3())),
         Intrinsic::OslVPPerlin4 => Val::Vec3(o::vpperlin4(v3(), f1, arg(2).as_vec3(), f3)),
+        Intrinsic::OslSimplex1 => Val::Float(s::simplex1(arg(0).as_float(), 0)),
+        Intrinsic::OslSimplex2 => Val::Float(s::simplex2(v2(), 0)),
+        Intrinsic::OslSimplex3 => Val::Float(s::simplex3(v3(), 0)),
+        Intrinsic::OslSimplex4 => Val::Float(s::simplex4(v3(), f1, 0)),
+        Intrinsic::OslVSimplex1 => Val::Vec3(s::vsimplex1(arg(0).as_float())),
+        Intrinsic::OslVSimplex2 => Val::Vec3(s::vsimplex2(v2())),
+        Intrinsic::OslVSimplex3 => Val::Vec3(s::vsimplex3(v3())),
+        Intrinsic::OslVSimplex4 => Val::Vec3(s::vsimplex4(v3(), f1)),
         Intrinsic::MxFractal2 => Val::Float(o::fractal2(v2(), n, f2, f3)),
         Intrinsic::MxFractal3 => Val::Float(o::fractal3(v3(), n, f2, f3)),
         Intrinsic::MxVFractal2 => Val::Vec3(o::vfractal2(v2(), n, f2, f3)),

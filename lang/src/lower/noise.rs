@@ -3,9 +3,10 @@
 //! `shadenet_graph::ops::osl_noise`). It owns these rules:
 //!
 //! - An optional generator name first (`noise`, `pnoise`): `"perlin"` (signed),
-//!   `"uperlin"` (`0.5 · (perlin + 1)`, the default), `"cell"`, `"hash"`; `snoise`/`psnoise`
-//!   are `"perlin"`, `cellnoise` `"cell"`, `hashnoise` `"hash"`. `"simplex"`, `"usimplex"`,
-//!   `"gabor"` are refused as not built, any other name as unknown.
+//!   `"uperlin"` (`0.5 · (perlin + 1)`, the default), `"cell"`, `"hash"`, `"simplex"`
+//!   (signed), `"usimplex"` (`0.5 · (simplex + 1)`); `snoise`/`psnoise` are `"perlin"`,
+//!   `cellnoise` `"cell"`, `hashnoise` `"hash"`. `"gabor"` is refused as not built, any other
+//!   name as unknown.
 //! - The domain: `(x)`, `(x, y)`, `(p)` or `(p, t)` (ints widen); periodic forms add as many
 //!   periods after it, of the same shapes.
 //! - The result is a float, or a vector where the call is assigned to a triple (OSL's
@@ -13,7 +14,8 @@
 //! - Periodic Perlin noise wraps its lattice (OSL's `HashScalarPeriodic`: periods `max(1,
 //!   ifloor(p))`); periodic cell noise wraps the coordinates first (OSL's
 //!   `PeriodicCellNoise`: `s − P·floor(s/P)` with `P = max(1, floor(p))`), here IR
-//!   arithmetic before the cell intrinsic. Periodic hash noise is refused as not built.
+//!   arithmetic before the cell intrinsic. Periodic hash and simplex noise are refused, as
+//!   OSL refuses them (it has no periodic form of either).
 //!
 //! It must not hold the generators' arithmetic (the ops module's).
 
@@ -31,6 +33,8 @@ enum Family {
     Cell,
     /// Hash noise.
     Hash,
+    /// Simplex noise, signed or not.
+    Simplex(bool),
 }
 
 impl Family {
@@ -41,7 +45,8 @@ impl Family {
             "uperlin" | "noise" => Family::Perlin(false),
             "cell" | "cellnoise" => Family::Cell,
             "hash" | "hashnoise" => Family::Hash,
-            "simplex" | "usimplex" => return Err("the simplex generators are not built yet".into()),
+            "simplex" => Family::Simplex(true),
+            "usimplex" => Family::Simplex(false),
             "gabor" => return Err("gabor noise is not built yet".into()),
             other => {
                 return Err(format!(
@@ -86,6 +91,20 @@ impl Family {
             (Family::Hash, _) => [
                 [I::OslHash1, I::OslHash2, I::OslHash3, I::OslHash4],
                 [I::OslVHash1, I::OslVHash2, I::OslVHash3, I::OslVHash4],
+            ],
+            (Family::Simplex(_), _) => [
+                [
+                    I::OslSimplex1,
+                    I::OslSimplex2,
+                    I::OslSimplex3,
+                    I::OslSimplex4,
+                ],
+                [
+                    I::OslVSimplex1,
+                    I::OslVSimplex2,
+                    I::OslVSimplex3,
+                    I::OslVSimplex4,
+                ],
             ],
         };
         forms[usize::from(vector)][dim - 1]
@@ -135,9 +154,11 @@ impl<'a> Lower<'a> {
                 return Self::poison(b, out_ty);
             }
         };
-        if periodic && family == Family::Hash {
+        if periodic && matches!(family, Family::Hash | Family::Simplex(_)) {
             self.error(
-                format!("`{name}`: periodic hash noise is not built yet"),
+                format!(
+                    "`{name}`: OSL has no periodic \"{generator}\" noise (periodic generators: perlin, uperlin, cell)"
+                ),
                 gen_at.unwrap_or(span),
                 "here",
             );
@@ -190,7 +211,7 @@ impl<'a> Lower<'a> {
             }
         };
         let v = match family {
-            Family::Perlin(false) => unsigned(b, v, vector),
+            Family::Perlin(false) | Family::Simplex(false) => unsigned(b, v, vector),
             _ => v,
         };
         let v = if vector && out_ty == Ty::Color {
@@ -258,7 +279,7 @@ fn domain(b: &mut Builder, vals: &[(Value, Ty)]) -> Option<Domain> {
     })
 }
 
-/// OSL's unsigned Perlin noise from the signed: `0.5 · (n + 1)`.
+/// OSL's unsigned Perlin or simplex noise from the signed: `0.5 · (n + 1)`.
 fn unsigned(b: &mut Builder, v: Value, vector: bool) -> Value {
     let ty = if vector { Type::Vec3 } else { Type::Float };
     let one = b.float(1.0);
