@@ -305,3 +305,156 @@ fn splines_are_osls() {
         assert!(err.contains(want), "{src}\n→ {err}");
     }
 }
+
+/// OSL's `Spline::inverse` with OpenImageIO's `invert` in f32, for the tests: the same
+/// operations in the same order.
+fn spline_inverse_ref(basis: &str, y: f32, knots: &[f32]) -> f32 {
+    let step = match basis {
+        "bezier" => 3,
+        "hermite" => 2,
+        _ => 1,
+    };
+    let n = knots.len();
+    let (lo, hi) = if step == 1 { (1, n - 2) } else { (0, n - 1) };
+    let increasing = knots[1] < knots[n - 2];
+    if increasing {
+        if y <= knots[lo] {
+            return 0.0;
+        }
+        if y >= knots[hi] {
+            return 1.0;
+        }
+    } else {
+        if y >= knots[lo] {
+            return 0.0;
+        }
+        if y <= knots[hi] {
+            return 1.0;
+        }
+    }
+    let s = |x: f32| spline_ref(basis, x, knots);
+    let invert = |y: f32, mut xmin: f32, mut xmax: f32| -> (f32, bool) {
+        let (mut v0, mut v1) = (s(xmin), s(xmax));
+        let mut x = xmin;
+        let increasing = v0 < v1;
+        let (vmin, vmax) = if increasing { (v0, v1) } else { (v1, v0) };
+        if !(y >= vmin && y <= vmax) {
+            return (if (y < vmin) == increasing { xmin } else { xmax }, false);
+        }
+        if (v0 - v1).abs() < 1e-6 {
+            return (x, true);
+        }
+        for iters in 0..32 {
+            let mut t = 0.5;
+            if iters < 24 {
+                t = (y - v0) / (v1 - v0);
+                if t <= 0.0 || t >= 1.0 {
+                    t = 0.5;
+                }
+            }
+            x = xmin * (1.0 - t) + xmax * t;
+            let v = s(x);
+            if (v < y) == increasing {
+                xmin = x;
+                v0 = v;
+            } else {
+                xmax = x;
+                v1 = v;
+            }
+            if (xmax - xmin).abs() < 1e-6 || (v - y).abs() < 1e-6 {
+                return (x, true);
+            }
+        }
+        (x, true)
+    };
+    let nsegs = (n - 4) / step + 1;
+    let nseginv = 1.0f32 / nsegs as f32;
+    let (mut r0, mut x) = (0.0f32, 0.0f32);
+    for seg in 0..nsegs {
+        let r1 = nseginv * (seg + 1) as f32;
+        let (sx, brack) = invert(y, r0, r1);
+        x = sx;
+        if brack {
+            return x;
+        }
+        r0 = r1;
+    }
+    x
+}
+
+/// `splineinverse` is OSL's search bit for bit in f32: every basis on increasing,
+/// decreasing and non-monotonic knots (where no segment brackets y, OSL's edge), given as
+/// arguments, as an array and as a count and an array; values beyond the knots are 0 or 1,
+/// and the spline of the inverse is y again on a monotonic curve.
+#[test]
+fn splineinverse_is_osls() {
+    let sets: [&[f32]; 3] = [
+        &[0.0, 0.1, 0.3, 0.35, 0.8, 0.9, 1.0],
+        &[2.0, 1.5, 1.2, 0.4, 0.3, -0.5, -1.0],
+        &[0.0, 0.3, 1.2, 0.7, -0.4, 0.9, 2.0],
+    ];
+    for knots in sets {
+        let list: Vec<String> = knots.iter().map(|k| format!("{k:?}")).collect();
+        let list = list.join(", ");
+        for basis in [
+            "catmull-rom",
+            "bezier",
+            "bspline",
+            "hermite",
+            "linear",
+            "constant",
+        ] {
+            let src = format!(
+                r#"shader s(output float a = 0, output float b = 0, output float c = 0) {{
+                    float k[7] = {{ {list} }};
+                    float y = u * 3.6 - 1.2;
+                    a = splineinverse("{basis}", y, k);
+                    b = splineinverse("{basis}", y, {list});
+                    c = splineinverse("{basis}", y, 5, k);
+                }}"#
+            );
+            let p = compile(&src, Dialect::Osl).unwrap();
+            for k in 0..=40 {
+                let u = k as f32 / 40.0;
+                let mut f = plane_fragment();
+                f.uv = [u, 0.5];
+                let o = run_program(&p, &f, &[], u32::MAX);
+                let y = u * 3.6 - 1.2;
+                let want = spline_inverse_ref(basis, y, knots) as f64;
+                let five = spline_inverse_ref(basis, y, &knots[..5]) as f64;
+                let at = format!("{basis} on {knots:?} at y = {y}");
+                assert_eq!(o.get32("a"), [want], "{at} (array)");
+                assert_eq!(o.get32("b"), [want], "{at} (arguments)");
+                assert_eq!(o.get32("c"), [five], "{at} (first 5 knots)");
+                let x = want as f32;
+                assert!((0.0..=1.0).contains(&x), "{at}: {x}");
+                if knots == sets[0] && basis == "linear" && (0.1..=0.9).contains(&y) {
+                    let back = spline_ref(basis, x, knots);
+                    assert!((back - y).abs() < 1e-5, "{at}: spline({x}) = {back}");
+                }
+            }
+        }
+    }
+    for (src, want) in [
+        (
+            "shader s(output float a = 0) { a = splineinverse(\"linear\", u, color(0), color(1), color(2), color(3)); }",
+            "splineinverse takes float knots, not color",
+        ),
+        (
+            "shader s(output float a = 0) { float k[4] = { 0, 1, 2, 3 }; a = splineinverse(\"linear\", u, 9, k); }",
+            "knot count 9 is outside the array's 4",
+        ),
+        (
+            "shader s(output float a = 0) { float k[4] = { 0, 1, 2, 3 }; int n = int(u * 4); a = splineinverse(\"linear\", u, n, k); }",
+            "a knot count known only while shading is not built",
+        ),
+        (
+            "shader s(output float a = 0) { a = splineinverse(u, 0, 1, 2, 3); }",
+            "splineinverse takes (string basis, float y, knots…)",
+        ),
+    ] {
+        let err = compile(src, Dialect::Osl).unwrap_err();
+        assert!(err.contains(want), "{src}\n→ {err}");
+        assert!(err.contains(":1:"), "{src}: the place\n{err}");
+    }
+}

@@ -348,7 +348,8 @@ fn osl_closures_equal_the_pbrlib_lobes() {
 }
 
 /// The interpreter and the JIT (scalar and batch) give the same bits on an OSL shader with
-/// noise, ints and closures under a varying condition.
+/// noise (Perlin, cell and simplex), `splineinverse` (an IR loop per segment), ints and
+/// closures under a varying condition.
 #[test]
 fn the_jit_agrees_with_the_interpreter_bit_for_bit() {
     let src = r#"
@@ -364,6 +365,9 @@ fn the_jit_agrees_with_the_interpreter_bit_for_bit() {
             color c = mix(Cd, color(cellnoise(P * 8)), 0.5 + 0.5 * n);
             c += 0.1 * (cellnoise(u * 7) + cellnoise(P * 3, v * 5))
                 + 0.05 * (color(cellnoise(u * 7)) + color(cellnoise(P * 3, v * 5)));
+            c *= 0.5 + 0.25 * (noise("simplex", q, v) + noise("usimplex", u * 7, v * 3))
+                + 0.2 * splineinverse("catmull-rom", u, 0, 0.1, 0.5, 0.6, 0.9, 1);
+            c += 0.1 * color(noise("simplex", P * 3));
             if (n > 0)
                 Ci = c * diffuse(N);
             else

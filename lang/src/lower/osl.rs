@@ -52,6 +52,7 @@ pub(crate) const NAMES: &[&str] = &[
     "transformc",
     "raytype",
     "isconnected",
+    "splineinverse",
 ];
 
 /// RSL builtins that OSL does not have (or has as closures: `diffuse`, `phong`).
@@ -74,10 +75,6 @@ const UNBUILT: &[(&str, &str)] = &[
     (
         "error",
         "side effects (printf, format, warning, error) are not built yet",
-    ),
-    (
-        "splineinverse",
-        "splineinverse is not built yet (spline is)",
     ),
     (
         "environment",

@@ -7,12 +7,14 @@
 //! `catmull-rom`, `bezier` (step 3), `bspline`, `hermite` (step 2), `linear` and `constant`
 //! (the knot after the segment's start). Owns these rules; the arithmetic is IR ops.
 
+mod inverse;
+
 use super::{Lower, Ty, Val};
 use crate::source::Span;
 use shadenet_graph::ir::{BinOp, Builder, UnOp, Value};
 
 /// A basis: its name, step between segments, and matrix (rows combine the four knots).
-type Basis = (&'static str, usize, [[f64; 4]; 4]);
+pub(super) type Basis = (&'static str, usize, [[f64; 4]; 4]);
 
 /// OSL's spline bases.
 const BASES: &[Basis] = &[
@@ -69,9 +71,19 @@ const BASES: &[Basis] = &[
     ("constant", 1, [[0.0; 4]; 4]),
 ];
 
+/// A spline call's arguments, lowered: the basis, `x`, the knots (of one type) and whether
+/// any varies.
+struct Args {
+    basis: &'static Basis,
+    x: Value,
+    ks: Vec<Value>,
+    ty: Ty,
+    varying: bool,
+}
+
 impl<'a> Lower<'a> {
-    /// `spline([basis,] x, knots…)` (the basis required in OSL), or `None` when `name` is
-    /// not `spline`.
+    /// `spline([basis,] x, knots…)` (the basis required in OSL) and OSL's
+    /// `splineinverse(basis, y, knots…)`, or `None` when `name` is neither.
     pub(crate) fn spline(
         &mut self,
         b: &mut Builder,
@@ -79,9 +91,48 @@ impl<'a> Lower<'a> {
         args: &[(Val, Span)],
         span: Span,
     ) -> Option<Val> {
-        if name != "spline" {
-            return None;
+        let inverse = match name {
+            "spline" => false,
+            "splineinverse" => true,
+            _ => return None,
+        };
+        let Some(a) = self.spline_args(b, name, args, span) else {
+            return Some(Self::poison(b, Ty::Float));
+        };
+        if !inverse {
+            let v = evaluate(b, a.basis, a.x, &a.ks, a.ty);
+            return Some(Val::V {
+                v,
+                ty: a.ty,
+                varying: a.varying,
+            });
         }
+        if a.ty != Ty::Float {
+            self.error(
+                format!("splineinverse takes float knots, not {}", a.ty.name()),
+                span,
+                "not float knots",
+            );
+            return Some(Self::poison(b, Ty::Float));
+        }
+        let v = inverse::inverse(b, a.basis, a.x, &a.ks);
+        Some(Val::V {
+            v,
+            ty: Ty::Float,
+            varying: a.varying,
+        })
+    }
+
+    /// The arguments of `name` (`spline` or `splineinverse`): `[basis,] x` then the knots —
+    /// one array, OSL's count and an array (its first `count` knots; the count a constant),
+    /// or the remaining arguments; `None` after an error.
+    fn spline_args(
+        &mut self,
+        b: &mut Builder,
+        name: &str,
+        args: &[(Val, Span)],
+        span: Span,
+    ) -> Option<Args> {
         let (basis, rest) = match args.split_first() {
             Some(((Val::Str(s), at), rest)) => {
                 match BASES.iter().find(|(n, ..)| *n == s.as_str()) {
@@ -96,20 +147,37 @@ impl<'a> Lower<'a> {
                             *at,
                             "not a basis",
                         );
-                        return Some(Self::poison(b, Ty::Float));
+                        return None;
                     }
                 }
             }
-            _ if self.dialect == crate::Dialect::Rsl => (&BASES[0], args),
-            _ => return Some(self.spline_usage(b, span)),
+            _ if self.dialect == crate::Dialect::Rsl && name == "spline" => (&BASES[0], args),
+            _ => return self.spline_usage(name, span),
         };
         let Some(((x, xat), knots)) = rest.split_first() else {
-            return Some(self.spline_usage(b, span));
+            return self.spline_usage(name, span);
         };
-        // The knots: one array, or the remaining arguments; OSL's optional count first.
         let knots: Vec<Val> = match knots {
             [(Val::Array(k), _)] => k.clone(),
-            [(Val::V { ty: Ty::Int, .. }, _), (Val::Array(k), _)] => k.clone(),
+            [(Val::V { v, ty: Ty::Int, .. }, at), (Val::Array(k), _)] => {
+                let count = shadenet_graph::opt::fold::constant(b.program(), *v)
+                    .as_ref()
+                    .and_then(super::osl::const_number);
+                match count {
+                    Some(n) if n >= 0.0 && n as usize <= k.len() => k[..n as usize].to_vec(),
+                    Some(n) => {
+                        let msg = format!("knot count {n} is outside the array's {}", k.len());
+                        self.error(msg, *at, "the count");
+                        return None;
+                    }
+                    None => {
+                        let msg = "a knot count known only while shading is not built: \
+                                   pass a constant or the whole array";
+                        self.error(msg, *at, "not a constant");
+                        return None;
+                    }
+                }
+            }
             k => k.iter().map(|(v, _)| v.clone()).collect(),
         };
         if knots.len() < 4 {
@@ -118,7 +186,7 @@ impl<'a> Lower<'a> {
                 span,
                 "too few knots",
             );
-            return Some(Self::poison(b, Ty::Float));
+            return None;
         }
         let ty = match knots.iter().find_map(|k| match k {
             Val::V { ty, .. } if *ty != Ty::Int => Some(*ty),
@@ -135,7 +203,7 @@ impl<'a> Lower<'a> {
                     varying |= vy;
                     ks.push(v);
                 }
-                _ => return Some(Self::poison(b, ty)),
+                _ => return None,
             }
         }
         let x = match self.coerce(b, x.clone(), Ty::Float, *xat) {
@@ -143,24 +211,39 @@ impl<'a> Lower<'a> {
                 varying |= vy;
                 v
             }
-            _ => return Some(Self::poison(b, ty)),
+            _ => return None,
         };
-        let v = evaluate(b, basis, x, &ks, ty);
-        Some(Val::V { v, ty, varying })
+        Some(Args {
+            basis,
+            x,
+            ks,
+            ty,
+            varying,
+        })
     }
 
-    fn spline_usage(&mut self, b: &mut Builder, span: Span) -> Val {
+    /// The usage error of `name`.
+    fn spline_usage(&mut self, name: &str, span: Span) -> Option<Args> {
+        let what = if name == "spline" { "x" } else { "y" };
         self.error(
-            "spline takes (string basis, float x, knots…) or (string basis, float x, array)",
+            format!(
+                "{name} takes (string basis, float {what}, knots…), (string basis, float {what}, array) or (string basis, float {what}, int count, array)"
+            ),
             span,
             "wrong arguments",
         );
-        Self::poison(b, Ty::Float)
+        None
     }
 }
 
 /// OSL's `spline_evaluate` on knots `ks` (values of `ty`) at `x`.
-fn evaluate(b: &mut Builder, (name, step, m): &Basis, x: Value, ks: &[Value], ty: Ty) -> Value {
+pub(super) fn evaluate(
+    b: &mut Builder,
+    (name, step, m): &Basis,
+    x: Value,
+    ks: &[Value],
+    ty: Ty,
+) -> Value {
     let nsegs = (ks.len() - 4) / step + 1;
     let (zero, one) = (b.float(0.0), b.float(1.0));
     let x = b.clamp(x, zero, one);
