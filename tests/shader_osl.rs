@@ -846,7 +846,8 @@ fn closures_connect_between_layers() {
     check(&o, "Ci", &[0.0; 3], 0.0);
 }
 
-/// `Dx`, `Dy`, `filterwidth`, `area` and `aastep` read the screen-space derivatives: on the
+/// `Dx`, `Dy`, `filterwidth`, `area`, `calculatenormal` and `aastep` read the screen-space
+/// derivatives: on the
 /// plane with ray differentials, `P`'s are the differentials, `u`'s their x components, a
 /// product's by the chain rule; a parameter's are zero; `aastep` is stdosl.h's box step
 /// (a ramp across the footprint, hard where there is none).
@@ -854,13 +855,16 @@ fn closures_connect_between_layers() {
 fn derivative_builtins_read_the_footprint() {
     let src = r#"
         shader d(float k = 3, output vector dp = 0, output color w = 0,
-                 output color s = 0, output float a = 0)
+                 output color s = 0, output float a = 0, output vector cn = 0,
+                 output vector cd = 0)
         {
             dp = Dx(P) + 10 * Dy(P);
             float f = u * u * k;
             w = color(filterwidth(u), Dx(f), Dy(k));
             s = color(aastep(0.5, u), aastep(0.5, u, 0.2), aastep(0.5, u, 0, 0.2));
             a = area(P);
+            cn = calculatenormal(P);
+            cd = calculatenormal(P + N * u * 0.5);
         }"#;
     let p = compile(src).unwrap();
     let f = shadenet::runtime::Fragment {
@@ -877,6 +881,18 @@ fn derivative_builtins_read_the_footprint() {
     // u = 0.45: [0.43, 0.47] is below 0.5 (w = 0.04); with ds = 0.2, [0.35, 0.55] → 0.25.
     check(&o, "s", &[0.0, 0.25, 0.25], 1e-6);
     check(&o, "a", &[0.04 * 0.02], 1e-9);
+    // calculatenormal: Dx(P) × Dy(P), facing as N; displaced by 0.5·u along N, Dx gains
+    // 0.5·0.04 in z: (0.04, 0, 0.02) × (0, 0.02, 0).
+    check(&o, "cn", &[0.0, 0.0, 0.04 * 0.02], 1e-9);
+    check(&o, "cd", &[-0.02 * 0.02, 0.0, 0.04 * 0.02], 1e-9);
+    // Screen axes left-handed on the surface (its dP/dx × dP/dy against N): OSL's
+    // flipHandedness, Dy × Dx, so the result still faces as N does.
+    let mirrored = shadenet::runtime::Fragment {
+        n: [0.0, 0.0, -1.0],
+        ..f
+    };
+    let o = run_program(&p, &mirrored, &[], u32::MAX);
+    check(&o, "cn", &[0.0, 0.0, -0.04 * 0.02], 1e-9);
     let flat = plane_fragment();
     let o = run_program(&p, &flat, &[], u32::MAX);
     check(&o, "w", &[0.0, 0.0, 0.0], 0.0);

@@ -1,12 +1,12 @@
-//! OSL's derivative builtins: `Dx`, `Dy`, `filterwidth`, `area` and `aastep` (stdosl.h's
-//! box-filtered step), on the IR's screen-space derivatives
+//! OSL's derivative builtins: `Dx`, `Dy`, `filterwidth`, `area`, `calculatenormal` and
+//! `aastep` (stdosl.h's box-filtered step), on the IR's screen-space derivatives
 //! ([`shadenet_graph::ir::Builder::derivs`]: the chain rule from the ray differentials,
 //! a noise's or a lookup's change over the footprint). A value with no derivatives (a
 //! constant, a parameter, or no ray differentials at run time) has zero. It owns these
 //! builtins' formulas; it must not know how derivatives are built.
 
 use super::{Ty, Val};
-use shadenet_graph::ir::{BinOp, Builder, UnOp, Value};
+use shadenet_graph::ir::{BinOp, Builder, Stream, UnOp, Value};
 use shadenet_graph::nodes::filtered::filter_width;
 
 /// `[∂x/∂x_screen, ∂x/∂y_screen]`, zeros of `x`'s type where it has none.
@@ -53,6 +53,30 @@ pub(crate) fn builtin(b: &mut Builder, name: &str, vs: &[(Value, Ty, bool)]) -> 
             let [dx, dy] = both(b, *p);
             let c = b.binary(BinOp::Cross, dx, dy);
             out(b.unary(UnOp::Length, c), Ty::Float)
+        }
+        ("calculatenormal", [(p, t, _)]) if t.is_geometric() => {
+            // OSL: Dx(p) × Dy(p), or Dy(p) × Dx(p) where the renderer's screen axes are
+            // left-handed on the surface ("flipHandedness": as OSL's testrender decides it,
+            // the surface's own dP/dx × dP/dy facing away from N), so that an undisplaced
+            // surface's calculatenormal(P) faces as N does. Not normalized.
+            let [dx, dy] = both(b, *p);
+            let (sx, sy, n) = (
+                b.stream(Stream::DPdx),
+                b.stream(Stream::DPdy),
+                b.stream(Stream::N),
+            );
+            let surface = b.binary(BinOp::Cross, sx, sy);
+            let facing = b.dot(surface, n);
+            let zero = b.float(0.0);
+            let flip = b.binary(BinOp::Lt, facing, zero);
+            let right = b.binary(BinOp::Cross, dx, dy);
+            let left = b.binary(BinOp::Cross, dy, dx);
+            let v = b.select(flip, left, right);
+            Some(Val::V {
+                v,
+                ty: Ty::Vector,
+                varying: true,
+            })
         }
         ("aastep", args)
             if (2..=4).contains(&args.len()) && args.iter().all(|a| a.1 == Ty::Float) =>

@@ -47,6 +47,7 @@ pub(crate) const NAMES: &[&str] = &[
     "Dy",
     "filterwidth",
     "area",
+    "calculatenormal",
     "aastep",
     "getattribute",
     "transformc",
