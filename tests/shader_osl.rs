@@ -103,6 +103,19 @@ fn functions_with_output_parameters_and_overloads() {
     check(&o, "o", &[0.25, 0.5, 21.0], 0.0);
 }
 
+/// The fragments (`P`, `uv`) the noise tests shade: ordinary, negative and near the ends of
+/// the texture coordinates.
+const NOISE_POINTS: [([f32; 3], [f32; 2]); 3] = [
+    ([0.123, 0.456, 0.0], [0.11, 0.93]),
+    ([-2.5, 7.25, 1.0], [0.5, 0.5]),
+    ([13.1, -0.7, 3.3], [0.999, 0.001]),
+];
+
+/// The noise tests' `q = P * 3.7 + point(0.3, -1.2, 5.1)`, in f32 as the shader computes it.
+fn noise_domain(pos: [f32; 3]) -> [f32; 3] {
+    std::array::from_fn(|i| pos[i] * 3.7 + [0.3, -1.2, 5.1][i])
+}
+
 /// The noise family is OSL's: `snoise`/`"perlin"` is `osl_noise::perlin`, `noise` is
 /// `0.5 (perlin + 1)`, `cellnoise`/`"cell"` is `osl_noise::cell`, `hashnoise`/`"hash"`
 /// `osl_noise::hash`, in 1D `(x)`, 2D `(x, y)`, 3D `(p)` and 4D `(p, t)`, float or vector
@@ -131,18 +144,11 @@ fn noise_is_osls() {
         }"#;
     let p = compile(src).unwrap();
     let mut f = plane_fragment();
-    for (k, (pos, uv)) in [
-        ([0.123, 0.456, 0.0], [0.11, 0.93]),
-        ([-2.5, 7.25, 1.0], [0.5, 0.5]),
-        ([13.1, -0.7, 3.3], [0.999, 0.001]),
-    ]
-    .into_iter()
-    .enumerate()
-    {
+    for (k, (pos, uv)) in NOISE_POINTS.into_iter().enumerate() {
         f.p = pos;
         f.uv = uv;
         let o = run_program(&p, &f, &[], u32::MAX);
-        let q: [f32; 3] = std::array::from_fn(|i| pos[i] * 3.7 + [0.3, -1.2, 5.1][i]);
+        let q = noise_domain(pos);
         let per = osl_noise::perlin3(q) as f64;
         let cell = osl_noise::cell3(q) as f64;
         // f32 shading is OSL's own arithmetic, bit for bit.
@@ -1655,18 +1661,11 @@ fn simplex_noise_is_osls() {
     let mut f = plane_fragment();
     let f64s = |v: &[f32]| v.iter().map(|x| *x as f64).collect::<Vec<_>>();
     let unsigned = |x: f32| 0.5 * (x + 1.0);
-    for (k, (pos, uv)) in [
-        ([0.123, 0.456, 0.0], [0.11, 0.93]),
-        ([-2.5, 7.25, 1.0], [0.5, 0.5]),
-        ([13.1, -0.7, 3.3], [0.999, 0.001]),
-    ]
-    .into_iter()
-    .enumerate()
-    {
+    for (k, (pos, uv)) in NOISE_POINTS.into_iter().enumerate() {
         f.p = pos;
         f.uv = uv;
         let o = run_program(&p, &f, &[], u32::MAX);
-        let q: [f32; 3] = std::array::from_fn(|i| pos[i] * 3.7 + [0.3, -1.2, 5.1][i]);
+        let q = noise_domain(pos);
         let (u9, v9) = (uv[0] * 9.0, uv[1] * 9.0);
         let want = [
             osl_simplex::simplex1(u9, 0),
