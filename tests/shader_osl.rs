@@ -446,7 +446,7 @@ fn errors_name_the_place_and_the_problem() {
         ),
         (
             "surface s() { printf(\"%f\", u); }",
-            "side effects (printf, format, warning, error) are not built yet",
+            "printing (printf, warning, error) is not built yet",
         ),
         ("surface s() { Ci = difuse(N); }", "did you mean `diffuse`?"),
         (
@@ -1665,6 +1665,54 @@ fn the_patterns_seed_compiles_and_the_jit_agrees() {
         let g = shadenet::shade::shade_grid_with(&*m, &env, 16, 9, spec.components, batch);
         assert_eq!(reference, bits(g.pixel_values()), "batch {batch}");
     }
+}
+
+/// OSL's string builtins on compile-time strings: `concat`, `strlen`, `startswith`,
+/// `endswith`, `substr` (a negative start from the end), `getchar`, `stoi`, `stof` and
+/// `format` with C's conversions (a color's components each by the conversion); what makes a
+/// string from a value known only while shading, a mismatched conversion and the builtins
+/// OSL has that we do not are errors naming them.
+#[test]
+fn string_builtins_are_osls() {
+    let src = r#"
+        shader s(string name = "brick_wall.tx", output float a = 0, output float b = 0,
+                 output float c = 0, output float d = 0) {
+            string base = substr(name, 0, strlen(name) - 3);
+            string file = concat(base, "_", format("%03d", 7), ".png");
+            a = strlen(file) + 100 * startswith(file, "brick") + 1000 * endswith(name, ".tx");
+            b = stof(substr("k=2.5e1", -5)) + stoi(" -3px") + getchar(name, 0) / 1000.0;
+            string f = format("%s|%5.2f|%g|%x|%c", base, 3.14159, color(0.5, 1, 2), 255, 65);
+            c = (f == "brick_wall| 3.14|0.5 1 2|ff|A") ? 1 : 0;
+            if (file == "brick_wall_007.png") d = 1;
+        }"#;
+    let p = compile(src).unwrap();
+    let o = run_program(&p, &plane_fragment(), &[], u32::MAX);
+    check(&o, "a", &[18.0 + 100.0 + 1000.0], 0.0);
+    check(&o, "b", &[25.0 - 3.0 + 0.098], 1e-6);
+    check(&o, "c", &[1.0], 0.0);
+    check(&o, "d", &[1.0], 0.0);
+    assert_errors(&[
+        (
+            "shader s(output float o = 0) { string f = format(\"%f\", u); }",
+            "`format`'s argument 2 is known only while shading",
+        ),
+        (
+            "shader s(output float o = 0) { string f = format(\"%d\", 1.5); }",
+            "`format`: conversion 1 (`%d`) takes an int",
+        ),
+        (
+            "shader s(output float o = 0) { o = strlen(\"a\", \"b\"); }",
+            "`strlen`: takes 1 arguments, not 2",
+        ),
+        (
+            "shader s(output float o = 0) { int h = trace(P, N); }",
+            "`trace`: OSL's trace (a probe ray whose hit getmessage reads) is not built yet",
+        ),
+        (
+            "shader s(output float o = 0) { o = transformu(\"cm\", \"m\", u); }",
+            "`transformu`: unit conversions are not built yet",
+        ),
+    ]);
 }
 
 /// `noise("simplex", …)` is `osl_simplex::simplex*` (float: seed 0; vector: seeds 0, 1, 2)

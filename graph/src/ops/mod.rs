@@ -24,6 +24,7 @@ pub mod noise_x4;
 pub mod osl_noise;
 pub mod osl_noise_x4;
 pub mod osl_simplex;
+pub mod printf;
 pub mod sheen_albedo;
 pub mod simd;
 

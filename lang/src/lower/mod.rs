@@ -32,6 +32,7 @@ mod returns;
 mod spectral;
 mod spline;
 mod stmt;
+mod strings;
 mod structs;
 mod texture_opts;
 mod unroll;

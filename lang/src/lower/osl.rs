@@ -54,6 +54,15 @@ pub(crate) const NAMES: &[&str] = &[
     "raytype",
     "isconnected",
     "splineinverse",
+    "concat",
+    "strlen",
+    "startswith",
+    "endswith",
+    "substr",
+    "getchar",
+    "stoi",
+    "stof",
+    "format",
 ];
 
 /// RSL builtins that OSL does not have (or has as closures: `diffuse`, `phong`).
@@ -63,24 +72,47 @@ pub(crate) const RSL_ONLY: &[&str] = &["ambient", "specular", "trace", "xcomp", 
 const UNBUILT: &[(&str, &str)] = &[
     (
         "printf",
-        "side effects (printf, format, warning, error) are not built yet",
-    ),
-    (
-        "format",
-        "side effects (printf, format, warning, error) are not built yet",
+        "printing (printf, warning, error) is not built yet",
     ),
     (
         "warning",
-        "side effects (printf, format, warning, error) are not built yet",
+        "printing (printf, warning, error) is not built yet",
     ),
     (
         "error",
-        "side effects (printf, format, warning, error) are not built yet",
+        "printing (printf, warning, error) is not built yet",
     ),
     (
         "environment",
         "environment lookups are not built for OSL yet",
     ),
+    (
+        "trace",
+        "OSL's trace (a probe ray whose hit getmessage reads) is not built yet",
+    ),
+    (
+        "getmessage",
+        "messages (getmessage, setmessage) are not built yet",
+    ),
+    (
+        "setmessage",
+        "messages (getmessage, setmessage) are not built yet",
+    ),
+    ("transformu", "unit conversions are not built yet"),
+    ("gettextureinfo", "texture queries are not built yet"),
+    ("pointcloud_search", "point clouds are not built"),
+    ("pointcloud_get", "point clouds are not built"),
+    ("pointcloud_write", "point clouds are not built"),
+    ("dict_find", "dictionaries are not built"),
+    ("dict_next", "dictionaries are not built"),
+    ("dict_value", "dictionaries are not built"),
+    ("regex_search", "regular expressions are not built"),
+    ("regex_match", "regular expressions are not built"),
+    (
+        "hash",
+        "the hash of a string (OpenImageIO's ustring hash) is not built",
+    ),
+    ("split", "arrays of strings are not built yet"),
 ];
 
 impl<'a> Lower<'a> {
@@ -330,6 +362,9 @@ impl<'a> Lower<'a> {
         }
         if name == "raytype" {
             return Some(self.raytype(b, args, span));
+        }
+        if let Some(v) = self.string_builtin(b, name, args, span) {
+            return Some(v);
         }
         let vs = super::numbers(b, args)?;
         let varying = vs.iter().any(|v| v.2);
