@@ -1116,6 +1116,62 @@ fn brace_initialisers_build_structs() {
     ]);
 }
 
+/// `environment(file, R)` reads a lat-long map in the layout of the scene's environment
+/// lights (`env_image::uv_to_direction` at rotation 0): the texel whose direction `R` is,
+/// whatever `R`'s length; periodic across the longitude, clamped at the poles; options as
+/// `texture`'s.
+#[test]
+fn environment_reads_the_lat_long_map() {
+    let dir = std::env::temp_dir().join(format!("shadenet-osl-env-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("env.png");
+    // 8 × 4 texels: red = column · 32, green = row · 64, blue 255.
+    let px: Vec<u8> = (0..4u8)
+        .flat_map(|r| (0..8u8).flat_map(move |c| [c * 32, r * 64, 255]))
+        .collect();
+    image::save_buffer(&path, &px, 8, 4, image::ExtendedColorType::Rgb8).unwrap();
+    let src = format!(
+        r#"shader e(output color c = 0, output color d = 0) {{
+               c = environment({:?}, P, "interp", "closest", "colorspace", "lin_rec709");
+               d = environment({:?}, P * 3, "interp", "closest", "colorspace", "lin_rec709");
+           }}"#,
+        path.to_string_lossy(),
+        path.to_string_lossy()
+    );
+    let p = compile(&src).unwrap();
+    let texel = |c: usize, r: usize| [c as f64 * 32.0 / 255.0, r as f64 * 64.0 / 255.0, 1.0];
+    for (c, r) in [(0, 0), (3, 1), (4, 2), (7, 3), (5, 0), (1, 3)] {
+        let uv = [(c as f64 + 0.5) / 8.0, (r as f64 + 0.5) / 4.0];
+        let (d, _) = shadenet::graph::nodes::env_image::uv_to_direction(uv, (1.0, 0.0));
+        let mut f = plane_fragment();
+        f.p = d.map(|x| x as f32);
+        let o = run_program(&p, &f, &[], u32::MAX);
+        check(&o, "c", &texel(c, r), 1e-6);
+        check(&o, "d", &texel(c, r), 1e-6);
+    }
+    // Straight up is the top row; straight down the bottom one.
+    let mut f = plane_fragment();
+    f.p = [0.0, 1.0, 0.0];
+    let top = run_program(&p, &f, &[], u32::MAX).get("c");
+    assert_eq!(top[1], 0.0, "top row: {top:?}");
+    f.p = [0.0, -1.0, 0.0];
+    let bottom = run_program(&p, &f, &[], u32::MAX).get("c");
+    assert!(
+        (bottom[1] - 192.0 / 255.0).abs() < 1e-6,
+        "bottom row: {bottom:?}"
+    );
+    assert_errors(&[
+        (
+            "shader s(output color c = 0) { c = environment(\"sky.exr\", 1.0); }",
+            "`environment` takes (string file, vector R) before its optional arguments",
+        ),
+        (
+            "shader s(output color c = 0) { c = environment(\"sky.exr\", N, \"blur\", 0.1); }",
+            "option \"blur\" is not built",
+        ),
+    ]);
+}
+
 /// `texture`'s optional arguments become the lookup's sampling, colour space and alpha
 /// (the IR's texture ops say which), strings compare as the constants they are, and an
 /// option not built, a wrap mode that is none, or a lone token are errors naming them.

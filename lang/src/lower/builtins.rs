@@ -120,6 +120,9 @@ impl<'a> Lower<'a> {
         if self.dialect == Dialect::Osl && name == "texture" && vals.len() > 3 {
             return self.osl_texture(b, &vals, args, span);
         }
+        if self.dialect == Dialect::Osl && name == "environment" {
+            return self.osl_environment(b, &vals, args, span);
+        }
         if let Some(def) = self.struct_def(name) {
             if let Some(v) = self.construct_struct(b, def, &vals) {
                 return v;

@@ -54,6 +54,7 @@ pub(crate) const NAMES: &[&str] = &[
     "raytype",
     "isconnected",
     "splineinverse",
+    "environment",
     "concat",
     "strlen",
     "startswith",
@@ -81,10 +82,6 @@ const UNBUILT: &[(&str, &str)] = &[
     (
         "error",
         "printing (printf, warning, error) is not built yet",
-    ),
-    (
-        "environment",
-        "environment lookups are not built for OSL yet",
     ),
     (
         "trace",

@@ -1,4 +1,5 @@
-//! OSL's `texture(file, s, t, "name", value, …)`: the optional token–value arguments after
+//! OSL's `texture(file, s, t, "name", value, …)` and `environment(file, R, "name", value,
+//! …)` (a lat-long map looked up by direction): the optional token–value arguments after
 //! the coordinates, and what each means here. It owns these rules:
 //!
 //! - `"swrap"`, `"twrap"`, `"wrap"` (both): a wrap mode by name — `"periodic"` (and
@@ -84,10 +85,57 @@ impl<'a> Lower<'a> {
             );
             return Self::poison(b, Ty::Color);
         };
-        let Some(o) = self.texture_options(&vals[3..], &args[3..]) else {
+        let Some(o) = self.texture_options(&vals[3..], &args[3..], Sampling::default()) else {
             return Self::poison(b, Ty::Color);
         };
-        // The color and, where asked, the alpha: looked up, or the missing values of `""`.
+        let uv = st_uv(b, s, t);
+        self.texture_lookup(b, file, uv, o)
+    }
+
+    /// OSL's `environment(file, R, "name", value, …)`: the lat-long map's color in direction
+    /// `R` (common space, any length), with `texture`'s options; periodic across the
+    /// longitude and clamped at the poles unless the options say otherwise. The map's
+    /// layout is that of the scene's image environment lights at rotation 0
+    /// (`shadenet_graph::nodes::env_image::direction_to_uv`): `+y` up along the top row,
+    /// the image's centre column looking along `−z`, the longitude `atan2(x, −z)` growing
+    /// with the column. The footprint follows `R`'s derivatives through the arithmetic (the
+    /// chain rule is continuous across the seam).
+    pub(crate) fn osl_environment(
+        &mut self,
+        b: &mut Builder,
+        vals: &[(Val, Span)],
+        args: &'a [Expr],
+        span: Span,
+    ) -> Val {
+        let found = match vals {
+            [(Val::Str(file), _), (Val::V { v: r, ty, .. }, _), ..] if ty.is_triple() => {
+                Some((file.clone(), *r))
+            }
+            _ => None,
+        };
+        let Some((file, r)) = found else {
+            self.error(
+                "`environment` takes (string file, vector R) before its optional arguments",
+                span,
+                "wrong arguments",
+            );
+            return Self::poison(b, Ty::Color);
+        };
+        let sampling = Sampling {
+            wrap: [Wrap::Periodic, Wrap::Clamp],
+            ..Sampling::default()
+        };
+        let Some(o) = self.texture_options(&vals[2..], &args[2..], sampling) else {
+            return Self::poison(b, Ty::Color);
+        };
+        let (s, t) = latlong(b, r);
+        let uv = st_uv(b, s, t);
+        self.texture_lookup(b, file, uv, o)
+    }
+
+    /// A lookup of `file` at `uv` with options `o` (the alpha stored where asked), or the
+    /// missing values of the file `""`.
+    fn texture_lookup(&mut self, b: &mut Builder, file: String, uv: Value, o: Options<'a>) -> Val {
         let (color, alpha) = if file.is_empty() {
             missing_texture(b, &o)
         } else {
@@ -95,7 +143,6 @@ impl<'a> Lower<'a> {
                 path: file,
                 colorspace: o.colorspace,
             };
-            let uv = st_uv(b, s, t);
             let index = b.texture_index(&file);
             let c = b.texture(index, uv, o.sampling, false);
             let a = o.alpha.map(|_| b.texture(index, uv, o.sampling, true));
@@ -117,9 +164,14 @@ impl<'a> Lower<'a> {
     }
 
     /// The optional token–value pairs `vals` (expressions `args`); `None` after an error.
-    fn texture_options(&mut self, vals: &[(Val, Span)], args: &'a [Expr]) -> Option<Options<'a>> {
+    fn texture_options(
+        &mut self,
+        vals: &[(Val, Span)],
+        args: &'a [Expr],
+        sampling: Sampling,
+    ) -> Option<Options<'a>> {
         let mut o = Options {
-            sampling: Sampling::default(),
+            sampling,
             colorspace: ColorSpace::Auto,
             alpha: None,
             missing_color: None,
@@ -223,6 +275,25 @@ impl<'a> Lower<'a> {
         }
         ok.then_some(o)
     }
+}
+
+/// The lat-long map coordinates `(s, t)` of direction `r` (OSL's `t` down from the top
+/// row): `s = 0.5 + atan2(x, −z)/(2π)`, `t = atan2(√(x² + z²), y)/π`.
+fn latlong(b: &mut Builder, r: Value) -> (Value, Value) {
+    use shadenet_graph::ir::{BinOp, UnOp};
+    let r = b.retype(shadenet_graph::Type::Vec3, r);
+    let (x, y, z) = (b.extract(r, 0), b.extract(r, 1), b.extract(r, 2));
+    let xz = b.construct(shadenet_graph::Type::Vec2, &[x, z]);
+    let sin_t = b.unary(UnOp::Length, xz);
+    let theta = b.binary(BinOp::Atan2, sin_t, y);
+    let nz = b.unary(UnOp::Neg, z);
+    let phi = b.binary(BinOp::Atan2, x, nz);
+    let k = b.float(0.5 / std::f64::consts::PI);
+    let half = b.float(0.5);
+    let s = b.mul(phi, k);
+    let s = b.add(half, s);
+    let inv_pi = b.float(1.0 / std::f64::consts::PI);
+    (s, b.mul(theta, inv_pi))
 }
 
 /// A `texture` call's color and, where asked, its alpha, each with whether it varies.
