@@ -1167,7 +1167,7 @@ fn environment_reads_the_lat_long_map() {
         ),
         (
             "shader s(output color c = 0) { c = environment(\"sky.exr\", N, \"blur\", 0.1); }",
-            "option \"blur\" is not built",
+            "`environment` option \"blur\" is not built",
         ),
     ]);
 }

@@ -85,7 +85,8 @@ impl<'a> Lower<'a> {
             );
             return Self::poison(b, Ty::Color);
         };
-        let Some(o) = self.texture_options(&vals[3..], &args[3..], Sampling::default()) else {
+        let Some(o) = self.texture_options("texture", &vals[3..], &args[3..], Sampling::default())
+        else {
             return Self::poison(b, Ty::Color);
         };
         let uv = st_uv(b, s, t);
@@ -125,7 +126,7 @@ impl<'a> Lower<'a> {
             wrap: [Wrap::Periodic, Wrap::Clamp],
             ..Sampling::default()
         };
-        let Some(o) = self.texture_options(&vals[2..], &args[2..], sampling) else {
+        let Some(o) = self.texture_options("environment", &vals[2..], &args[2..], sampling) else {
             return Self::poison(b, Ty::Color);
         };
         let (s, t) = latlong(b, r);
@@ -166,6 +167,7 @@ impl<'a> Lower<'a> {
     /// The optional token–value pairs `vals` (expressions `args`); `None` after an error.
     fn texture_options(
         &mut self,
+        call: &str,
         vals: &[(Val, Span)],
         args: &'a [Expr],
         sampling: Sampling,
@@ -181,7 +183,9 @@ impl<'a> Lower<'a> {
         for (k, pair) in vals.chunks(2).enumerate() {
             let [(Val::Str(token), at), (value, vat)] = pair else {
                 self.error(
-                    "`texture`'s optional arguments are pairs of a token string and a value",
+                    format!(
+                        "`{call}`'s optional arguments are pairs of a token string and a value"
+                    ),
                     pair[0].1,
                     "not a token–value pair",
                 );
@@ -193,7 +197,7 @@ impl<'a> Lower<'a> {
             };
             let bad = |me: &mut Self, what: &str| {
                 me.error(
-                    format!("`texture` option \"{token}\": {what}"),
+                    format!("`{call}` option \"{token}\": {what}"),
                     *vat,
                     "this value",
                 );
@@ -264,7 +268,7 @@ impl<'a> Lower<'a> {
                 _ => {
                     self.error(
                         format!(
-                            "`texture` option \"{token}\" is not built (built: swrap, twrap, wrap, interp, colorspace, alpha, subimage \"\", missingcolor, missingalpha)"
+                            "`{call}` option \"{token}\" is not built (built: swrap, twrap, wrap, interp, colorspace, alpha, subimage \"\", missingcolor, missingalpha)"
                         ),
                         *at,
                         "this option",
