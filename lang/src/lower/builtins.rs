@@ -153,7 +153,8 @@ impl<'a> Lower<'a> {
             Some(v) => v,
             None => {
                 let known = NAMES.contains(&name)
-                    || (self.dialect == Dialect::Osl && osl::NAMES.contains(&name));
+                    || (self.dialect == Dialect::Osl
+                        && (osl::NAMES.contains(&name) || super::strings::NAMES.contains(&name)));
                 if !known {
                     return self.unknown(b, callee, "function");
                 } else {
@@ -263,6 +264,7 @@ impl<'a> Lower<'a> {
             Dialect::Osl => {
                 (NAMES.contains(&name) && !osl::RSL_ONLY.contains(&name))
                     || osl::NAMES.contains(&name)
+                    || super::strings::NAMES.contains(&name)
                     || super::closure::names().any(|n| n == name)
             }
         }

@@ -629,6 +629,7 @@ impl<'a> Lower<'a> {
         v.extend(matrix::NAMES.iter().map(|s| s.to_string()));
         if self.dialect == Dialect::Osl {
             v.extend(osl::NAMES.iter().map(|s| s.to_string()));
+            v.extend(strings::NAMES.iter().map(|s| s.to_string()));
             v.extend(closure::names().map(str::to_string));
         }
         v.sort();

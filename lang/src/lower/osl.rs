@@ -14,7 +14,8 @@ use shadenet_graph::nodes::LowVal;
 use shadenet_graph::{ConstValue, Type};
 use std::collections::HashMap;
 
-/// OSL's builtins beyond those both dialects share (for "did you mean").
+/// OSL's builtins beyond those both dialects share (for "did you mean"); the string
+/// builtins are [`super::strings::NAMES`].
 pub(crate) const NAMES: &[&str] = &[
     "noise",
     "snoise",
@@ -55,15 +56,6 @@ pub(crate) const NAMES: &[&str] = &[
     "isconnected",
     "splineinverse",
     "environment",
-    "concat",
-    "strlen",
-    "startswith",
-    "endswith",
-    "substr",
-    "getchar",
-    "stoi",
-    "stof",
-    "format",
 ];
 
 /// RSL builtins that OSL does not have (or has as closures: `diffuse`, `phong`).
