@@ -1771,6 +1771,75 @@ fn string_builtins_are_osls() {
     ]);
 }
 
+/// stdosl.h's `smooth_linearstep` (its if-chain, transcribed below in f32), `select(a, b,
+/// cond)` (per component for a triple condition), `hypot(x, y, z)`, and OSL's constructors
+/// with a space first: `point("object", …)` is `transform("object", "common", point(…))`,
+/// `color("hsv", …)` is `transformc("hsv", "rgb", color(…))`.
+#[test]
+fn stdosl_helpers_and_constructors_in_a_space() {
+    let src = r#"
+        shader s(output float a = 0, output float a2 = 0, output color c = 0,
+                 output float h = 0, output point p = 0, output point q = 0,
+                 output color hc = 0, output color hq = 0) {
+            float x = u * 1.4 - 0.2;
+            a = smooth_linearstep(0.1, 0.9, x, 0.15);
+            a2 = smooth_linearstep(0.5, 0.5, x, 0.1);
+            c = select(color(1), color(0, 2, 3), color(1, 0, 1)) + select(10, 20, u > 0.5);
+            h = hypot(3, 4, 12);
+            p = point("object", 1, 2, 3);
+            q = transform("object", "common", point(1, 2, 3));
+            hc = color("hsv", 0.3, 0.5, 0.8);
+            hq = transformc("hsv", "rgb", color(0.3, 0.5, 0.8));
+        }"#;
+    let p = compile(src).unwrap();
+    // stdosl.h, operation for operation, in f32.
+    let sls = |e0: f32, e1: f32, x_: f32, eps_: f32| -> f32 {
+        if e0 == e1 {
+            return if x_ < e0 { 0.0 } else { 1.0 };
+        }
+        let rampup = |x: f32, r: f32| 0.5 / r * x * x;
+        let width_inv = 1.0 / (e1 - e0);
+        let eps = eps_ * width_inv;
+        let x = (x_ - e0) * width_inv;
+        if x <= -eps {
+            0.0
+        } else if x >= eps && x <= 1.0 - eps {
+            x
+        } else if x >= 1.0 + eps {
+            1.0
+        } else if x < eps {
+            rampup(x + eps, 2.0 * eps)
+        } else {
+            1.0 - rampup(1.0 + eps - x, 2.0 * eps)
+        }
+    };
+    let mut f = plane_fragment();
+    f.p = [0.3, -0.2, 0.4];
+    for k in 0..=28 {
+        let u = k as f32 / 28.0;
+        f.uv = [u, 0.5];
+        let o = run_program(&p, &f, &[], u32::MAX);
+        let x = u * 1.4 - 0.2;
+        assert_eq!(o.get32("a"), [sls(0.1, 0.9, x, 0.15) as f64], "x = {x}");
+        assert_eq!(o.get32("a2"), [sls(0.5, 0.5, x, 0.1) as f64], "x = {x}");
+        let s = if u > 0.5 { 20.0 } else { 10.0 };
+        check(&o, "c", &[s, 1.0 + s, 3.0 + s], 0.0);
+        check(&o, "h", &[13.0], 0.0);
+        assert_eq!(o.get("p"), o.get("q"), "point(\"object\", …)");
+        assert_eq!(o.get("hc"), o.get("hq"), "color(\"hsv\", …)");
+    }
+    assert_errors(&[
+        (
+            "shader s(output point o = 0) { o = point(\"bogus\", 1, 0, 0); }",
+            "the space \"bogus\" is not available here",
+        ),
+        (
+            "shader s(output color o = 0) { o = color(\"xyz\", 1, 0, 0); }",
+            "the space \"xyz\" is not built yet for a color",
+        ),
+    ]);
+}
+
 /// `noise("simplex", …)` is `osl_simplex::simplex*` (float: seed 0; vector: seeds 0, 1, 2)
 /// and `"usimplex"` its `0.5 (n + 1)`, in 1D to 4D, bit for bit through the front end.
 #[test]

@@ -304,8 +304,8 @@ fn errors_name_the_place_and_the_problem() {
         ),
         ("light l() { Cl = N; }", "unknown name `N`"),
         (
-            "surface s() { Ci = point \"object\" (1, 2, 3); }",
-            "the space \"object\" is not built yet",
+            "surface s() { Ci = color point \"bogus\" (1, 2, 3); }",
+            "the space \"bogus\" is not available here",
         ),
     ] {
         let e = compile(src).unwrap_err();

@@ -959,15 +959,48 @@ impl<'a> Lower<'a> {
         if to == Ty::Matrix {
             return self.matrix_construct(b, space, args, span);
         }
+        // OSL's `point("object", x, y, z)`, `color("hsv", h, s, v)`: the space first.
+        let named: Option<(String, Span)>;
+        let (space, args) = match args {
+            [first, rest @ ..] if rest.len() == 3 && space.is_none() && to.is_triple() => {
+                match &first.kind {
+                    ast::ExprKind::Str(s) => {
+                        named = Some((s.clone(), first.span));
+                        (named.as_ref(), rest)
+                    }
+                    _ => (space, args),
+                }
+            }
+            _ => (space, args),
+        };
+        if let Some((s, at)) = space
+            && to.is_geometric()
+            && !matches!(s.as_str(), "current" | "world" | "common")
+        {
+            // Coordinates in space `s`, transformed to common space as `transform` does.
+            let v = self.triple(b, args, to, span);
+            let vals = [
+                (Val::Str(s.clone()), *at),
+                (Val::Str("common".into()), *at),
+                (v, span),
+            ];
+            return self
+                .transform_call(b, "transform", &vals, span)
+                .unwrap_or_else(|| Self::poison(b, to));
+        }
         let hsv = match space {
             None => false,
             Some((s, _)) if to == Ty::Color && s == "rgb" => false,
             Some((s, _)) if to == Ty::Color && s == "hsv" => true,
-            Some((s, _)) if to.is_geometric() && (s == "current" || s == "world") => false,
+            Some((s, _))
+                if to.is_geometric() && matches!(s.as_str(), "current" | "world" | "common") =>
+            {
+                false
+            }
             Some((s, at)) => {
                 self.error(
                     format!(
-                        "the space \"{s}\" is not built yet for a {} (built: \"rgb\" and \"hsv\" colors; \"current\" and \"world\" points, which are the same space here)",
+                        "the space \"{s}\" is not built yet for a {} (built: \"rgb\" and \"hsv\" for colors; for points, vectors and normals the spaces `transform` knows)",
                         to.name()
                     ),
                     *at,

@@ -633,7 +633,7 @@ impl<'a> Lower<'a> {
     }
 
     /// `transform`, `vtransform`, `ntransform` by a matrix or between named spaces.
-    fn transform_call(
+    pub(crate) fn transform_call(
         &mut self,
         b: &mut Builder,
         name: &str,

@@ -31,6 +31,7 @@ mod osl;
 mod returns;
 mod spectral;
 mod spline;
+mod stdosl;
 mod stmt;
 mod strings;
 mod structs;

@@ -56,6 +56,8 @@ pub(crate) const NAMES: &[&str] = &[
     "isconnected",
     "splineinverse",
     "environment",
+    "smooth_linearstep",
+    "select",
 ];
 
 /// RSL builtins that OSL does not have (or has as closures: `diffuse`, `phong`).
@@ -356,6 +358,9 @@ impl<'a> Lower<'a> {
             return Some(v);
         }
         let vs = super::numbers(b, args)?;
+        if let Some(v) = super::stdosl::builtin(b, name, &vs) {
+            return Some(v);
+        }
         let varying = vs.iter().any(|v| v.2);
         let out = |v: Value, ty: Ty| Some(Val::V { v, ty, varying });
         let num = |t: Ty| t == Ty::Float || t.is_triple();

@@ -1,0 +1,119 @@
+//! OSL builtins that `stdosl.h` defines in OSL itself or the specification adds to C's
+//! math, lowered to IR arithmetic in the header's order of operations: `smooth_linearstep`
+//! (a linear ramp with quadratic corners of half-width `eps`; a step where the edges
+//! coincide), `select(a, b, cond)` (`cond ? b : a`, per component for a triple condition)
+//! and `hypot(x, y, z)`. Owns these builtins' formulas.
+
+use super::{Ty, Val};
+use shadenet_graph::Type;
+use shadenet_graph::ir::{BinOp, Builder, UnOp, Value};
+
+/// The builtin `name` of the numeric arguments `vs` (value, type, varying), if it is one
+/// of this module's and they fit.
+pub(crate) fn builtin(b: &mut Builder, name: &str, vs: &[(Value, Ty, bool)]) -> Option<Val> {
+    let varying = vs.iter().any(|v| v.2);
+    let out = |v: Value, ty: Ty| Some(Val::V { v, ty, varying });
+    match (name, vs) {
+        ("hypot", [(x, Ty::Float, _), (y, Ty::Float, _), (z, Ty::Float, _)]) => {
+            let v = b.construct(Type::Vec3, &[*x, *y, *z]);
+            out(b.unary(UnOp::Length, v), Ty::Float)
+        }
+        ("smooth_linearstep", [(e0, t0, _), (e1, t1, _), (x, tx, _), (eps, te, _)])
+            if [*t1, *tx, *te].iter().all(|t| t == t0) && (*t0 == Ty::Float || t0.is_triple()) =>
+        {
+            let v = if *t0 == Ty::Float {
+                smooth_linearstep(b, [*e0, *e1, *x, *eps])
+            } else {
+                let c: Vec<Value> = (0..3)
+                    .map(|k| {
+                        let a = [*e0, *e1, *x, *eps].map(|v| b.extract(v, k));
+                        smooth_linearstep(b, a)
+                    })
+                    .collect();
+                b.construct(t0.ir(), &c)
+            };
+            out(v, *t0)
+        }
+        ("select", [(a, ta, _), (bb, tb, _), (c, tc, _)]) => {
+            let (a, bb, t) = super::same(b, (*a, *ta), (*bb, *tb))?;
+            if t == Ty::Matrix {
+                return None;
+            }
+            let v = if tc.is_triple() && t.is_triple() {
+                let comps: Vec<Value> = (0..3)
+                    .map(|k| {
+                        let (ak, bk, ck) = (b.extract(a, k), b.extract(bb, k), b.extract(*c, k));
+                        let on = nonzero(b, ck, Ty::Float);
+                        b.select(on, bk, ak)
+                    })
+                    .collect();
+                b.construct(t.ir(), &comps)
+            } else if matches!(tc, Ty::Float | Ty::Int | Ty::Bool) {
+                let on = nonzero(b, *c, *tc);
+                b.select(on, bb, a)
+            } else {
+                return None;
+            };
+            out(v, t)
+        }
+        _ => None,
+    }
+}
+
+/// Whether the scalar `c` of type `t` is non-zero (a bool is itself).
+fn nonzero(b: &mut Builder, c: Value, t: Ty) -> Value {
+    match t {
+        Ty::Bool => c,
+        Ty::Int => {
+            let zero = b.int(0);
+            b.binary(BinOp::Ne, c, zero)
+        }
+        _ => {
+            // `!(c == 0)`: NaN is non-zero, as C's `c != 0`.
+            let zero = b.float(0.0);
+            let eq = b.binary(BinOp::Eq, c, zero);
+            b.unary(UnOp::Not, eq)
+        }
+    }
+}
+
+/// stdosl.h's `smooth_linearstep(edge0, edge1, x, eps)` on floats.
+fn smooth_linearstep(b: &mut Builder, [e0, e1, x_, eps_]: [Value; 4]) -> Value {
+    let (zero, one, half, two) = (b.float(0.0), b.float(1.0), b.float(0.5), b.float(2.0));
+    let w = b.sub(e1, e0);
+    let width_inv = b.div(one, w);
+    let eps = b.mul(eps_, width_inv);
+    let d = b.sub(x_, e0);
+    let x = b.mul(d, width_inv);
+    // rampup(x, r) = 0.5 / r · x · x, with r = 2·eps.
+    let r = b.mul(two, eps);
+    let k = b.div(half, r);
+    let rampup = |b: &mut Builder, x: Value| {
+        let kx = b.mul(k, x);
+        b.mul(kx, x)
+    };
+    let xe = b.add(x, eps);
+    let low = rampup(b, xe);
+    let top = b.add(one, eps);
+    let from_top = b.sub(top, x);
+    let ramp_hi = rampup(b, from_top);
+    let high = b.sub(one, ramp_hi);
+    // The header's if-chain, last case first.
+    let below_eps = b.binary(BinOp::Lt, x, eps);
+    let mut r = b.select(below_eps, low, high);
+    let past = b.binary(BinOp::Ge, x, top);
+    r = b.select(past, one, r);
+    let ge_eps = b.binary(BinOp::Ge, x, eps);
+    let one_minus = b.sub(one, eps);
+    let le_hi = b.binary(BinOp::Le, x, one_minus);
+    let middle = b.binary(BinOp::And, ge_eps, le_hi);
+    r = b.select(middle, x, r);
+    let neg_eps = b.unary(UnOp::Neg, eps);
+    let before = b.binary(BinOp::Le, x, neg_eps);
+    r = b.select(before, zero, r);
+    // Coinciding edges: step(edge0, x).
+    let same = b.binary(BinOp::Eq, e0, e1);
+    let lt = b.binary(BinOp::Lt, x_, e0);
+    let step = b.select(lt, zero, one);
+    b.select(same, step, r)
+}
