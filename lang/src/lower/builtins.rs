@@ -123,6 +123,9 @@ impl<'a> Lower<'a> {
         if self.dialect == Dialect::Osl && name == "environment" {
             return self.osl_environment(b, &vals, args, span);
         }
+        if self.dialect == Dialect::Osl && name == "sincos" {
+            return self.sincos(b, &vals, args, span);
+        }
         if let Some(def) = self.struct_def(name) {
             if let Some(v) = self.construct_struct(b, def, &vals) {
                 return v;
@@ -254,6 +257,41 @@ impl<'a> Lower<'a> {
             }
         }
         best.map(|(_, f)| f)
+    }
+
+    /// OSL's `sincos(x, output s, output c)`: the sine and cosine of a float or, per
+    /// component, a triple, stored in the output arguments (their types as `x`'s).
+    fn sincos(
+        &mut self,
+        b: &mut Builder,
+        vals: &[(Val, Span)],
+        args: &'a [Expr],
+        span: Span,
+    ) -> Val {
+        let x = match vals {
+            [(Val::V { v, ty, varying }, _), _, _] if *ty == Ty::Float || ty.is_triple() => {
+                (*v, *ty, *varying)
+            }
+            _ => {
+                self.error(
+                    "`sincos` takes (float or triple x, output s, output c)",
+                    span,
+                    "wrong arguments",
+                );
+                return Self::poison(b, Ty::Float);
+            }
+        };
+        let (v, ty, varying) = x;
+        for (k, op) in [(1, UnOp::Sin), (2, UnOp::Cos)] {
+            let r = b.unary(op, v);
+            let val = Val::V { v: r, ty, varying };
+            self.store_output_arg(b, &args[k], val, (k + 1, "sincos"));
+        }
+        Val::V {
+            v: b.float(0.0),
+            ty: Ty::Float,
+            varying: false,
+        }
     }
 
     /// Whether `name` is a builtin of the dialect (or an OSL closure).

@@ -28,6 +28,7 @@ mod loops;
 mod matrix;
 mod noise;
 mod osl;
+mod oslmath;
 mod returns;
 mod spectral;
 mod spline;

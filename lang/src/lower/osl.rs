@@ -58,6 +58,14 @@ pub(crate) const NAMES: &[&str] = &[
     "environment",
     "smooth_linearstep",
     "select",
+    "sinh",
+    "cosh",
+    "tanh",
+    "expm1",
+    "cbrt",
+    "erf",
+    "erfc",
+    "sincos",
 ];
 
 /// RSL builtins that OSL does not have (or has as closures: `diffuse`, `phong`).
@@ -359,6 +367,9 @@ impl<'a> Lower<'a> {
         }
         let vs = super::numbers(b, args)?;
         if let Some(v) = super::stdosl::builtin(b, name, &vs) {
+            return Some(v);
+        }
+        if let Some(v) = super::oslmath::builtin(b, name, &vs) {
             return Some(v);
         }
         let varying = vs.iter().any(|v| v.2);
