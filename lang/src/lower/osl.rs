@@ -366,10 +366,8 @@ impl<'a> Lower<'a> {
             return Some(v);
         }
         let vs = super::numbers(b, args)?;
-        if let Some(v) = super::stdosl::builtin(b, name, &vs) {
-            return Some(v);
-        }
-        if let Some(v) = super::oslmath::builtin(b, name, &vs) {
+        let extra = super::stdosl::builtin(b, name, &vs);
+        if let Some(v) = extra.or_else(|| super::oslmath::builtin(b, name, &vs)) {
             return Some(v);
         }
         let varying = vs.iter().any(|v| v.2);

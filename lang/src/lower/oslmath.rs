@@ -36,7 +36,7 @@ pub(crate) fn builtin(b: &mut Builder, name: &str, vs: &[(Value, Ty, bool)]) -> 
         _ => return None,
     };
     let (x, t, _) = vs[0];
-    let v = per_component(b, x, t, |b, x| f(b, x));
+    let v = per_component(b, x, t, f);
     Some(Val::V { v, ty: t, varying })
 }
 
