@@ -112,7 +112,7 @@ pub fn bits_to_01<F: Real>(bits: u32) -> F {
 
 /// OSL `floorfrac`: the lattice cell `floor(x)` (saturating) and the offset in it (see the
 /// module doc for coordinates the source leaves undefined).
-fn floorfrac<F: Real>(x: F) -> (i32, F) {
+pub(super) fn floorfrac<F: Real>(x: F) -> (i32, F) {
     let f = x.floor();
     let frac = x - f;
     let frac = if frac.is_finite() { frac } else { F::ZERO };

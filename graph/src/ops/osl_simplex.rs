@@ -21,7 +21,7 @@
 //! Perlin, cell and hash generators ([`super::osl_noise`]).
 
 use super::Real;
-use super::osl_noise::bjfinal;
+use super::osl_noise::{bjfinal, floorfrac};
 
 /// OSL's `scramble(v0, v1, v2)`: `bjfinal(v0, v1, v2 ^ 0xdeadbeef)`.
 fn scramble(v0: u32, v1: u32, v2: u32) -> u32 {
@@ -170,6 +170,25 @@ fn ifloor<F: Real>(x: F) -> i32 {
     x.floor().to_i32()
 }
 
+/// The skewed grid's cell of `p` and `p`'s offset from the cell's origin in unskewed
+/// space: `s = (Σp)·F`, `c = ifloor(p + s)`, `x0 = p − (c − (Σc)·G)`, in the source's order.
+fn skew<F: Real, const D: usize>(p: [F; D], f: f64, g: F) -> ([i32; D], [F; D]) {
+    let mut sum = p[0];
+    for x in &p[1..] {
+        sum = sum + *x;
+    }
+    let s = sum * F::from_f64(f);
+    let c: [i32; D] = std::array::from_fn(|d| ifloor(p[d] + s));
+    let csum = c[1..].iter().fold(c[0], |a, x| a.wrapping_add(*x));
+    let t = F::from_i32(csum) * g;
+    (c, std::array::from_fn(|d| p[d] - (F::from_i32(c[d]) - t)))
+}
+
+/// A corner's offset: `x0 − o + kG` (`kg` the source's `k·G` for the corner's `k`).
+fn offset<F: Real, const D: usize>(x0: [F; D], o: [i32; D], kg: F) -> [F; D] {
+    std::array::from_fn(|d| x0[d] - F::from_i32(o[d]) + kg)
+}
+
 /// One corner's contribution in 2D–4D: `t⁴ (g · x)` with `t = 0.5 − |x|²` (subtracted
 /// coordinate by coordinate), 0 outside the corner's radius (`t < 0`, or NaN).
 fn corner<F: Real, const D: usize>(x: [F; D], grad: impl FnOnce() -> [F; D]) -> F {
@@ -193,10 +212,8 @@ fn corner<F: Real, const D: usize>(x: [F; D], grad: impl FnOnce() -> [F; D]) -> 
 
 /// OSL `simplexnoise1(x, seed)`: two corners, scaled by 0.36.
 pub fn simplex1<F: Real>(x: F, seed: u32) -> F {
-    let i0 = ifloor(x);
+    let (i0, x0) = floorfrac(x);
     let i1 = i0.wrapping_add(1);
-    let f = x - x.floor();
-    let x0 = if f.is_finite() { f } else { F::ZERO };
     let x1 = x0 - F::ONE;
     let one = |x: F, i: i32| {
         let t = F::ONE - x * x;
@@ -211,23 +228,18 @@ pub fn simplex1<F: Real>(x: F, seed: u32) -> F {
 /// OSL `simplexnoise2(x, y, seed)`: three corners of the skewed triangle grid, scaled by
 /// 64.
 pub fn simplex2<F: Real>(p: [F; 2], seed: u32) -> F {
-    let f2 = F::from_f64(0.366025403);
     let g2 = F::from_f64(0.211324865);
-    let s = (p[0] + p[1]) * f2;
-    let (i, j) = (ifloor(p[0] + s), ifloor(p[1] + s));
-    let t = F::from_i32(i.wrapping_add(j)) * g2;
-    let x0 = p[0] - (F::from_i32(i) - t);
-    let y0 = p[1] - (F::from_i32(j) - t);
-    let (i1, j1) = if x0 > y0 { (1, 0) } else { (0, 1) };
-    let x1 = x0 - F::from_i32(i1) + g2;
-    let y1 = y0 - F::from_i32(j1) + g2;
-    let two_g2 = F::from_f64(2.0) * g2;
-    let x2 = x0 - F::ONE + two_g2;
-    let y2 = y0 - F::ONE + two_g2;
-    let grad = |a: i32, b: i32| move || g(GRAD2[(scramble(a as u32, b as u32, seed) & 7) as usize]);
-    let n0 = corner([x0, y0], grad(i, j));
-    let n1 = corner([x1, y1], grad(i.wrapping_add(i1), j.wrapping_add(j1)));
-    let n2 = corner([x2, y2], grad(i.wrapping_add(1), j.wrapping_add(1)));
+    let (c, x0) = skew(p, 0.366025403, g2);
+    let o1 = if x0[0] > x0[1] { [1, 0] } else { [0, 1] };
+    let grad = |o: [i32; 2]| {
+        move || {
+            let [i, j] = std::array::from_fn(|d| c[d].wrapping_add(o[d]) as u32);
+            g(GRAD2[(scramble(i, j, seed) & 7) as usize])
+        }
+    };
+    let n0 = corner(x0, grad([0; 2]));
+    let n1 = corner(offset(x0, o1, g2), grad(o1));
+    let n2 = corner(offset(x0, [1; 2], F::from_f64(2.0) * g2), grad([1; 2]));
     F::from_f64(64.0) * (n0 + n1 + n2)
 }
 
@@ -254,18 +266,10 @@ fn order3<F: Real>(x0: F, y0: F, z0: F) -> ([i32; 3], [i32; 3]) {
 /// OSL `simplexnoise3(x, y, z, seed)`: four corners of the skewed tetrahedral grid, scaled
 /// by 68.
 pub fn simplex3<F: Real>(p: [F; 3], seed: u32) -> F {
-    let f3 = F::from_f64(0.333333333);
     let g3 = F::from_f64(0.166666667);
-    let s = (p[0] + p[1] + p[2]) * f3;
-    let c = [ifloor(p[0] + s), ifloor(p[1] + s), ifloor(p[2] + s)];
-    let t = F::from_i32(c[0].wrapping_add(c[1]).wrapping_add(c[2])) * g3;
-    let x0: [F; 3] = std::array::from_fn(|d| p[d] - (F::from_i32(c[d]) - t));
+    let (c, x0) = skew(p, 0.333333333, g3);
     let (o1, o2) = order3(x0[0], x0[1], x0[2]);
-    let two_g3 = F::from_f64(2.0) * g3;
-    let three_g3 = F::from_f64(3.0) * g3;
-    let x1: [F; 3] = std::array::from_fn(|d| x0[d] - F::from_i32(o1[d]) + g3);
-    let x2: [F; 3] = std::array::from_fn(|d| x0[d] - F::from_i32(o2[d]) + two_g3);
-    let x3: [F; 3] = std::array::from_fn(|d| x0[d] - F::ONE + three_g3);
+    let kg = |k: f64| F::from_f64(k) * g3;
     let grad = |o: [i32; 3]| {
         move || {
             let [i, j, k] = std::array::from_fn(|d| c[d].wrapping_add(o[d]) as u32);
@@ -273,9 +277,9 @@ pub fn simplex3<F: Real>(p: [F; 3], seed: u32) -> F {
         }
     };
     let n0 = corner(x0, grad([0; 3]));
-    let n1 = corner(x1, grad(o1));
-    let n2 = corner(x2, grad(o2));
-    let n3 = corner(x3, grad([1; 3]));
+    let n1 = corner(offset(x0, o1, g3), grad(o1));
+    let n2 = corner(offset(x0, o2, kg(2.0)), grad(o2));
+    let n3 = corner(offset(x0, [1; 3], kg(3.0)), grad([1; 3]));
     F::from_f64(68.0) * (n0 + n1 + n2 + n3)
 }
 
@@ -292,27 +296,13 @@ fn order4<F: Real>(x: [F; 4]) -> usize {
 
 /// OSL `simplexnoise4(x, y, z, w, seed)`: five corners of the skewed 4D grid, scaled by 54.
 pub fn simplex4<F: Real>(p: [F; 3], w: F, seed: u32) -> F {
-    let p = [p[0], p[1], p[2], w];
-    let f4 = F::from_f64(0.309016994);
     let g4 = F::from_f64(0.138196601);
-    let s = (p[0] + p[1] + p[2] + p[3]) * f4;
-    let c: [i32; 4] = std::array::from_fn(|d| ifloor(p[d] + s));
-    let sum = c[0]
-        .wrapping_add(c[1])
-        .wrapping_add(c[2])
-        .wrapping_add(c[3]);
-    let t = F::from_i32(sum) * g4;
-    let x0: [F; 4] = std::array::from_fn(|d| p[d] - (F::from_i32(c[d]) - t));
+    let (c, x0) = skew([p[0], p[1], p[2], w], 0.309016994, g4);
     let rank = SIMPLEX4[order4(x0)];
     // Corner k (1..=3) steps along the coordinates whose rank is at least 4 − k.
     let step = |k: u8| rank.map(|r| i32::from(r >= 4 - k));
     let (o1, o2, o3) = (step(1), step(2), step(3));
-    let gk = |k: f64| F::from_f64(k) * g4;
-    let (g2, g3, g4x4) = (gk(2.0), gk(3.0), gk(4.0));
-    let x1: [F; 4] = std::array::from_fn(|d| x0[d] - F::from_i32(o1[d]) + g4);
-    let x2: [F; 4] = std::array::from_fn(|d| x0[d] - F::from_i32(o2[d]) + g2);
-    let x3: [F; 4] = std::array::from_fn(|d| x0[d] - F::from_i32(o3[d]) + g3);
-    let x4: [F; 4] = std::array::from_fn(|d| x0[d] - F::ONE + g4x4);
+    let kg = |k: f64| F::from_f64(k) * g4;
     let grad = |o: [i32; 4]| {
         move || {
             let [i, j, k, l] = std::array::from_fn(|d| c[d].wrapping_add(o[d]) as u32);
@@ -320,10 +310,10 @@ pub fn simplex4<F: Real>(p: [F; 3], w: F, seed: u32) -> F {
         }
     };
     let n0 = corner(x0, grad([0; 4]));
-    let n1 = corner(x1, grad(o1));
-    let n2 = corner(x2, grad(o2));
-    let n3 = corner(x3, grad(o3));
-    let n4 = corner(x4, grad([1; 4]));
+    let n1 = corner(offset(x0, o1, g4), grad(o1));
+    let n2 = corner(offset(x0, o2, kg(2.0)), grad(o2));
+    let n3 = corner(offset(x0, o3, kg(3.0)), grad(o3));
+    let n4 = corner(offset(x0, [1; 4], kg(4.0)), grad([1; 4]));
     F::from_f64(54.0) * (n0 + n1 + n2 + n3 + n4)
 }
 
