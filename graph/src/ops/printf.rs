@@ -313,6 +313,7 @@ mod tests {
 
     /// What C's printf prints for these conversions (checked against glibc).
     #[test]
+    #[allow(clippy::approx_constant)] // 3.14159 is a value to format, not π.
     fn conversions_are_cs() {
         use Arg::*;
         assert_eq!(

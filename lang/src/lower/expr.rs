@@ -126,8 +126,7 @@ impl<'a> Lower<'a> {
         if self.dialect != crate::Dialect::Osl || !matches!(t, Ty::Int | Ty::Float) {
             return (v, t, vy);
         }
-        let zero = if t == Ty::Int { b.int(0) } else { b.float(0.0) };
-        (b.binary(BinOp::Ne, v, zero), Ty::Bool, vy)
+        (super::nonzero(b, v, t), Ty::Bool, vy)
     }
 
     /// A condition expression ([`Lower::truth`] of its value).
@@ -1051,7 +1050,7 @@ fn rem(b: &mut Builder, a: Value, c: Value, ty: Ty) -> Value {
         let c0 = b.binary(BinOp::Eq, c, zero);
         return b.select(c0, zero, r);
     }
-    super::osl::componentwise2(b, a, c, ty, super::osl::fmod)
+    super::components::componentwise2(b, a, c, ty, super::osl::fmod)
 }
 
 impl<'a> Lower<'a> {

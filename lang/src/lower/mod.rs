@@ -20,6 +20,7 @@ mod arrays;
 mod attributes;
 mod builtins;
 mod closure;
+mod components;
 mod derivs;
 mod expr;
 mod group;
@@ -44,7 +45,7 @@ use crate::diag::{Diagnostic, Diagnostics};
 use crate::source::Span;
 use crate::{Dialect, Parsed};
 use shadenet_graph::closure::Closure;
-use shadenet_graph::ir::{Builder, Program, Stream, Value};
+use shadenet_graph::ir::{BinOp, Builder, Program, Stream, Value};
 use shadenet_graph::{ConstValue, Type};
 use std::collections::HashMap;
 
@@ -194,6 +195,17 @@ pub(crate) fn same(
         (a, c) if a.is_geometric() && c.is_geometric() => Some((x, y, a)),
         _ => None,
     }
+}
+
+/// Whether the scalar `v` of type `t` (int or float; a bool is itself) is not 0: OSL's
+/// truth of a number.
+pub(crate) fn nonzero(b: &mut Builder, v: Value, t: Ty) -> Value {
+    let zero = match t {
+        Ty::Bool => return v,
+        Ty::Int => b.int(0),
+        _ => b.float(0.0),
+    };
+    b.binary(BinOp::Ne, v, zero)
 }
 
 /// `name` with its indefinite article ("a float", "an int").

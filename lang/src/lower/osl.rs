@@ -6,6 +6,7 @@
 //! code ported, reached through the IR's intrinsics), the closures [`super::closure`]'s. It
 //! owns OSL's language rules.
 
+use super::components::{componentwise, componentwise2};
 use super::{Lower, Ty, Val};
 use crate::ast::{self, ShaderKind};
 use crate::source::Span;
@@ -717,45 +718,6 @@ impl<'a> Lower<'a> {
 
 /// Rec. 709 luminance weights (OSL's default color space).
 const LUMA_REC709: [f64; 3] = [0.2126, 0.7152, 0.0722];
-
-/// `f` on each component of `x` (a float or a triple of type `t`).
-fn componentwise(
-    b: &mut Builder,
-    x: Value,
-    t: Ty,
-    f: impl Fn(&mut Builder, Value) -> Value,
-) -> Value {
-    if t == Ty::Float {
-        return f(b, x);
-    }
-    let c: Vec<Value> = (0..3)
-        .map(|k| {
-            let xk = b.extract(x, k);
-            f(b, xk)
-        })
-        .collect();
-    b.construct(t.ir(), &c)
-}
-
-/// `f` on each pair of components of `x` and `y` (both of type `t`).
-pub(crate) fn componentwise2(
-    b: &mut Builder,
-    x: Value,
-    y: Value,
-    t: Ty,
-    f: impl Fn(&mut Builder, Value, Value) -> Value,
-) -> Value {
-    if t == Ty::Float {
-        return f(b, x, y);
-    }
-    let c: Vec<Value> = (0..3)
-        .map(|k| {
-            let (xk, yk) = (b.extract(x, k), b.extract(y, k));
-            f(b, xk, yk)
-        })
-        .collect();
-    b.construct(t.ir(), &c)
-}
 
 /// `trunc(x)`: toward zero.
 pub(crate) fn trunc(b: &mut Builder, x: Value) -> Value {

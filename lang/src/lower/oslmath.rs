@@ -5,6 +5,7 @@
 //! (Numerical Recipes' Chebyshev fit, relative error below 1.2·10⁻⁷, for x ≥ ½; else
 //! `1 − erf`). Owns these formulas; `sincos` (output arguments) is the caller's.
 
+use super::components::componentwise;
 use super::{Ty, Val};
 use shadenet_graph::ir::{BinOp, Builder, UnOp, Value};
 
@@ -16,7 +17,7 @@ pub(crate) fn builtin(b: &mut Builder, name: &str, vs: &[(Value, Ty, bool)]) -> 
     let f: fn(&mut Builder, Value) -> Value = match (name, vs) {
         ("log", [(x, tx, _), (base, Ty::Float, _)]) if num(*tx) => {
             let lb = b.unary(UnOp::Log, *base);
-            let v = per_component(b, *x, *tx, |b, x| {
+            let v = componentwise(b, *x, *tx, |b, x| {
                 let lx = b.unary(UnOp::Log, x);
                 b.div(lx, lb)
             });
@@ -36,27 +37,8 @@ pub(crate) fn builtin(b: &mut Builder, name: &str, vs: &[(Value, Ty, bool)]) -> 
         _ => return None,
     };
     let (x, t, _) = vs[0];
-    let v = per_component(b, x, t, f);
+    let v = componentwise(b, x, t, f);
     Some(Val::V { v, ty: t, varying })
-}
-
-/// `f` on `x` (a float) or each component of the triple `x` of type `t`.
-fn per_component(
-    b: &mut Builder,
-    x: Value,
-    t: Ty,
-    f: impl Fn(&mut Builder, Value) -> Value,
-) -> Value {
-    if t == Ty::Float {
-        return f(b, x);
-    }
-    let c: Vec<Value> = (0..3)
-        .map(|k| {
-            let xk = b.extract(x, k);
-            f(b, xk)
-        })
-        .collect();
-    b.construct(t.ir(), &c)
 }
 
 /// `(eˣ, e⁻ˣ)`.
@@ -141,10 +123,7 @@ fn cbrt(b: &mut Builder, x: Value) -> Value {
     let ax = b.unary(UnOp::Abs, x);
     let third = b.float(1.0 / 3.0);
     let r = b.binary(BinOp::Pow, ax, third);
-    let zero = b.float(0.0);
-    let neg = b.binary(BinOp::Lt, x, zero);
-    let nr = b.unary(UnOp::Neg, r);
-    b.select(neg, nr, r)
+    signed(b, x, r)
 }
 
 /// `a` where `|x| < limit`, else `v`.
@@ -181,10 +160,7 @@ fn erf(b: &mut Builder, x: Value) -> Value {
     let tail = erfc_fit(b, ax);
     let one = b.float(1.0);
     let pos = b.sub(one, tail);
-    let zero = b.float(0.0);
-    let neg = b.binary(BinOp::Lt, x, zero);
-    let npos = b.unary(UnOp::Neg, pos);
-    let far = b.select(neg, npos, pos);
+    let far = signed(b, x, pos);
     small(b, x, 0.5, series, far)
 }
 

@@ -4,7 +4,8 @@
 //! coincide), `select(a, b, cond)` (`cond ? b : a`, per component for a triple condition)
 //! and `hypot(x, y, z)`. Owns these builtins' formulas.
 
-use super::{Ty, Val};
+use super::components::componentwise_n;
+use super::{Ty, Val, nonzero};
 use shadenet_graph::Type;
 use shadenet_graph::ir::{BinOp, Builder, UnOp, Value};
 
@@ -21,17 +22,9 @@ pub(crate) fn builtin(b: &mut Builder, name: &str, vs: &[(Value, Ty, bool)]) -> 
         ("smooth_linearstep", [(e0, t0, _), (e1, t1, _), (x, tx, _), (eps, te, _)])
             if [*t1, *tx, *te].iter().all(|t| t == t0) && (*t0 == Ty::Float || t0.is_triple()) =>
         {
-            let v = if *t0 == Ty::Float {
-                smooth_linearstep(b, [*e0, *e1, *x, *eps])
-            } else {
-                let c: Vec<Value> = (0..3)
-                    .map(|k| {
-                        let a = [*e0, *e1, *x, *eps].map(|v| b.extract(v, k));
-                        smooth_linearstep(b, a)
-                    })
-                    .collect();
-                b.construct(t0.ir(), &c)
-            };
+            let v = componentwise_n(b, &[*e0, *e1, *x, *eps], *t0, |b, a| {
+                smooth_linearstep(b, [a[0], a[1], a[2], a[3]])
+            });
             out(v, *t0)
         }
         ("select", [(a, ta, _), (bb, tb, _), (c, tc, _)]) => {
@@ -40,14 +33,10 @@ pub(crate) fn builtin(b: &mut Builder, name: &str, vs: &[(Value, Ty, bool)]) -> 
                 return None;
             }
             let v = if tc.is_triple() && t.is_triple() {
-                let comps: Vec<Value> = (0..3)
-                    .map(|k| {
-                        let (ak, bk, ck) = (b.extract(a, k), b.extract(bb, k), b.extract(*c, k));
-                        let on = nonzero(b, ck, Ty::Float);
-                        b.select(on, bk, ak)
-                    })
-                    .collect();
-                b.construct(t.ir(), &comps)
+                componentwise_n(b, &[a, bb, *c], t, |b, v| {
+                    let on = nonzero(b, v[2], Ty::Float);
+                    b.select(on, v[1], v[0])
+                })
             } else if matches!(tc, Ty::Float | Ty::Int | Ty::Bool) {
                 let on = nonzero(b, *c, *tc);
                 b.select(on, bb, a)
@@ -57,23 +46,6 @@ pub(crate) fn builtin(b: &mut Builder, name: &str, vs: &[(Value, Ty, bool)]) -> 
             out(v, t)
         }
         _ => None,
-    }
-}
-
-/// Whether the scalar `c` of type `t` is non-zero (a bool is itself).
-fn nonzero(b: &mut Builder, c: Value, t: Ty) -> Value {
-    match t {
-        Ty::Bool => c,
-        Ty::Int => {
-            let zero = b.int(0);
-            b.binary(BinOp::Ne, c, zero)
-        }
-        _ => {
-            // `!(c == 0)`: NaN is non-zero, as C's `c != 0`.
-            let zero = b.float(0.0);
-            let eq = b.binary(BinOp::Eq, c, zero);
-            b.unary(UnOp::Not, eq)
-        }
     }
 }
 

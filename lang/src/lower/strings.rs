@@ -27,12 +27,6 @@ pub(crate) const NAMES: &[&str] = &[
     "format",
 ];
 
-/// A compile-time argument: a string or a number's constant.
-enum Known {
-    Str(String),
-    Const(ConstValue),
-}
-
 impl<'a> Lower<'a> {
     /// OSL's string builtin `name` on `args`, or `None` when `name` is not one.
     pub(crate) fn string_builtin(
@@ -48,9 +42,9 @@ impl<'a> Lower<'a> {
         let mut known = Vec::with_capacity(args.len());
         for (k, (v, at)) in args.iter().enumerate() {
             let c = match v {
-                Val::Str(s) => Known::Str(s.clone()),
+                Val::Str(s) => ConstValue::String(s.clone()),
                 Val::V { v, .. } => match shadenet_graph::opt::fold::constant(b.program(), *v) {
-                    Some(c) => Known::Const(c),
+                    Some(c) => c,
                     None => {
                         self.error(
                             format!(
@@ -72,17 +66,19 @@ impl<'a> Lower<'a> {
             known.push(c);
         }
         match evaluate(name, &known) {
-            Ok(Out::Str(s)) => Some(Val::Str(s)),
-            Ok(Out::Int(i)) => Some(Val::V {
-                v: b.int(i),
-                ty: Ty::Int,
-                varying: false,
-            }),
-            Ok(Out::Float(x)) => Some(Val::V {
-                v: b.float(x),
-                ty: Ty::Float,
-                varying: false,
-            }),
+            Ok(ConstValue::String(s)) => Some(Val::Str(s)),
+            Ok(c) => {
+                let ty = if matches!(c, ConstValue::Int(_)) {
+                    Ty::Int
+                } else {
+                    Ty::Float
+                };
+                Some(Val::V {
+                    v: b.constant(c),
+                    ty,
+                    varying: false,
+                })
+            }
             Err(why) => {
                 self.error(format!("`{name}`: {why}"), span, "here");
                 Some(Self::poison(b, Ty::Float))
@@ -91,21 +87,15 @@ impl<'a> Lower<'a> {
     }
 }
 
-/// A string builtin's result.
-enum Out {
-    Str(String),
-    Int(i32),
-    Float(f64),
-}
-
-/// `name` on compile-time arguments, or why it does not apply.
-fn evaluate(name: &str, args: &[Known]) -> Result<Out, String> {
+/// `name` on compile-time arguments: a string, an int or a float, or why it does not
+/// apply.
+fn evaluate(name: &str, args: &[ConstValue]) -> Result<ConstValue, String> {
     let s = |k: usize| match args.get(k) {
-        Some(Known::Str(s)) => Ok(s.as_str()),
+        Some(ConstValue::String(s)) => Ok(s.as_str()),
         _ => Err(format!("argument {} must be a string", k + 1)),
     };
     let int = |k: usize| match args.get(k) {
-        Some(Known::Const(ConstValue::Int(i))) => Ok(*i),
+        Some(ConstValue::Int(i)) => Ok(*i),
         _ => Err(format!("argument {} must be an int", k + 1)),
     };
     let arity = |n: &[usize]| {
@@ -126,11 +116,11 @@ fn evaluate(name: &str, args: &[Known]) -> Result<Out, String> {
             for k in 0..args.len() {
                 out.push_str(s(k)?);
             }
-            Out::Str(out)
+            ConstValue::String(out)
         }
         "strlen" => {
             arity(&[1])?;
-            Out::Int(s(0)?.len().min(i32::MAX as usize) as i32)
+            ConstValue::Int(s(0)?.len().min(i32::MAX as usize) as i32)
         }
         "startswith" | "endswith" => {
             arity(&[2])?;
@@ -140,34 +130,34 @@ fn evaluate(name: &str, args: &[Known]) -> Result<Out, String> {
             } else {
                 x.ends_with(affix)
             };
-            Out::Int(i32::from(hit))
+            ConstValue::Int(i32::from(hit))
         }
         "substr" => {
             arity(&[2, 3])?;
             let x = s(0)?.as_bytes();
             let len = x.len() as i64;
             let length = if args.len() == 3 { int(2)? as i64 } else { len };
-            Out::Str(substr(x, int(1)? as i64, length))
+            ConstValue::String(substr(x, int(1)? as i64, length))
         }
         "getchar" => {
             arity(&[2])?;
             let (x, n) = (s(0)?.as_bytes(), int(1)?);
             // C's `char` is signed on the machines OSL runs on.
             let c = usize::try_from(n).ok().and_then(|n| x.get(n));
-            Out::Int(c.map_or(0, |c| i32::from(*c as i8)))
+            ConstValue::Int(c.map_or(0, |c| i32::from(*c as i8)))
         }
         "stoi" => {
             arity(&[1])?;
-            Out::Int(stoi(s(0)?))
+            ConstValue::Int(stoi(s(0)?))
         }
         "stof" => {
             arity(&[1])?;
-            Out::Float(f64::from(stof(s(0)?) as f32))
+            ConstValue::Float(f64::from(stof(s(0)?) as f32))
         }
         _ => {
             let fmt = s(0)?;
             let rest: Vec<Arg> = args[1..].iter().map(format_arg).collect();
-            Out::Str(printf::format(fmt, &rest)?)
+            ConstValue::String(printf::format(fmt, &rest)?)
         }
     })
 }
@@ -256,25 +246,13 @@ fn stof(s: &str) -> f64 {
 }
 
 /// A constant as `format` takes it: floats as the f32 the shader holds.
-fn format_arg(k: &Known) -> Arg {
-    let f = |x: f64| f64::from(x as f32);
-    match k {
-        Known::Str(s) => Arg::Str(s.clone()),
-        Known::Const(c) => match c {
-            ConstValue::Bool(b) => Arg::Int(i64::from(*b)),
-            ConstValue::Int(i) => Arg::Int(i64::from(*i)),
-            ConstValue::Float(x) => Arg::Float(f(*x)),
-            ConstValue::String(s) => Arg::Str(s.clone()),
-            ConstValue::Vec2(v) => Arg::Floats(v.iter().map(|x| f(*x)).collect()),
-            ConstValue::Vec3(v) | ConstValue::Color(v) => {
-                Arg::Floats(v.iter().map(|x| f(*x)).collect())
-            }
-            ConstValue::Vec4(v) | ConstValue::Color4(v) => {
-                Arg::Floats(v.iter().map(|x| f(*x)).collect())
-            }
-            ConstValue::Matrix33(m) => Arg::Floats(m.iter().map(|x| f(*x)).collect()),
-            ConstValue::Matrix44(m) => Arg::Floats(m.iter().map(|x| f(*x)).collect()),
-        },
+fn format_arg(c: &ConstValue) -> Arg {
+    match c {
+        ConstValue::Bool(b) => Arg::Int(i64::from(*b)),
+        ConstValue::Int(i) => Arg::Int(i64::from(*i)),
+        ConstValue::String(s) => Arg::Str(s.clone()),
+        ConstValue::Float(x) => Arg::Float(f64::from(*x as f32)),
+        c => Arg::Floats(c.floats().iter().map(|x| f64::from(*x as f32)).collect()),
     }
 }
 

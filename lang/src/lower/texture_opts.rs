@@ -48,6 +48,8 @@ fn filter(name: &str) -> Option<Filter> {
 
 /// What the optional arguments of one call ask for.
 struct Options<'a> {
+    /// The builtin the options belong to (`texture`, `environment`), for errors.
+    call: &'static str,
     sampling: Sampling,
     colorspace: ColorSpace,
     /// The expression receiving the alpha, if any, and its argument number (from 1).
@@ -155,7 +157,7 @@ impl<'a> Lower<'a> {
                 ty: Ty::Float,
                 varying,
             };
-            self.store_output_arg(b, target, a, (n, "texture"));
+            self.store_output_arg(b, target, a, (n, o.call));
         }
         Val::V {
             v: color.0,
@@ -167,12 +169,13 @@ impl<'a> Lower<'a> {
     /// The optional token–value pairs `vals` (expressions `args`); `None` after an error.
     fn texture_options(
         &mut self,
-        call: &str,
+        call: &'static str,
         vals: &[(Val, Span)],
         args: &'a [Expr],
         sampling: Sampling,
     ) -> Option<Options<'a>> {
         let mut o = Options {
+            call,
             sampling,
             colorspace: ColorSpace::Auto,
             alpha: None,

@@ -38,35 +38,37 @@ pub(super) fn inverse(b: &mut Builder, basis: &'static Basis, y: Value, ks: &[Va
     let one = b.float(1.0);
     let count = b.float(nsegs as f64);
     let nseginv = b.div(one, count);
+    let spline = |b: &mut Builder, x: Value| evaluate(b, basis, x, ks, Ty::Float);
+    // Each segment's end is the next one's start: its value is evaluated once.
     let mut r0 = b.float(0.0);
+    let mut v0 = spline(b, r0);
     let mut x = b.float(0.0);
     let mut found = b.boolean(false);
     for s in 0..nsegs {
         let next = b.float((s + 1) as f64);
         let r1 = b.mul(nseginv, next);
-        let spline = |b: &mut Builder, x: Value| evaluate(b, basis, x, ks, Ty::Float);
-        let (sx, bracketed) = invert(b, &spline, y, [r0, r1], found);
+        let v1 = spline(b, r1);
+        let (sx, bracketed) = invert(b, &spline, y, [(r0, v0), (r1, v1)], found);
         x = b.select(found, x, sx);
         found = b.binary(BinOp::Or, found, bracketed);
-        r0 = r1;
+        (r0, v0) = (r1, v1);
     }
     let zero = b.float(0.0);
     let x = b.select(at1, one, x);
     b.select(at0, zero, x)
 }
 
-/// `OIIO::invert(S, y, xmin, xmax, 32, 1e-6, &brack)`: the x and whether `[xmin, xmax]`
-/// brackets `y`; the loop runs only where it does and `skip` is false.
+/// `OIIO::invert(S, y, xmin, xmax, 32, 1e-6, &brack)` given `S(xmin) = v0` and `S(xmax) =
+/// v1`: the x and whether `[xmin, xmax]` brackets `y`; the loop runs only where it does
+/// and `skip` is false.
 fn invert(
     b: &mut Builder,
     spline: &dyn Fn(&mut Builder, Value) -> Value,
     y: Value,
-    [xmin, xmax]: [Value; 2],
+    [(xmin, v0), (xmax, v1)]: [(Value, Value); 2],
     skip: Value,
 ) -> (Value, Value) {
     let eps = b.float(1.0e-6);
-    let v0 = spline(b, xmin);
-    let v1 = spline(b, xmax);
     let increasing = b.binary(BinOp::Lt, v0, v1);
     let vmin = b.select(increasing, v0, v1);
     let vmax = b.select(increasing, v1, v0);
