@@ -14,6 +14,7 @@
 use rayon::prelude::*;
 use shadenet_graph::ir::{Program, RAY_CAMERA};
 use shadenet_graph::ops::Real;
+use shadenet_runtime::messages::{self, Messages};
 use shadenet_runtime::{
     BatchResult, Fragment, Fragments, Interpreter, LANES, Material, ShadeCtx, ShadeEnv, ShadeOut,
     Transform, packed_index, packed_len,
@@ -98,6 +99,19 @@ pub struct Grid {
     pub values: GridValues,
     /// Non-finite values replaced by the output guard.
     pub nonfinite: u64,
+    /// What the shader printed (`printf`, `warning`, `error`), in pixel order.
+    pub messages: Messages,
+}
+
+/// Sums the rows' (or runs') non-finite counts and joins their messages in order.
+fn join(parts: Vec<(u64, Messages)>) -> (u64, Messages) {
+    let mut all = Messages::default();
+    let mut bad = 0;
+    for (b, m) in parts {
+        bad += b;
+        all.append(m);
+    }
+    (bad, all)
 }
 
 impl Grid {
@@ -161,7 +175,7 @@ pub fn shade_grid<F: Real>(
     let interp = Interpreter::<F>::new(program)?;
     let stride: usize = interp.slots().iter().map(|s| s.ty.width().max(1)).sum();
     let mut values = vec![0.0f64; (w * h) as usize * stride];
-    let nonfinite = values
+    let rows: Vec<(u64, Messages)> = values
         .par_chunks_mut((w as usize * stride).max(1))
         .enumerate()
         .map(|(y, row)| {
@@ -177,15 +191,17 @@ pub fn shade_grid<F: Real>(
                     *d = s.to_f64();
                 }
             }
-            bad
+            (bad, messages::take())
         })
-        .sum();
+        .collect();
+    let (nonfinite, messages) = join(rows);
     Ok(Grid {
         width: w,
         height: h,
         stride,
         values: GridValues::Pixels(values),
         nonfinite,
+        messages,
     })
 }
 
@@ -241,7 +257,7 @@ pub fn shade_grid_with(
     batch: bool,
 ) -> Grid {
     let mut data = Vec::new();
-    let nonfinite = shade_grid_into(material, env, (w, h), mask, batch, &mut data);
+    let (nonfinite, messages) = shade_grid_into(material, env, (w, h), mask, batch, &mut data);
     Grid {
         width: w,
         height: h,
@@ -251,12 +267,14 @@ pub fn shade_grid_with(
             segment: w as usize,
         },
         nonfinite,
+        messages,
     }
 }
 
 /// [`shade_grid_with`] into a buffer the caller keeps from frame to frame (resized to the
 /// grid's packed size; no allocation once it is large enough, as a renderer's frame buffer
-/// or OSL's testshade output after its first frame). Returns the non-finite count.
+/// or OSL's testshade output after its first frame). Returns the non-finite count and what
+/// the shader printed, in pixel order.
 pub fn shade_grid_into(
     material: &dyn Material,
     env: &ShadeEnv,
@@ -264,17 +282,19 @@ pub fn shade_grid_into(
     mask: u32,
     batch: bool,
     data: &mut Vec<f32>,
-) -> u64 {
+) -> (u64, Messages) {
     let stride = material.width();
     let row_len = packed_len(stride, w as usize);
     data.resize(row_len * h as usize, 0.0);
-    data.par_chunks_mut(row_len.max(1))
+    let rows: Vec<(u64, Messages)> = data
+        .par_chunks_mut(row_len.max(1))
         .enumerate()
         .map_init(RowPackets::default, |rows, (y, dst)| {
             let y = y as u32;
             if batch {
                 let frags = rows.row(y, w, h);
-                return material.shade_many(env, mask, None, frags, dst).nonfinite;
+                let bad = material.shade_many(env, mask, None, frags, dst).nonfinite;
+                return (bad, messages::take());
             }
             let mut one = vec![0.0f32; stride];
             let mut bad = 0u64;
@@ -290,9 +310,10 @@ pub fn shade_grid_into(
                     dst[packed_index(stride, x as usize, k)] = *v;
                 }
             }
-            bad
+            (bad, messages::take())
         })
-        .sum()
+        .collect();
+    join(rows)
 }
 
 /// Shades every pixel of a `w × h` grid with one [`Material::shade_many`] call (the batch
@@ -312,6 +333,7 @@ pub fn shade_grid_many(
         .collect();
     let mut data = vec![0.0f32; packed_len(stride, frags.len())];
     let result = material.shade_many(env, mask, None, &frags, &mut data);
+    let messages = messages::take();
     let grid = Grid {
         width: w,
         height: h,
@@ -321,6 +343,7 @@ pub fn shade_grid_many(
             segment: frags.len().max(1),
         },
         nonfinite: result.nonfinite,
+        messages,
     };
     (grid, result)
 }
@@ -341,42 +364,44 @@ pub fn shade_fragments(
     let n = frags.len();
     let mut data = vec![0.0f32; packed_len(stride, n)];
     let per_packet = (stride * LANES).max(1);
-    let nonfinite = match batch {
+    let (nonfinite, messages) = match batch {
         BatchMode::All => {
             let all = Fragments::from_slice(frags);
-            material
-                .shade_many(env, mask, None, &all, &mut data)
-                .nonfinite
+            let r = material.shade_many(env, mask, None, &all, &mut data);
+            (r.nonfinite, messages::take())
         }
-        BatchMode::Batches => data
-            .par_chunks_mut(per_packet * FRAGMENTS_PER_BATCH / LANES)
-            .zip(frags.par_chunks(FRAGMENTS_PER_BATCH))
-            .map(|(dst, chunk)| {
-                let chunk = Fragments::from_slice(chunk);
-                material.shade_many(env, mask, None, &chunk, dst).nonfinite
-            })
-            .sum(),
-        BatchMode::Single => data
-            .par_chunks_mut(per_packet)
-            .zip(frags.par_chunks(LANES))
-            .map(|(dst, packet)| {
-                let mut one = vec![0.0f32; stride];
-                let mut bad = 0u64;
-                for (lane, frag) in packet.iter().enumerate() {
-                    let ctx = ShadeCtx {
-                        frag: *frag,
-                        env,
-                        mask,
-                        scene: None,
-                    };
-                    bad += material.shade(&ctx, &mut one) as u64;
-                    for (k, v) in one.iter().enumerate() {
-                        dst[packed_index(stride, lane, k)] = *v;
+        BatchMode::Batches => join(
+            data.par_chunks_mut(per_packet * FRAGMENTS_PER_BATCH / LANES)
+                .zip(frags.par_chunks(FRAGMENTS_PER_BATCH))
+                .map(|(dst, chunk)| {
+                    let chunk = Fragments::from_slice(chunk);
+                    let bad = material.shade_many(env, mask, None, &chunk, dst).nonfinite;
+                    (bad, messages::take())
+                })
+                .collect::<Vec<_>>(),
+        ),
+        BatchMode::Single => join(
+            data.par_chunks_mut(per_packet)
+                .zip(frags.par_chunks(LANES))
+                .map(|(dst, packet)| {
+                    let mut one = vec![0.0f32; stride];
+                    let mut bad = 0u64;
+                    for (lane, frag) in packet.iter().enumerate() {
+                        let ctx = ShadeCtx {
+                            frag: *frag,
+                            env,
+                            mask,
+                            scene: None,
+                        };
+                        bad += material.shade(&ctx, &mut one) as u64;
+                        for (k, v) in one.iter().enumerate() {
+                            dst[packed_index(stride, lane, k)] = *v;
+                        }
                     }
-                }
-                bad
-            })
-            .sum(),
+                    (bad, messages::take())
+                })
+                .collect::<Vec<_>>(),
+        ),
     };
     Grid {
         width: n as u32,
@@ -387,6 +412,7 @@ pub fn shade_fragments(
             segment: n.max(1),
         },
         nonfinite,
+        messages,
     }
 }
 
@@ -601,6 +627,7 @@ mod tests {
                 stride,
                 values: GridValues::Packed { data, segment },
                 nonfinite: 0,
+                messages: Messages::default(),
             };
             let want: Vec<f64> = (0..n * stride)
                 .map(|j| value(j / stride, j % stride))

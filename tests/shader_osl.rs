@@ -445,8 +445,8 @@ fn errors_name_the_place_and_the_problem() {
             "unknown noise generator \"fancy\"",
         ),
         (
-            "surface s() { printf(\"%f\", u); }",
-            "printing (printf, warning, error) is not built yet",
+            "surface s() { float x = transformu(\"m\", \"cm\", u); }",
+            "`transformu`: unit conversions are not built yet",
         ),
         ("surface s() { Ci = difuse(N); }", "did you mean `diffuse`?"),
         (

@@ -9,6 +9,8 @@
 //! `TextureSet` sampling, `runtime::interp::transform`'s matrices), so compiled code and
 //! the interpreter agree bit for bit on everything a helper computes.
 //!
+//! Print ops (`printf`, `warning`, `error`) call the message helpers of `abi/print.rs`.
+//!
 //! Two helper conventions:
 //! - **math**: `extern "C" fn(f32) -> f32` or `fn(f32, f32) -> f32` (sin, pow, …) for the
 //!   scalar entry; the batch entry calls a four-lane form once per packet,
@@ -27,6 +29,9 @@
 //!   form needs the context: `light` and `texture` find their light or texture once for the
 //!   four lanes, `visible` answers four lanes at once without a scene).
 
+mod print;
+
+pub use print::{PrintTable, sn_print, sn_print_x4};
 use shadenet_graph::ir::Sampling;
 use shadenet_graph::ops::osl_noise_x4 as x4;
 use shadenet_graph::ops::{self, cell_hsv_x4, math_x4, noise, noise_x4, osl_noise, osl_simplex};
@@ -81,6 +86,9 @@ pub struct CallCtx {
     /// condition still true: the caller zeroes it, the compiled code adds to it (the batch
     /// entry: one per stopped lane below its `n`), the caller reads it after the call.
     pub loop_limits: u32,
+    /// The material's print ops ([`PrintTable`]), read by the message helpers; null where
+    /// nothing prints (the prelude).
+    pub prints: *const PrintTable,
 }
 
 /// Light samples per call whose visibility [`VisibilityMemo`] remembers; later sample slots

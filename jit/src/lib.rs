@@ -294,6 +294,8 @@ pub struct JitMaterial {
     lazy_batch: Option<LazyBatch>,
     uniforms: Box<[u32]>,
     textures: Box<TextureSet>,
+    /// What the print ops write (the message helpers read it through `CallCtx::prints`).
+    prints: Box<abi::PrintTable>,
     layout: Vec<OutputSlot>,
     width: usize,
     info: MaterialInfo,
@@ -307,6 +309,13 @@ impl JitMaterial {
     /// The batch entry: compiled with the material, or on first use.
     fn batch(&self) -> Option<BatchFn> {
         self.batch.or_else(|| self.lazy_batch.as_ref()?.get())
+    }
+
+    /// Puts the messages a batch entry call wrote in fragment order (see `abi/print.rs`).
+    fn flush_messages(&self) {
+        if !self.prints.is_empty() {
+            shadenet_runtime::messages::flush_batch();
+        }
     }
 
     /// Adds one call's loop stops (`CallCtx::loop_limits`) to the material's total.
@@ -334,6 +343,7 @@ impl JitMaterial {
             lanes: LANES as u32,
             batch_scene: 0,
             loop_limits: 0,
+            prints: &*self.prints,
             env,
             textures: &*self.textures,
             uniforms: self.uniforms.as_ptr(),
@@ -370,6 +380,7 @@ impl Material for JitMaterial {
                 let mut soa = vec![0.0f32; self.width * LANES];
                 // SAFETY: as above, with `width * 4` floats.
                 let bad = unsafe { f(&mut cc, &packet, soa.as_mut_ptr(), 1) };
+                self.flush_messages();
                 for (k, o) in out[..self.width].iter_mut().enumerate() {
                     *o = soa[k * LANES];
                 }
@@ -396,6 +407,7 @@ impl Material for JitMaterial {
                 // SAFETY: the function was compiled for this material's layout; `out` holds
                 // `width * 4` floats; the context's pointers live for the call.
                 let bad = unsafe { f(&mut cc, frags, out.as_mut_ptr(), active.min(LANES) as u32) };
+                self.flush_messages();
                 self.count(cc.loop_limits);
                 bad
             }
@@ -466,6 +478,7 @@ impl Material for JitMaterial {
                     // points to live for the call.
                     bad +=
                         unsafe { f(&mut cc, packets.as_ptr(), dst.as_mut_ptr(), n as u32) } as u64;
+                    self.flush_messages();
                     self.count(cc.loop_limits);
                     cc.loop_limits = 0;
                 }
@@ -580,6 +593,7 @@ fn compile(
             lanes: LANES as u32,
             batch_scene: 0,
             loop_limits: 0,
+            prints: std::ptr::null(),
         };
         // SAFETY: the prelude reads parameters and writes prelude slots of this block, both
         // inside it (the layout sized it); it reads neither fragment nor environment.
@@ -597,6 +611,7 @@ fn compile(
             }),
             uniforms,
             textures,
+            prints: Box::new(abi::PrintTable::new(program)),
             layout: slots,
             width,
             info: MaterialInfo {

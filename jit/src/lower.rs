@@ -138,6 +138,8 @@ pub struct Helpers {
     /// Scalar and four-lane function of each math helper.
     math: HashMap<&'static str, (FuncId, FuncId)>,
     mem: HashMap<&'static str, (FuncId, FuncId)>,
+    /// The message helpers, scalar and batch (`abi::sn_print`, `abi::sn_print_x4`).
+    print: (FuncId, FuncId),
 }
 
 impl Helpers {
@@ -179,7 +181,29 @@ impl Helpers {
                 .map_err(|e| e.to_string())?;
             mem.insert(h.name, (s, b));
         }
-        Ok(Helpers { math, mem })
+        let mut sig = module.make_signature();
+        sig.params.extend([
+            AbiParam::new(ptr),
+            AbiParam::new(I32),
+            AbiParam::new(ptr),
+            AbiParam::new(I32),
+        ]);
+        let mut print = [None; 2];
+        for (slot, name) in print.iter_mut().zip(["sn_print", "sn_print_x4"]) {
+            *slot = Some(
+                module
+                    .declare_function(name, Linkage::Import, &sig)
+                    .map_err(|e| e.to_string())?,
+            );
+        }
+        let [Some(s), Some(b)] = print else {
+            return Err("message helpers not declared".into());
+        };
+        Ok(Helpers {
+            math,
+            mem,
+            print: (s, b),
+        })
     }
 
     /// Every helper symbol and its address, for the JIT builder.
@@ -195,6 +219,8 @@ impl Helpers {
             v.push((h.name.to_string(), h.scalar as *const u8));
             v.push((format!("{}_x4", h.name), h.batch as *const u8));
         }
+        v.push(("sn_print".into(), abi::sn_print as *const u8));
+        v.push(("sn_print_x4".into(), abi::sn_print_x4 as *const u8));
         v
     }
 }
@@ -391,8 +417,8 @@ impl<'a, 'b> Lowerer<'a, 'b> {
         self.out = self.b.use_var(vo);
         let left = self.b.use_var(vn);
         self.left = Some(left);
-        // The scene helpers' view of this packet, where the program asks the scene: its
-        // first fragment's index in the batch and how many of its lanes hold fragments.
+        // The scene and message helpers' view of this packet, where the program calls one:
+        // its first fragment's index in the batch and how many of its lanes hold fragments.
         let first = self.b.use_var(vfirst);
         if self.asks_scene(block) {
             self.b
@@ -430,8 +456,10 @@ impl<'a, 'b> Lowerer<'a, 'b> {
         Ok(())
     }
 
-    /// Whether the block calls a scene helper (`trace`, `occlusion`, `light.visible`,
-    /// `attribute`, `attribute.found`).
+    /// Whether the block calls a helper that needs to know the packet's fragments: a scene
+    /// helper (`trace`, `occlusion`, `light.visible`, `attribute`, `attribute.found`) or a
+    /// message helper (`printf`, `warning`, `error`: padding lanes are silent, and each
+    /// message is tagged with its fragment).
     fn asks_scene(&self, block: &Block) -> bool {
         let mut asks = false;
         self.p.walk(block, &mut |v| {
@@ -442,6 +470,7 @@ impl<'a, 'b> Lowerer<'a, 'b> {
                     | Op::LightVisible
                     | Op::Attribute { .. }
                     | Op::AttributeFound { .. }
+                    | Op::Print { .. }
             )
         });
         asks
@@ -980,7 +1009,51 @@ impl<'a, 'b> Lowerer<'a, 'b> {
                 let imm = self.b.ins().iconst(I32, 0);
                 Ok(self.call_mem("sn_occlusion", imm, &args, 1))
             }
+            Op::Print { args, .. } => self.print(v, args),
         }
+    }
+
+    /// A print op: its argument components stored as 32-bit words in a slot of their own
+    /// (batch: after the active lane mask, four lanes per word), then the message helper
+    /// (`abi/print.rs`), with the op's number in the material's print table. Its value is
+    /// the int 0.
+    fn print(&mut self, v: Value, args: &[Value]) -> R<Vec<V>> {
+        let index = self.p.exprs[..v.index()]
+            .iter()
+            .filter(|e| matches!(e.op, Op::Print { .. }))
+            .count();
+        let mut words = Vec::new();
+        if self.batch() {
+            let mask = match self.active {
+                Some(m) => m,
+                None => self.iconst(-1),
+            };
+            words.push(mask);
+        }
+        for a in args {
+            let bool_arg = self.ty(*a) == Type::Bool;
+            for x in self.get(*a)? {
+                words.push(if bool_arg && !self.batch() {
+                    self.b.ins().uextend(I32, x)
+                } else {
+                    x
+                });
+            }
+        }
+        let esize = if self.batch() { 16 } else { 4 };
+        let ss = self.slot((words.len().max(1) * esize) as u32);
+        for (k, w) in words.iter().enumerate() {
+            self.b
+                .ins()
+                .stack_store(self.ptr, *w, ss, (k * esize) as i32);
+        }
+        let (s, bt) = self.helpers.print;
+        let f = self.func(if self.batch() { bt } else { s });
+        let index = self.b.ins().iconst(I32, index as i64);
+        let addr = self.b.ins().stack_addr(self.ptr, ss, 0);
+        let zero = self.b.ins().iconst(I32, 0);
+        self.b.ins().call(f, &[self.ctx, index, addr, zero]);
+        Ok(vec![self.iconst(0)])
     }
 
     // ---- regions ----

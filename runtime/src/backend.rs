@@ -480,7 +480,11 @@ impl Material for InterpMaterial {
                     mask,
                     scene: None,
                 };
-                self.interp.shade_with(&ctx, scratch, o);
+                if lane < active {
+                    self.interp.shade_with(&ctx, scratch, o);
+                } else {
+                    crate::messages::muted(|| self.interp.shade_with(&ctx, scratch, o));
+                }
                 for (k, v) in o.values.iter().enumerate() {
                     out[k * LANES + lane] = *v;
                 }

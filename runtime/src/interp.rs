@@ -30,13 +30,19 @@
 //!
 //! Arguments go to the scene in f32 (the f64 reference rounds them) and its answers are
 //! widened back.
+//!
+//! A `printf`, `warning` or `error` op writes its message to the calling thread's log
+//! ([`crate::messages`]) when it runs: an arm not taken writes nothing, a loop body once
+//! per iteration.
 
 use crate::ctx::{SceneServices, ShadeCtx, ShadeEnv};
 use crate::lights;
+use crate::messages;
 use crate::texture::{TextureError, TextureSet};
 use shadenet_graph::ir::{
     BinOp, Block, LOOP_ITERATION_LIMIT, Op, Program, Space, Stream, Value, XformKind,
 };
+use shadenet_graph::ops::printf::Arg;
 use shadenet_graph::ops::{self, Real, Val};
 use shadenet_graph::types::{ConstValue, Type};
 
@@ -499,6 +505,15 @@ impl<F: Real> Interpreter<F> {
                 let width = self.program.attributes[*slot as usize].ty.width();
                 Val::Bool(attribute_found(ctx.scene, *slot, width))
             }
+            Op::Print {
+                severity,
+                format,
+                args,
+            } => {
+                let args: Vec<_> = args.iter().map(|a| self.print_arg(*a, s)).collect();
+                messages::write(*severity, format, &args);
+                Val::Int(0)
+            }
             Op::Occlusion {
                 n,
                 samples,
@@ -590,6 +605,20 @@ impl<F: Real> Interpreter<F> {
             if let Some(v) = vals.get(k as usize) {
                 s.regs[i] = *v;
             }
+        }
+    }
+
+    /// Value `v` as a message formats it.
+    fn print_arg(&self, v: Value, s: &Scratch<F>) -> Arg {
+        match s.regs[v.index()] {
+            Val::Bool(b) => Arg::Int(i64::from(b)),
+            Val::Int(i) => Arg::Int(i64::from(i)),
+            Val::Float(x) => messages::float_arg(x.to_f64()),
+            x @ Val::Mat(_) => {
+                let n = self.program.ty(v).width();
+                messages::floats_arg(self.mat(x, s)[..n].iter().map(|x| x.to_f64()))
+            }
+            x => messages::floats_arg(x.floats().iter().map(|x| x.to_f64())),
         }
     }
 

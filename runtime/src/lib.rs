@@ -7,8 +7,8 @@
 //! reference every other back end is tested against, and the back-end traits with the
 //! material cache ([`backend`]), the four-lane fragment packets batches are made of
 //! ([`packets`]), the fixtures of the back ends' parity tests
-//! ([`testing`]), the bounded gate every input file passes ([`input`]), and the Radiance
-//! RGBE format ([`rgbe`]). It depends on `shadenet-graph` for the IR and the op
+//! ([`testing`]), the bounded gate every input file passes ([`input`]), the log of the
+//! messages shaders write ([`messages`]), and the Radiance RGBE format ([`rgbe`]). It depends on `shadenet-graph` for the IR and the op
 //! semantics and must not know about networks' file formats, Cranelift, wgpu or the tracer.
 
 pub mod backend;
@@ -18,6 +18,7 @@ pub mod input;
 pub mod interp;
 pub mod light_shader;
 pub mod lights;
+pub mod messages;
 pub mod packets;
 pub mod rgbe;
 pub mod testing;

@@ -230,6 +230,33 @@ pub(crate) fn print_out(text: &str) {
     let _ = std::io::stdout().lock().write_all(text.as_bytes());
 }
 
+/// Writes what shaders printed, in the order given: `printf` output to standard output as
+/// it is (a shader ends its own lines), warnings and errors to standard error as `WARNING:`
+/// and `ERROR:` lines (OSL's error handler's form), then how many the log dropped.
+pub(crate) fn print_messages(m: &shadenet::runtime::messages::Messages) {
+    use shadenet::graph::ir::Severity;
+    for msg in &m.list {
+        match msg.severity {
+            Severity::Printf => print_out(&msg.text),
+            s => {
+                let tag = if s == Severity::Error {
+                    "ERROR"
+                } else {
+                    "WARNING"
+                };
+                eprintln!("{tag}: {}", msg.text.trim_end_matches('\n'));
+            }
+        }
+    }
+    if m.dropped > 0 {
+        eprintln!(
+            "warning: {} shader messages dropped (a thread's log holds at most {} MiB)",
+            m.dropped,
+            shadenet::runtime::messages::LOG_LIMIT >> 20
+        );
+    }
+}
+
 /// The source options of `check`, `compile` and `shade`: MaterialX (`.mtlx` files) and the
 /// shader preprocessor (`.sl`, `.osl`).
 #[derive(clap::Args, Clone, Default)]

@@ -133,6 +133,22 @@ pub(crate) fn run(args: RenderArgs) -> Result<()> {
         notes(&renderer, &compiled);
     }
     let (film, stats) = pool.install(|| render_with_progress(&renderer, window, args.quiet));
+    // What shaders printed (printf, warning, error), gathered from every thread's log: in
+    // the order each thread shaded, threads one after another (a render's hits are not in
+    // pixel order; `shade` prints in fragment order).
+    let mut messages = shadenet::runtime::messages::take();
+    for m in pool.broadcast(|_| shadenet::runtime::messages::take()) {
+        messages.append(m);
+    }
+    super::print_messages(&messages);
+    if !args.quiet && !messages.is_empty() {
+        say!(
+            "shader messages: {} printf, {} warnings, {} errors",
+            messages.count(shadenet::graph::ir::Severity::Printf),
+            messages.count(shadenet::graph::ir::Severity::Warning),
+            messages.errors()
+        );
+    }
     // Each file is written to a temporary name and renamed: an error leaves any existing
     // output untouched.
     film.write_exr(&exr_path)?;

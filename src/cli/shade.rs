@@ -6,7 +6,7 @@ use super::{BackendArg, GpuPassesArg, OptArgs, ThreadsArg, check_extension, load
 use anyhow::{Context, Result, bail};
 use clap::ValueEnum;
 use shadenet::bench::report::Timing;
-use shadenet::graph::ir::Program;
+use shadenet::graph::ir::{Program, Severity};
 use shadenet::graph::nodes::LightDesc;
 use shadenet::graph::opt::{self, Specialization};
 use shadenet::lights::{DEFAULT_LIGHT, parse_light};
@@ -118,6 +118,7 @@ pub(crate) fn run(args: ShadeArgs) -> Result<()> {
     }
     let job = prepare(&args)?;
     let shaded = shade(&args, &job)?;
+    super::print_messages(&shaded.grid.messages);
     write_outputs(&args, &job, &shaded.grid)?;
     if !args.quiet {
         summary(&args, &shaded);
@@ -336,6 +337,20 @@ fn summary(args: &ShadeArgs, s: &Shaded) {
             t.min * 1e3,
             t.max * 1e3,
             n as f64 / t.median / 1e6
+        );
+    }
+    let m = &s.grid.messages;
+    if !m.is_empty() {
+        say!(
+            "shader messages: {} printf, {} warnings, {} errors{}",
+            m.count(Severity::Printf),
+            m.count(Severity::Warning),
+            m.errors(),
+            if m.dropped > 0 {
+                format!(", {} dropped", m.dropped)
+            } else {
+                String::new()
+            }
         );
     }
     if let Some((_, st)) = &s.stats {

@@ -180,12 +180,24 @@ pub(super) fn linearize(
 ) -> Result<(Vec<Entry>, Vec<LightSet>), BackendError> {
     // Geometry attributes (primvars) live in the renderer's meshes, which no kernel reads:
     // refused, so the material falls back to a CPU back end.
-    let mut attribute = None;
-    p.walk(&p.body, &mut |v| {
-        if matches!(p.op(v), Op::Attribute { .. } | Op::AttributeFound { .. }) {
+    // Messages (printf, warning, error) are written to the calling thread's log in fragment
+    // order, which no kernel can do: refused, and the CPU shades the material.
+    let (mut attribute, mut print) = (None, None);
+    p.walk(&p.body, &mut |v| match p.op(v) {
+        Op::Attribute { .. } | Op::AttributeFound { .. } => {
             attribute.get_or_insert(v);
         }
+        Op::Print { .. } => {
+            print.get_or_insert(v);
+        }
+        _ => {}
     });
+    if let Some(v) = print {
+        let why = "the GPU path does not write messages (printf, warning, error); the CPU \
+                   shades a material that prints, in fragment order"
+            .to_string();
+        return Err(unsupported(p, names, v, why));
+    }
     if let Some(v) = attribute {
         let why = "geometry attributes (vertex colours, primvars) are read through the \
                    renderer's services on the CPU; the GPU back end has no attribute buffers"

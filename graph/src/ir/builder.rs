@@ -14,7 +14,7 @@
 //! which nodes an override changes.
 
 use super::{
-    BinOp, Block, Expr, Filter, Intrinsic, Op, Output, Program, Sampling, Space, Stream,
+    BinOp, Block, Expr, Filter, Intrinsic, Op, Output, Program, Sampling, Severity, Space, Stream,
     TextureFile, UnOp, Value, is_traceable_ray_type,
 };
 use crate::ops;
@@ -473,6 +473,17 @@ impl Builder {
     /// ([`Op::LightPdf`]).
     pub fn light_pdf(&mut self) -> Value {
         self.push(Op::LightPdf, Some(Type::Float))
+    }
+
+    /// A message the fragment writes ([`Op::Print`]): `format` with `args`. The format must
+    /// fit the arguments (one numeric conversion per argument; the validator checks it).
+    pub fn print(&mut self, severity: Severity, format: String, args: Vec<Value>) -> Value {
+        let op = Op::Print {
+            severity,
+            format,
+            args,
+        };
+        self.push(op, Some(Type::Int))
     }
 
     /// Ambient occlusion at the shaded point around `n` (vec3) with `samples` (int) rays

@@ -26,9 +26,10 @@ impl Op {
             Op::Unary(_, a) | Op::Extract(a, _) | Op::Splat(a) | Op::Convert(a) => vec![a],
             Op::Binary(_, a, b) => vec![a, b],
             Op::Select { cond, a, b } => vec![cond, a, b],
-            Op::Construct(args) | Op::Call(_, args) | Op::Loop { init: args, .. } => {
-                args.iter_mut().collect()
-            }
+            Op::Construct(args)
+            | Op::Call(_, args)
+            | Op::Loop { init: args, .. }
+            | Op::Print { args, .. } => args.iter_mut().collect(),
             Op::If { cond, .. } => vec![cond],
             Op::Illuminance { p, .. } => vec![p],
             Op::Proj(r, _) => vec![r],
@@ -93,6 +94,7 @@ impl Op {
             | Op::AttributeFound { .. }
             | Op::Trace { .. }
             | Op::Occlusion { .. }
+            | Op::Print { .. }
             | Op::If { .. }
             | Op::Illuminance { .. }
             | Op::Loop { .. }

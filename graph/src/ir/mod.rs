@@ -763,6 +763,34 @@ pub enum Op {
         /// How far a blocker counts (float, world units).
         max_distance: Value,
     },
+    /// An effect: the fragment writes a message — OSL's `printf`, `warning` and `error` —
+    /// formatted from `format` (C's printf conversions, [`crate::ops::printf`]) with the
+    /// values of `args` (floats and aggregates rounded to f32, as the shader holds them).
+    /// The only op that is kept for what it does rather than for its value: dead-code
+    /// elimination keeps it (and the regions around it), and it is never merged, folded or
+    /// hoisted; within a block, messages are written in the block's order. Its value is the
+    /// int 0, which nothing reads. Varying.
+    Print {
+        /// What kind of message: printed output, a warning or an error.
+        severity: Severity,
+        /// The format: one conversion per arg, in order (conversions of arguments known at
+        /// compile time are already spliced in as text).
+        format: String,
+        /// The values formatted (floats, ints, bools, vectors, colors, matrices).
+        args: Vec<Value>,
+    },
+}
+
+named_enum! {
+    /// The kinds of message an [`Op::Print`] writes.
+    Severity {
+        /// `printf`: output, written as is.
+        Printf = "printf",
+        /// `warning`: a warning about the shading of a fragment.
+        Warning = "warning",
+        /// `error`: an error in the shading of a fragment (the shader goes on running).
+        Error = "error",
+    }
 }
 
 impl Op {
@@ -798,6 +826,7 @@ impl Op {
             Op::AttributeFound { slot } => format!("attribute.found {slot}"),
             Op::Loop { .. } => "loop".into(),
             Op::LoopVar(k) => format!("loop.var {k}"),
+            Op::Print { severity, .. } => severity.name().into(),
         }
     }
 
@@ -826,9 +855,10 @@ impl Op {
                 f(*a);
                 f(*b)
             }
-            Op::Construct(args) | Op::Call(_, args) | Op::Loop { init: args, .. } => {
-                args.iter().copied().for_each(f)
-            }
+            Op::Construct(args)
+            | Op::Call(_, args)
+            | Op::Loop { init: args, .. }
+            | Op::Print { args, .. } => args.iter().copied().for_each(f),
             Op::If { cond, .. } => f(*cond),
             Op::Illuminance { p, .. } => f(*p),
             Op::Proj(r, _) => f(*r),
@@ -1071,8 +1101,8 @@ impl Rate {
 
 /// Derives the rate of every value (indexed like `Program::exprs`; values not reachable from
 /// the top-level block get `Const`). A value's rate is the highest of its operands'; streams,
-/// light samples (and their visibility), ambient light and the scene queries (`trace`,
-/// `occlusion`) are varying; parameters and component queries uniform;
+/// light samples (and their visibility), ambient light, the scene queries (`trace`,
+/// `occlusion`) and messages (`print`) are varying; parameters and component queries uniform;
 /// a region's results are at least as varying as its condition or point and everything it
 /// yields.
 pub fn rates(program: &Program) -> Vec<Rate> {
@@ -1099,7 +1129,8 @@ fn rate_block(program: &Program, block: &Block, rates: &mut [Rate], carried: &mu
             | Op::Trace { .. }
             | Op::Attribute { .. }
             | Op::AttributeFound { .. }
-            | Op::Occlusion { .. } => Rate::Varying,
+            | Op::Occlusion { .. }
+            | Op::Print { .. } => Rate::Varying,
             Op::Illuminance { .. } => Rate::Varying,
             Op::LoopVar(k) => carried
                 .last()

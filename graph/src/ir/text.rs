@@ -106,6 +106,7 @@
 //! | `attribute.found #0` | [`Op::AttributeFound`] (whether the geometry has table entry 0) |
 //! | `trace reflection %d` or `trace reflection %d, %pdf` | [`Op::Trace`] (the ray type by name, [`super::ray_type_name`], or `#K` for any other code `K`; the optional second operand is the BSDF sample's density) |
 //! | `occlusion %n, %samples, %maxdist` | [`Op::Occlusion`] |
+//! | `printf "x = %g\n", %x` (or `warning`, `error`) | [`Op::Print`] (the format as a quoted string, then the values it formats) |
 //!
 //! A region's blocks hold value lines and end with `yield %a, %b, …` (left out when the
 //! block yields nothing). A label is visible after its line, in its block and the blocks
@@ -138,7 +139,7 @@
 
 use super::{
     AttributeDecl, BinOp, Block, ColorSpace, Expr, Filter, Intrinsic, Op, Output, ParamDecl,
-    Program, Sampling, Space, Stream, TextureFile, UnOp, Value, Wrap, XformKind,
+    Program, Sampling, Severity, Space, Stream, TextureFile, UnOp, Value, Wrap, XformKind,
     ray_type_from_name, ray_type_name,
 };
 use crate::types::{ConstValue, Type, fmt_float};
@@ -428,6 +429,18 @@ impl<W: fmt::Write> Printer<'_, W> {
                 samples,
                 max_distance,
             } => format!("occlusion {}", self.vals(&[*n, *samples, *max_distance])),
+            Op::Print {
+                severity,
+                format,
+                args,
+            } => {
+                let mut s = format!("{} {format:?}", severity.name());
+                for a in args {
+                    s += ", ";
+                    s += &self.val(*a);
+                }
+                s
+            }
         };
         self.out.write_str(&text)
     }
@@ -1355,6 +1368,21 @@ impl Parser {
                     max_distance,
                 }
             }
+            "printf" | "warning" | "error" => {
+                let t = self.next();
+                let Tok::Str(format) = t.tok.clone() else {
+                    return Err(Self::expected(&t, "a format (a quoted string)"));
+                };
+                let mut args = Vec::new();
+                while self.eat_punct(',') {
+                    args.push(self.operand()?);
+                }
+                Op::Print {
+                    severity: Severity::from_name(&word).unwrap_or(Severity::Printf),
+                    format,
+                    args,
+                }
+            }
             "proj" => {
                 let r = self.operand()?;
                 self.expect_punct(',')?;
@@ -1604,6 +1632,15 @@ mod tests {
             Op::Illuminance { p, body } => Op::Illuminance {
                 p: m(*p),
                 body: remap_block(body, m),
+            },
+            Op::Print {
+                severity,
+                format,
+                args,
+            } => Op::Print {
+                severity: *severity,
+                format: format.clone(),
+                args: all(args),
             },
             Op::Loop { init, cond, body } => Op::Loop {
                 init: all(init),
@@ -2328,6 +2365,30 @@ program \"m\" { components diffuse ; the components
     fn at(src: &str) -> (usize, usize, ParseErrorKind) {
         let e = err(src);
         (e.line, e.column, e.kind)
+    }
+
+    #[test]
+    fn prints_round_trip() {
+        let src = "program \"m\" {\n  %0 = stream P : vec3\n  %1 = printf \"P = %g \\\"%%\\\"\\n\", %0 : int\n  %2 = warning \"plain\" : int\n  %3 = error \"%d %g\", %1, %0 : int\n}\n";
+        let p = parse(src).unwrap();
+        assert_eq!(
+            p.exprs[1].op,
+            Op::Print {
+                severity: Severity::Printf,
+                format: "P = %g \"%%\"\n".into(),
+                args: vec![Value::new(0)],
+            }
+        );
+        assert!(
+            matches!(p.exprs[2].op, Op::Print { severity: Severity::Warning, ref args, .. } if args.is_empty())
+        );
+        round_trip(&p);
+        let (line, _, kind) = at("program \"m\" {\n  %0 = printf %1 : int\n}\n");
+        assert_eq!(line, 2);
+        assert!(
+            matches!(&kind, ParseErrorKind::Expected { expected, .. } if expected == "a format (a quoted string)"),
+            "{kind:?}"
+        );
     }
 
     #[test]

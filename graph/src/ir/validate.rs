@@ -346,6 +346,7 @@ pub fn validate(p: &Program) -> Result<(), ValidationError> {
                 Some("it is a region")
             }
             Op::LoopVar(_) => Some("it reads a loop's carried value"),
+            Op::Print { .. } => Some("it writes a message for each fragment"),
             _ => None,
         };
         if let Some(reason) = reason {
@@ -762,6 +763,17 @@ impl Validator<'_> {
                     )));
                 }
                 Some(Type::Float)
+            }
+            Op::Print { format, args, .. } => {
+                let ts = self.operands(value, args)?;
+                let placeholders = ts
+                    .iter()
+                    .map(|t| crate::ops::printf::placeholder(*t))
+                    .collect::<Option<Vec<_>>>()
+                    .ok_or_else(|| ill(format!("a message cannot format a ({})", tys(&ts))))?;
+                crate::ops::printf::format(format, &placeholders)
+                    .map_err(|e| ill(format!("message format {format:?}: {e}")))?;
+                Some(Type::Int)
             }
             Op::Ambient => Some(Type::Color),
             Op::Proj(region, index) => {

@@ -1,4 +1,4 @@
-//! OSL's `format` (and, once printing is built, `printf`, `warning`, `error`): C's printf
+//! OSL's `format`, `printf`, `warning` and `error`: C's printf
 //! conversions on shading values. It owns the meaning of a format string: the conversions
 //! `%d %i %u %o %x %X %c` (ints), `%f %F %e %E %g %G` (floats; an int argument widens), `%s`
 //! (strings) and `%%`, each with C's flags (`-+ 0#`), width and precision; an aggregate
@@ -6,6 +6,8 @@
 //! conversion and separated by a space, as OSL prints them. A conversion that does not fit
 //! its argument, a missing or a surplus argument, and an unknown conversion are errors that
 //! say which. It must not know where strings come from (the front end's constants).
+
+use crate::types::{ConstValue, Type};
 
 /// One argument of [`format`].
 #[derive(Clone, Debug, PartialEq)]
@@ -39,9 +41,40 @@ const MAX_FIELD: usize = 1024;
 
 /// `fmt` with its conversions replaced by `args`, in order.
 pub fn format(fmt: &str, args: &[Arg]) -> Result<String, String> {
+    walk(fmt, args.len(), "%", |out, k, spec| {
+        convert(out, spec, &args[k])
+    })
+}
+
+/// `fmt` with the conversions whose argument is known (`(arg, true)`) replaced by their
+/// text — its `%` doubled, so that the result is a format again — and the others written
+/// back as conversions for the arguments still to come at run time, in order. Every
+/// conversion is checked against its argument (an unknown one against `arg`, a placeholder
+/// of its kind), so the run-time [`format`] of the result cannot fail.
+pub fn specialize(fmt: &str, args: &[(Arg, bool)]) -> Result<String, String> {
+    walk(fmt, args.len(), "%%", |out, k, spec| {
+        let (arg, known) = &args[k];
+        let mut text = String::new();
+        convert(&mut text, spec, arg)?;
+        if *known {
+            out.push_str(&text.replace('%', "%%"));
+        } else {
+            out.push_str(&spec.text());
+        }
+        Ok(())
+    })
+}
+
+/// Copies `fmt` to a new string with `%%` as `percent` and each conversion written by
+/// `conv(out, index, spec)` for argument `index` of `n`; errors name the conversion.
+fn walk(
+    fmt: &str,
+    n: usize,
+    percent: &str,
+    mut conv: impl FnMut(&mut String, usize, Spec) -> Result<(), String>,
+) -> Result<String, String> {
     let mut out = String::new();
     let mut chars = fmt.chars().peekable();
-    let mut next = args.iter();
     let mut index = 0;
     while let Some(c) = chars.next() {
         if c != '%' {
@@ -50,24 +83,74 @@ pub fn format(fmt: &str, args: &[Arg]) -> Result<String, String> {
         }
         if chars.peek() == Some(&'%') {
             chars.next();
-            out.push('%');
+            out.push_str(percent);
             continue;
         }
         let spec = parse_spec(&mut chars)?;
         index += 1;
-        let Some(arg) = next.next() else {
+        if index > n {
             return Err(format!(
                 "conversion {index} (`%{}`) has no argument",
                 spec.conv
             ));
-        };
-        convert(&mut out, spec, arg)
+        }
+        conv(&mut out, index - 1, spec)
             .map_err(|why| format!("conversion {index} (`%{}`) {why}", spec.conv))?;
     }
-    if next.next().is_some() {
-        return Err(format!("{} arguments but {index} conversions", args.len()));
+    if n > index {
+        return Err(format!("{n} arguments but {index} conversions"));
     }
     Ok(out)
+}
+
+impl Spec {
+    /// The conversion as a format writes it (`%-8.3f`; C's length modifiers, which mean
+    /// nothing here, left out).
+    fn text(&self) -> String {
+        let mut t = String::from("%");
+        for (on, c) in [
+            (self.left, '-'),
+            (self.plus, '+'),
+            (self.space, ' '),
+            (self.zero, '0'),
+            (self.alt, '#'),
+        ] {
+            if on {
+                t.push(c);
+            }
+        }
+        if self.width > 0 {
+            t += &self.width.to_string();
+        }
+        if let Some(p) = self.precision {
+            t += &format!(".{p}");
+        }
+        t.push(self.conv);
+        t
+    }
+}
+
+/// A constant as a message formats it: floats as the f32 the shader holds, bools as ints.
+pub fn const_arg(c: &ConstValue) -> Arg {
+    match c {
+        ConstValue::Bool(b) => Arg::Int(i64::from(*b)),
+        ConstValue::Int(i) => Arg::Int(i64::from(*i)),
+        ConstValue::String(s) => Arg::Str(s.clone()),
+        ConstValue::Float(x) => Arg::Float(f64::from(*x as f32)),
+        c => Arg::Floats(c.floats().iter().map(|x| f64::from(*x as f32)).collect()),
+    }
+}
+
+/// A zero of the kind a value of type `ty` is formatted as (to check a conversion against an
+/// argument known only while shading); `None` for the types no message shows (closures;
+/// strings are known at compile time, and spliced in).
+pub fn placeholder(ty: Type) -> Option<Arg> {
+    match ty {
+        Type::Int | Type::Bool => Some(Arg::Int(0)),
+        Type::Float => Some(Arg::Float(0.0)),
+        t if t.is_vector() || t.is_matrix() => Some(Arg::Floats(vec![0.0; t.width()])),
+        _ => None,
+    }
 }
 
 /// The flags, width, precision and letter after a `%`.
@@ -312,6 +395,38 @@ mod tests {
     }
 
     /// What C's printf prints for these conversions (checked against glibc).
+    #[test]
+    fn specializing_splices_known_arguments_and_keeps_the_rest() {
+        let args = [
+            (Arg::Str("50%".into()), true),
+            (Arg::Float(0.0), false),
+            (Arg::Int(7), true),
+            (Arg::Floats(vec![0.0; 3]), false),
+        ];
+        let s = specialize("%-4s|%+8.3f|%03d|%g%%\n", &args).unwrap();
+        assert_eq!(s, "50%% |%+8.3f|007|%g%%\n");
+        // The rest is formatted at run time, as the whole would have been.
+        let run = [Arg::Float(2.5), Arg::Floats(vec![1.0, 2.0, 3.0])];
+        let whole = [
+            Arg::Str("50%".into()),
+            Arg::Float(2.5),
+            Arg::Int(7),
+            Arg::Floats(vec![1.0, 2.0, 3.0]),
+        ];
+        assert_eq!(
+            format(&s, &run).unwrap(),
+            format("%-4s|%+8.3f|%03d|%g%%\n", &whole).unwrap()
+        );
+        // An unknown argument is checked against its placeholder.
+        let e = specialize("%d", &[(Arg::Float(0.0), false)]).unwrap_err();
+        assert!(e.contains("conversion 1 (`%d`) takes an int"), "{e}");
+        assert!(specialize("%g %g", &[(Arg::Float(0.0), false)]).is_err());
+        assert!(specialize("%g", &[]).is_err());
+        // Flags survive the round trip.
+        let s = specialize("%#-+ 012.4e", &[(Arg::Float(0.0), false)]).unwrap();
+        assert_eq!(s, "%-+ 0#12.4e");
+    }
+
     #[test]
     #[allow(clippy::approx_constant)] // 3.14159 is a value to format, not π.
     fn conversions_are_cs() {

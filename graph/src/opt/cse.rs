@@ -211,7 +211,7 @@ impl Numbering<'_> {
         self.repl.get(v.index()).copied().flatten().unwrap_or(v)
     }
 
-    /// The key of an op; `None` for regions, which are never merged.
+    /// The key of an op; `None` for regions and prints, which are never merged.
     fn key(&self, op: &Op) -> Option<Key> {
         let r = |v: &Value| self.rep(*v);
         Some(match op {
@@ -270,7 +270,10 @@ impl Numbering<'_> {
             Op::Attribute { slot, default } => Key::Attribute(*slot, r(default)),
             Op::AttributeFound { slot } => Key::AttributeFound(*slot),
             Op::LoopVar(k) => Key::LoopVar(self.loop_, *k),
-            Op::If { .. } | Op::Illuminance { .. } | Op::Loop { .. } => return None,
+            // A message is written once per op that writes it: two are never one.
+            Op::If { .. } | Op::Illuminance { .. } | Op::Loop { .. } | Op::Print { .. } => {
+                return None;
+            }
         })
     }
 }

@@ -10,6 +10,9 @@
 //! `mulpoint`/`mulvector` fold with the matrix rounded to f32, as the interpreter's matrix
 //! table holds it; a `select` of matrices or strings picks its constant operand unchanged.
 //!
+//! **Messages.** A print op's constant arguments are formatted into its format (the same
+//! text, formatted once here); the print itself stays.
+//!
 //! Never folded: what reads the fragment, the instance or the environment (`stream`,
 //! `param`, `transform`, which needs the shading context's matrices, `component_enabled`,
 //! `light.L`, `light.Cl`, `ambient`, `texture`), regions and their `proj`s (constant
@@ -76,7 +79,12 @@ pub fn run(p: &mut Program, _spec: &Specialization) -> usize {
             }
             (op, ty)
         };
-        if let Some(c) = fold(p, &op, ty) {
+        if let Op::Print { .. } = op {
+            if let Some(spliced) = splice_print(p, &op) {
+                p.exprs[i].op = spliced;
+                changes += 1;
+            }
+        } else if let Some(c) = fold(p, &op, ty) {
             p.exprs[i].op = Op::Const(c);
             changes += 1;
         } else if let Some(t) = identity(p, &map, &op, ty) {
@@ -131,6 +139,41 @@ pub(super) fn used_values(p: &Program) -> Vec<bool> {
         }
     }
     used
+}
+
+/// A print op with its constant arguments formatted into its format
+/// ([`crate::ops::printf::specialize`]): the message is the same, formatted once here;
+/// `None` when no argument is a constant (or, in an invalid program, the format does not
+/// fit).
+fn splice_print(p: &Program, op: &Op) -> Option<Op> {
+    use crate::ops::printf;
+    let Op::Print {
+        severity,
+        format,
+        args,
+    } = op
+    else {
+        return None;
+    };
+    if !args.iter().any(|a| konst(p, *a).is_some()) {
+        return None;
+    }
+    let mut slots = Vec::with_capacity(args.len());
+    let mut left = Vec::new();
+    for &a in args {
+        match konst(p, a) {
+            Some(c) => slots.push((printf::const_arg(c), true)),
+            None => {
+                slots.push((printf::placeholder(p.ty(a))?, false));
+                left.push(a);
+            }
+        }
+    }
+    Some(Op::Print {
+        severity: *severity,
+        format: printf::specialize(format, &slots).ok()?,
+        args: left,
+    })
 }
 
 /// The constant operand `v`, if it is one.

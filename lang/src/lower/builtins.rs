@@ -123,6 +123,9 @@ impl<'a> Lower<'a> {
         if self.dialect == Dialect::Osl && name == "environment" {
             return self.osl_environment(b, &vals, args, span);
         }
+        if let Some(severity) = super::print::severity(self.dialect, name) {
+            return self.print(b, (name, severity), &vals, span);
+        }
         if self.dialect == Dialect::Osl && name == "sincos" {
             return self.sincos(b, &vals, args, span);
         }
@@ -298,6 +301,7 @@ impl<'a> Lower<'a> {
     fn is_builtin(&self, name: &str) -> bool {
         match self.dialect {
             _ if super::matrix::NAMES.contains(&name) => true,
+            d if super::print::severity(d, name).is_some() => true,
             Dialect::Rsl => NAMES.contains(&name) || super::matrix::RSL_NAMES.contains(&name),
             Dialect::Osl => {
                 (NAMES.contains(&name) && !osl::RSL_ONLY.contains(&name))

@@ -30,6 +30,7 @@ mod matrix;
 mod noise;
 mod osl;
 mod oslmath;
+mod print;
 mod returns;
 mod spectral;
 mod spline;
@@ -305,6 +306,10 @@ pub(crate) struct Lower<'a> {
     /// The group's connection bits of this layer's parameters, by name (set by the group
     /// before the layer is lowered).
     pub(crate) connections: HashMap<String, i32>,
+    /// The conditions of the flattened `if` arms around the current point (the condition
+    /// and whether the arm is where it holds), outermost first: a print there runs under
+    /// them ([`print`]).
+    pub(crate) print_guard: Vec<(Value, bool)>,
 }
 
 /// Compiles shader `name` (the file's only or first shader when `None`) of a parsed file to
@@ -418,6 +423,7 @@ impl<'a> Lower<'a> {
             returns: None,
             shader_params: HashMap::new(),
             connections: HashMap::new(),
+            print_guard: Vec::new(),
         }
     }
 

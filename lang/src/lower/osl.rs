@@ -75,18 +75,6 @@ pub(crate) const RSL_ONLY: &[&str] = &["ambient", "specular", "trace", "xcomp", 
 /// The OSL builtins we know of but have not built, with what to use instead.
 const UNBUILT: &[(&str, &str)] = &[
     (
-        "printf",
-        "printing (printf, warning, error) is not built yet",
-    ),
-    (
-        "warning",
-        "printing (printf, warning, error) is not built yet",
-    ),
-    (
-        "error",
-        "printing (printf, warning, error) is not built yet",
-    ),
-    (
         "trace",
         "OSL's trace (a probe ray whose hit getmessage reads) is not built yet",
     ),

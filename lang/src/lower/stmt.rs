@@ -515,7 +515,8 @@ impl<'a> Lower<'a> {
     /// An `if` that assigns closures: both arms lowered in the enclosing block, then each
     /// variable they assign set to the arm's value the condition picks ([`Lower::merge`]:
     /// closures keep both lobe lists, weighted by the condition). Shading ops have no side
-    /// effects, so running both arms changes nothing but cost.
+    /// effects, so running both arms changes nothing but cost — except prints, which run
+    /// under the arm's condition ([`Lower::print_guard`]).
     fn flat_if(
         &mut self,
         b: &mut Builder,
@@ -533,7 +534,9 @@ impl<'a> Lower<'a> {
         for k in 0..2 {
             if let Some(arm) = arms.get(k) {
                 self.scopes.push(HashMap::new());
+                self.print_guard.push((c, k == 0));
                 self.stmt(b, arm);
+                self.print_guard.pop();
                 self.scopes.pop();
             }
             results.push(

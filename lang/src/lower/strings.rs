@@ -156,7 +156,7 @@ fn evaluate(name: &str, args: &[ConstValue]) -> Result<ConstValue, String> {
         }
         _ => {
             let fmt = s(0)?;
-            let rest: Vec<Arg> = args[1..].iter().map(format_arg).collect();
+            let rest: Vec<Arg> = args[1..].iter().map(printf::const_arg).collect();
             ConstValue::String(printf::format(fmt, &rest)?)
         }
     })
@@ -243,17 +243,6 @@ fn stof(s: &str) -> f64 {
         .ok()
         .and_then(|w| w.parse::<f64>().ok())
         .unwrap_or(0.0)
-}
-
-/// A constant as `format` takes it: floats as the f32 the shader holds.
-fn format_arg(c: &ConstValue) -> Arg {
-    match c {
-        ConstValue::Bool(b) => Arg::Int(i64::from(*b)),
-        ConstValue::Int(i) => Arg::Int(i64::from(*i)),
-        ConstValue::String(s) => Arg::Str(s.clone()),
-        ConstValue::Float(x) => Arg::Float(f64::from(*x as f32)),
-        c => Arg::Floats(c.floats().iter().map(|x| f64::from(*x as f32)).collect()),
-    }
 }
 
 #[cfg(test)]
