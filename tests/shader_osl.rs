@@ -1282,11 +1282,12 @@ fn transformc_converts_between_rgb_and_hsv() {
     check(&o, "h", &[0.0, 1.0, 1.0], 1e-7);
     check(&o, "back", &[0.2, 0.4, 0.8], 1e-6);
     check(&o, "same", &[0.1, 0.2, 0.3], 1e-7);
+    // The other spaces: tests/shader_color.rs; an unknown one is an error naming it.
     let err =
-        compile("shader s(output color c = 0) { c = transformc(\"rgb\", \"XYZ\", color(1)); }")
+        compile("shader s(output color c = 0) { c = transformc(\"rgb\", \"Lab\", color(1)); }")
             .unwrap_err();
     assert!(
-        err.contains("`transformc` from \"rgb\" to \"XYZ\": only \"rgb\" and \"hsv\" are built"),
+        err.contains("`transformc`: unknown color space \"Lab\""),
         "{err}"
     );
 }
@@ -1835,7 +1836,7 @@ fn stdosl_helpers_and_constructors_in_a_space() {
         ),
         (
             "shader s(output color o = 0) { o = color(\"xyz\", 1, 0, 0); }",
-            "the space \"xyz\" is not built yet for a color",
+            "unknown color space \"xyz\"",
         ),
     ]);
 }

@@ -5,7 +5,7 @@
 use super::{Lower, Ty, Val, an, arith_of, closest};
 use crate::ast::{self, AssignOp, BinaryOp, Expr, ExprKind, UnaryOp};
 use crate::source::Span;
-use shadenet_graph::ir::{BinOp, Builder, Intrinsic, UnOp, Value};
+use shadenet_graph::ir::{BinOp, Builder, UnOp, Value};
 
 impl<'a> Lower<'a> {
     /// Lowers `e` where a `ty` is expected: a triple `(a, b, c)` becomes one, a float
@@ -987,23 +987,35 @@ impl<'a> Lower<'a> {
                 .transform_call(b, "transform", &vals, span)
                 .unwrap_or_else(|| Self::poison(b, to));
         }
-        let hsv = match space {
-            None => false,
-            Some((s, _)) if to == Ty::Color && s == "rgb" => false,
-            Some((s, _)) if to == Ty::Color && s == "hsv" => true,
+        let color_space = match space {
+            None => None,
+            Some((s, at)) if to == Ty::Color => match super::colorspace::space(s) {
+                Some(cs) => Some(cs),
+                None => {
+                    self.error(
+                        format!(
+                            "unknown color space \"{s}\" (known: {})",
+                            super::colorspace::NAMES
+                        ),
+                        *at,
+                        "unknown color space",
+                    );
+                    return Self::poison(b, to);
+                }
+            },
             Some((s, _))
                 if to.is_geometric() && matches!(s.as_str(), "current" | "world" | "common") =>
             {
-                false
+                None
             }
             Some((s, at)) => {
                 self.error(
                     format!(
-                        "the space \"{s}\" is not built yet for a {} (built: \"rgb\" and \"hsv\" for colors; for points, vectors and normals the spaces `transform` knows)",
+                        "a {} takes no space \"{s}\" (colors take color spaces; points, vectors and normals the spaces `transform` knows)",
                         to.name()
                     ),
                     *at,
-                    "not built yet",
+                    "wrong space",
                 );
                 return Self::poison(b, to);
             }
@@ -1029,13 +1041,13 @@ impl<'a> Lower<'a> {
                 return Self::poison(b, to);
             }
         };
-        match v {
-            Val::V { v, ty, varying } if hsv => Val::V {
-                v: b.call(Intrinsic::HsvToRgb, &[v]),
+        match (v, color_space) {
+            (Val::V { v, ty, varying }, Some(cs)) => Val::V {
+                v: super::colorspace::to_rgb(b, cs, v),
                 ty,
                 varying,
             },
-            v => v,
+            (v, _) => v,
         }
     }
 }

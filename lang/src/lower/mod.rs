@@ -20,6 +20,7 @@ mod arrays;
 mod attributes;
 mod builtins;
 mod closure;
+mod colorspace;
 mod components;
 mod derivs;
 mod expr;

@@ -6,11 +6,12 @@
 //! code ported, reached through the IR's intrinsics), the closures [`super::closure`]'s. It
 //! owns OSL's language rules.
 
+use super::colorspace;
 use super::components::{componentwise, componentwise2};
 use super::{Lower, Ty, Val};
 use crate::ast::{self, ShaderKind};
 use crate::source::Span;
-use shadenet_graph::ir::{BinOp, Builder, Intrinsic, Stream, UnOp, Value};
+use shadenet_graph::ir::{BinOp, Builder, Stream, UnOp, Value};
 use shadenet_graph::nodes::LowVal;
 use shadenet_graph::{ConstValue, Type};
 use std::collections::HashMap;
@@ -648,8 +649,8 @@ impl<'a> Lower<'a> {
     }
 
     /// `transformc(from, to, c)`: colour `c` (or any triple, as a colour) from colour
-    /// space `from` to `to`, both `"rgb"` or `"hsv"` (OSL's names; the same space is the
-    /// identity); other spaces are an error naming them.
+    /// space `from` to `to` ([`colorspace`]: OSL's names; the same space is the identity);
+    /// an unknown space is an error naming it.
     fn transformc(&mut self, b: &mut Builder, args: &[(Val, Span)], span: Span) -> Val {
         let [
             (Val::Str(from), _),
@@ -675,27 +676,24 @@ impl<'a> Lower<'a> {
             );
             return Self::poison(b, Ty::Color);
         }
-        let space = |s: &str| match s {
-            "rgb" | "RGB" => Some(false),
-            "hsv" => Some(true),
-            _ => None,
-        };
-        let (Some(from_hsv), Some(to_hsv)) = (space(from), space(to)) else {
+        let (Some(f), Some(t)) = (colorspace::space(from), colorspace::space(to)) else {
+            let bad = if colorspace::space(from).is_none() {
+                from
+            } else {
+                to
+            };
             self.error(
                 format!(
-                    "`transformc` from \"{from}\" to \"{to}\": only \"rgb\" and \"hsv\" are built"
+                    "`transformc`: unknown color space \"{bad}\" (known: {}; OpenColorIO spaces are not built)",
+                    colorspace::NAMES
                 ),
                 span,
-                "not built yet",
+                "unknown color space",
             );
             return Self::poison(b, Ty::Color);
         };
         let c = b.retype(Type::Color, *v);
-        let c = match (from_hsv, to_hsv) {
-            (false, true) => b.call(Intrinsic::RgbToHsv, &[c]),
-            (true, false) => b.call(Intrinsic::HsvToRgb, &[c]),
-            _ => c,
-        };
+        let c = colorspace::transform(b, f, t, c);
         Val::V {
             v: c,
             ty: Ty::Color,

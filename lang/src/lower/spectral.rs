@@ -64,9 +64,14 @@ pub(crate) const DIM_RED: [f64; 3] = [1.0e-6, 0.0, 0.0];
 /// The Rec. 709 (D65) XYZ → linear RGB matrix, rows giving R, G, B, derived from the
 /// primaries' chromaticities as a colour system derives it.
 pub(crate) fn xyz_to_rgb() -> [[f64; 3]; 3] {
+    inverse(&rgb_to_xyz())
+}
+
+/// The linear Rec. 709 RGB → XYZ matrix (D65 white), rows giving X, Y, Z: the primaries'
+/// XYZ at Y = 1 as columns, scaled so that RGB (1, 1, 1) is the white.
+pub(crate) fn rgb_to_xyz() -> [[f64; 3]; 3] {
     let (prims, white) = ([(0.64, 0.33), (0.30, 0.60), (0.15, 0.06)], (0.3127, 0.3290));
     let xyz = |(x, y): (f64, f64)| [x / y, 1.0, (1.0 - x - y) / y];
-    // Columns: the primaries' XYZ at Y = 1, scaled so that RGB (1, 1, 1) is the white.
     let p: Vec<[f64; 3]> = prims.iter().map(|&c| xyz(c)).collect();
     let m = [
         [p[0][0], p[1][0], p[2][0]],
@@ -74,9 +79,7 @@ pub(crate) fn xyz_to_rgb() -> [[f64; 3]; 3] {
         [p[0][2], p[1][2], p[2][2]],
     ];
     let s = mul(&inverse(&m), xyz(white));
-    let rgb_to_xyz: [[f64; 3]; 3] =
-        std::array::from_fn(|r| std::array::from_fn(|c| m[r][c] * s[c]));
-    inverse(&rgb_to_xyz)
+    std::array::from_fn(|r| std::array::from_fn(|c| m[r][c] * s[c]))
 }
 
 fn mul(m: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
