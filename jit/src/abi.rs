@@ -32,7 +32,7 @@
 mod print;
 
 pub use print::{PrintTable, sn_print, sn_print_x4};
-use shadenet_graph::ir::Sampling;
+use shadenet_graph::ir::{ProbeField, Sampling};
 use shadenet_graph::ops::osl_noise_x4 as x4;
 use shadenet_graph::ops::{self, cell_hsv_x4, math_x4, noise, noise_x4, osl_noise, osl_simplex};
 use shadenet_runtime::ctx::{Fragment, SceneServices, ShadeEnv};
@@ -819,6 +819,35 @@ fn attribute_found_x4(ctx: &CallCtx, imm: u32, _: &[[f32; LANES]; 0], o: &mut [[
     }
 }
 
+/// `probe`: field `ProbeField::ALL[imm]` of the probe ray (origin, direction, minimum and
+/// maximum distance in the arguments) through the runtime's one lookup.
+fn probe(ctx: &CallCtx, imm: u32, a: &[f32], o: &mut [f32]) {
+    o.copy_from_slice(&probe_lane(ctx.scene(), imm, a));
+}
+/// The batch form of `probe`: each lane asks its own fragment's services.
+fn probe_x4(ctx: &CallCtx, imm: u32, a: &[[f32; LANES]; 8], o: &mut [[f32; LANES]; 3]) {
+    for lane in 0..LANES {
+        let args: [f32; 8] = std::array::from_fn(|k| a[k][lane]);
+        let r = probe_lane(ctx.lane_scene(lane), imm, &args);
+        for (dst, x) in o.iter_mut().zip(r) {
+            dst[lane] = x;
+        }
+    }
+}
+fn probe_lane(scene: Option<&dyn SceneServices>, imm: u32, a: &[f32]) -> [f32; 3] {
+    let Some(&field) = ProbeField::ALL.get(imm as usize) else {
+        return [0.0; 3];
+    };
+    interp::probe_field::<f32>(
+        scene,
+        field,
+        [a[0], a[1], a[2]],
+        [a[3], a[4], a[5]],
+        a[6],
+        a[7],
+    )
+}
+
 /// The illuminance loop's trip count: every light's samples.
 pub fn light_samples(env: &ShadeEnv) -> u32 {
     env.lights.iter().map(lights::sample_count).sum()
@@ -1032,6 +1061,7 @@ mem_helpers! {
     occlusion: 9 -> 1 => ctx occlusion_x4,
     attribute: 4 -> 4 => ctx attribute_x4,
     attribute_found: 0 -> 1 => ctx attribute_found_x4,
+    probe: 8 -> 3 => ctx probe_x4,
     visible: 6 -> 1 => ctx visible_x4,
     ambient: 0 -> 3,
     matrices: 0 -> 64,

@@ -52,7 +52,7 @@ use cranelift_frontend::{FunctionBuilder, Variable};
 use cranelift_jit::JITModule;
 use cranelift_module::{FuncId, Linkage, Module};
 use shadenet_graph::ir::{
-    BinOp, Block, Intrinsic, Op, Program, Space, Stream, UnOp, Value, XformKind,
+    BinOp, Block, Intrinsic, Op, ProbeField, Program, Space, Stream, UnOp, Value, XformKind,
 };
 use shadenet_graph::types::{ConstValue, Type};
 use shadenet_runtime::{Fragment, FragmentX4};
@@ -457,7 +457,8 @@ impl<'a, 'b> Lowerer<'a, 'b> {
     }
 
     /// Whether the block calls a helper that needs to know the packet's fragments: a scene
-    /// helper (`trace`, `occlusion`, `light.visible`, `attribute`, `attribute.found`) or a
+    /// helper (`trace`, `occlusion`, `light.visible`, `attribute`, `attribute.found`,
+    /// `probe`) or a
     /// message helper (`printf`, `warning`, `error`: padding lanes are silent, and each
     /// message is tagged with its fragment).
     fn asks_scene(&self, block: &Block) -> bool {
@@ -470,6 +471,7 @@ impl<'a, 'b> Lowerer<'a, 'b> {
                     | Op::LightVisible
                     | Op::Attribute { .. }
                     | Op::AttributeFound { .. }
+                    | Op::Probe { .. }
                     | Op::Print { .. }
             )
         });
@@ -1010,6 +1012,23 @@ impl<'a, 'b> Lowerer<'a, 'b> {
                 Ok(self.call_mem("sn_occlusion", imm, &args, 1))
             }
             Op::Print { args, .. } => self.print(v, args),
+            Op::Probe {
+                field,
+                origin,
+                dir,
+                min_distance,
+                max_distance,
+            } => {
+                let mut args = self.get(*origin)?;
+                args.extend(self.get(*dir)?);
+                args.push(self.get(*min_distance)?[0]);
+                args.push(self.get(*max_distance)?[0]);
+                let code = ProbeField::ALL.iter().position(|f| f == field).unwrap_or(0);
+                let imm = self.b.ins().iconst(I32, code as i64);
+                let mut got = self.call_mem("sn_probe", imm, &args, 3);
+                got.truncate(field.ty().width());
+                Ok(got)
+            }
         }
     }
 

@@ -187,6 +187,22 @@ impl ShadeEnv {
     }
 }
 
+/// What [`SceneServices::probe`] found: the closest surface along a ray, unshaded.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ProbeHit {
+    /// The distance along the ray from its origin.
+    pub distance: f32,
+    /// The point hit.
+    pub p: [f32; 3],
+    /// The unit shading normal there (interpolated vertex normals, or the geometric one),
+    /// as the surface's winding gives it (not turned towards the ray).
+    pub n: [f32; 3],
+    /// The unit geometric normal, by the winding.
+    pub ng: [f32; 3],
+    /// The surface's texture coordinates there.
+    pub uv: [f32; 2],
+}
+
 /// What a renderer offers shaders: secondary rays (DESIGN §2). The tracer implements it;
 /// back ends call it for the ops that trace and for light visibility. The shading system
 /// never sees the scene itself.
@@ -235,6 +251,22 @@ pub trait SceneServices: Send + Sync {
     fn attribute(&self, slot: u32, out: &mut [f32]) -> bool {
         let _ = (slot, out);
         false
+    }
+
+    /// The closest surface along the ray from `origin` in direction `dir` (unit) at a
+    /// distance in `[min_distance, max_distance]`, without shading it (OSL's `trace`): the
+    /// ray starts from the fragment's point as `trace` does (offset off the surface), and
+    /// `None` (the default) where it hits nothing or there is no scene. Back ends call it
+    /// only through `shadenet_runtime::interp::probe_field`.
+    fn probe(
+        &self,
+        origin: [f32; 3],
+        dir: [f32; 3],
+        min_distance: f32,
+        max_distance: f32,
+    ) -> Option<ProbeHit> {
+        let _ = (origin, dir, min_distance, max_distance);
+        None
     }
 
     /// The services of fragment `index` of the batch a `Material::shade_many` call shades

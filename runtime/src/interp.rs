@@ -23,6 +23,9 @@
 //!   sample and the fragment's seed, and clamps the answer to [0, 1] (a NaN answer counts as
 //!   1); it is 1 without a scene, for a zero or non-finite normal, and for a maximum distance
 //!   that is not positive (or NaN).
+//! - `probe` calls [`SceneServices::probe`] through [`probe_field`] (the JIT's helper calls
+//!   the same function): the field of the closest surface along the ray, 0 where there is
+//!   none or no scene.
 //! - `attribute` calls [`SceneServices::attribute`] through [`attribute_value`] (the JIT's
 //!   helper calls the same function): the scene's value, or the op's default where the
 //!   scene has none, gives a non-finite component, or there is no scene; `attribute.found`
@@ -40,7 +43,7 @@ use crate::lights;
 use crate::messages;
 use crate::texture::{TextureError, TextureSet};
 use shadenet_graph::ir::{
-    BinOp, Block, LOOP_ITERATION_LIMIT, Op, Program, Space, Stream, Value, XformKind,
+    BinOp, Block, LOOP_ITERATION_LIMIT, Op, ProbeField, Program, Space, Stream, Value, XformKind,
 };
 use shadenet_graph::ops::printf::Arg;
 use shadenet_graph::ops::{self, Real, Val};
@@ -505,6 +508,26 @@ impl<F: Real> Interpreter<F> {
                 let width = self.program.attributes[*slot as usize].ty.width();
                 Val::Bool(attribute_found(ctx.scene, *slot, width))
             }
+            Op::Probe {
+                field,
+                origin,
+                dir,
+                min_distance,
+                max_distance,
+            } => {
+                let r = probe_field(
+                    ctx.scene,
+                    *field,
+                    reg(origin).as_vec3(),
+                    reg(dir).as_vec3(),
+                    reg(min_distance).as_float(),
+                    reg(max_distance).as_float(),
+                );
+                match field.ty() {
+                    Type::Vec3 => Val::Vec3(r),
+                    _ => Val::Float(r[0]),
+                }
+            }
             Op::Print {
                 severity,
                 format,
@@ -824,6 +847,50 @@ pub fn occlusion_value<F: Real>(
         F::ONE
     } else {
         F::from_f64(o.clamp(0.0, 1.0) as f64)
+    }
+}
+
+/// Field `field` of the closest surface along the probe ray from `origin` towards `dir`
+/// between `min_distance` and `max_distance` ([`SceneServices::probe`]), in the first one
+/// (float fields) or three components: zeros where the ray hits nothing, there is no scene,
+/// the direction is zero or not finite, the origin is not finite, or the distances leave
+/// no interval (a NaN or negative minimum counts as 0; a NaN maximum, or one below the
+/// minimum, finds nothing). The one lookup of [`Op::Probe`]: every CPU back end calls it
+/// (arguments to the scene in f32), so they agree bit for bit.
+pub fn probe_field<F: Real>(
+    scene: Option<&dyn SceneServices>,
+    field: ProbeField,
+    origin: [F; 3],
+    dir: [F; 3],
+    min_distance: F,
+    max_distance: F,
+) -> [F; 3] {
+    let zero = [F::ZERO; 3];
+    let Some(scene) = scene else {
+        return zero;
+    };
+    let d = ops::normalize(dir).map(|x| x.to_f64() as f32);
+    let o = origin.map(|x| x.to_f64() as f32);
+    let lo = (min_distance.to_f64() as f32).max(0.0);
+    let hi = max_distance.to_f64() as f32;
+    let bad = |v: &[f32; 3]| v.iter().any(|x| !x.is_finite());
+    let interval = hi.partial_cmp(&lo).is_some_and(|c| c.is_ge());
+    if bad(&d) || d.iter().all(|x| *x == 0.0) || bad(&o) || !interval {
+        return zero;
+    }
+    let Some(hit) = scene.probe(o, d, lo, hi) else {
+        return zero;
+    };
+    let w = |v: [f32; 3]| v.map(|x| F::from_f64(f64::from(x)));
+    let one = |x: f32| [F::from_f64(f64::from(x)), F::ZERO, F::ZERO];
+    match field {
+        ProbeField::Hit => one(1.0),
+        ProbeField::HitDist => one(hit.distance),
+        ProbeField::P => w(hit.p),
+        ProbeField::N => w(hit.n),
+        ProbeField::Ng => w(hit.ng),
+        ProbeField::U => one(hit.uv[0]),
+        ProbeField::V => one(hit.uv[1]),
     }
 }
 

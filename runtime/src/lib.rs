@@ -29,7 +29,9 @@ pub use backend::{
     Material, MaterialCache, MaterialInfo, shade_batch, shade_each, shade_many_unpacked,
     shade_packets,
 };
-pub use ctx::{Fragment, SceneServices, ShadeCtx, ShadeEnv, Transform, fragment_services};
+pub use ctx::{
+    Fragment, ProbeHit, SceneServices, ShadeCtx, ShadeEnv, Transform, fragment_services,
+};
 pub use interp::{Interpreter, OutputSlot, Scratch, ShadeOut, output_layout};
 pub use lights::Light;
 pub use packets::{FragmentX4, Fragments, LANES, packed_index, packed_len, unpacked};

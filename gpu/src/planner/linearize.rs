@@ -182,10 +182,13 @@ pub(super) fn linearize(
     // refused, so the material falls back to a CPU back end.
     // Messages (printf, warning, error) are written to the calling thread's log in fragment
     // order, which no kernel can do: refused, and the CPU shades the material.
-    let (mut attribute, mut print) = (None, None);
+    let (mut attribute, mut print, mut probe) = (None, None, None);
     p.walk(&p.body, &mut |v| match p.op(v) {
         Op::Attribute { .. } | Op::AttributeFound { .. } => {
             attribute.get_or_insert(v);
+        }
+        Op::Probe { .. } => {
+            probe.get_or_insert(v);
         }
         Op::Print { .. } => {
             print.get_or_insert(v);
@@ -195,6 +198,12 @@ pub(super) fn linearize(
     if let Some(v) = print {
         let why = "the GPU path does not write messages (printf, warning, error); the CPU \
                    shades a material that prints, in fragment order"
+            .to_string();
+        return Err(unsupported(p, names, v, why));
+    }
+    if let Some(v) = probe {
+        let why = "probe rays (OSL's trace) ask the renderer's scene on the CPU; the GPU \
+                   back end has no host step for them"
             .to_string();
         return Err(unsupported(p, names, v, why));
     }

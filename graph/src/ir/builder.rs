@@ -14,8 +14,8 @@
 //! which nodes an override changes.
 
 use super::{
-    BinOp, Block, Expr, Filter, Intrinsic, Op, Output, Program, Sampling, Severity, Space, Stream,
-    TextureFile, UnOp, Value, is_traceable_ray_type,
+    BinOp, Block, Expr, Filter, Intrinsic, Op, Output, ProbeField, Program, Sampling, Severity,
+    Space, Stream, TextureFile, UnOp, Value, is_traceable_ray_type,
 };
 use crate::ops;
 use crate::transport::LightStrategy;
@@ -473,6 +473,32 @@ impl Builder {
     /// ([`Op::LightPdf`]).
     pub fn light_pdf(&mut self) -> Value {
         self.push(Op::LightPdf, Some(Type::Float))
+    }
+
+    /// Field `field` of the closest surface along a probe ray ([`Op::Probe`]): from
+    /// `origin` towards `dir` (vec3s) between `min_distance` and `max_distance` (floats).
+    pub fn probe(
+        &mut self,
+        field: ProbeField,
+        origin: Value,
+        dir: Value,
+        min_distance: Value,
+        max_distance: Value,
+    ) -> Value {
+        let tys = [origin, dir, min_distance, max_distance].map(|v| self.ty(v));
+        if tys != [Type::Vec3, Type::Vec3, Type::Float, Type::Float] {
+            self.fail(format!(
+                "probe takes (vec3, vec3, float, float), not {tys:?}"
+            ));
+        }
+        let op = Op::Probe {
+            field,
+            origin,
+            dir,
+            min_distance,
+            max_distance,
+        };
+        self.push(op, Some(field.ty()))
     }
 
     /// A message the fragment writes ([`Op::Print`]): `format` with `args`. The format must

@@ -52,6 +52,13 @@ impl Op {
                 samples,
                 max_distance,
             } => vec![n, samples, max_distance],
+            Op::Probe {
+                origin,
+                dir,
+                min_distance,
+                max_distance,
+                ..
+            } => vec![origin, dir, min_distance, max_distance],
         }
     }
 
@@ -94,6 +101,7 @@ impl Op {
             | Op::AttributeFound { .. }
             | Op::Trace { .. }
             | Op::Occlusion { .. }
+            | Op::Probe { .. }
             | Op::Print { .. }
             | Op::If { .. }
             | Op::Illuminance { .. }

@@ -763,6 +763,26 @@ pub enum Op {
         /// How far a blocker counts (float, world units).
         max_distance: Value,
     },
+    /// A probe ray: field `field` of the closest surface along the ray from `origin` in
+    /// direction `dir` (vec3s, world space; the direction normalized by the runtime) at a
+    /// distance in `[min_distance, max_distance]` (floats), found by the renderer's scene
+    /// without shading it — OSL's `trace` and `getmessage("trace", …)`. The expr's type is
+    /// the field's ([`ProbeField::ty`]); every field is 0 where the ray hits nothing, for a
+    /// zero or non-finite direction and without a scene. Like [`Op::Trace`]: a pure function
+    /// of its operands and the scene (equal probes may be merged; the renderer answers the
+    /// fields of one ray with one traversal), varying, never folded, never hoisted.
+    Probe {
+        /// Which property of the hit.
+        field: ProbeField,
+        /// Where the ray starts (vec3, world space).
+        origin: Value,
+        /// Its direction (vec3, world space).
+        dir: Value,
+        /// The nearest distance a hit counts at (float).
+        min_distance: Value,
+        /// The farthest (float).
+        max_distance: Value,
+    },
     /// An effect: the fragment writes a message — OSL's `printf`, `warning` and `error` —
     /// formatted from `format` (C's printf conversions, [`crate::ops::printf`]) with the
     /// values of `args` (floats and aggregates rounded to f32, as the shader holds them).
@@ -779,6 +799,37 @@ pub enum Op {
         /// The values formatted (floats, ints, bools, vectors, colors, matrices).
         args: Vec<Value>,
     },
+}
+
+named_enum! {
+    /// The properties of a probe ray's hit an [`Op::Probe`] reads (OSL's
+    /// `getmessage("trace", name, …)` names).
+    ProbeField {
+        /// 1.0 where the ray hit a surface, else 0.0 (float).
+        Hit = "hit",
+        /// The distance to the hit (float).
+        HitDist = "hitdist",
+        /// The point hit (vec3).
+        P = "P",
+        /// The shading normal there (vec3, unit, by the surface's winding).
+        N = "N",
+        /// The geometric normal there (vec3, unit, by the winding).
+        Ng = "Ng",
+        /// The surface's first texture coordinate there (float).
+        U = "u",
+        /// Its second (float).
+        V = "v",
+    }
+}
+
+impl ProbeField {
+    /// The type of the field's value: vec3 for points and normals, float otherwise.
+    pub fn ty(self) -> Type {
+        match self {
+            ProbeField::P | ProbeField::N | ProbeField::Ng => Type::Vec3,
+            _ => Type::Float,
+        }
+    }
 }
 
 named_enum! {
@@ -827,6 +878,7 @@ impl Op {
             Op::Loop { .. } => "loop".into(),
             Op::LoopVar(k) => format!("loop.var {k}"),
             Op::Print { severity, .. } => severity.name().into(),
+            Op::Probe { field, .. } => format!("probe {}", field.name()),
         }
     }
 
@@ -883,6 +935,18 @@ impl Op {
             } => {
                 f(*n);
                 f(*samples);
+                f(*max_distance)
+            }
+            Op::Probe {
+                origin,
+                dir,
+                min_distance,
+                max_distance,
+                ..
+            } => {
+                f(*origin);
+                f(*dir);
+                f(*min_distance);
                 f(*max_distance)
             }
         }
@@ -1102,7 +1166,7 @@ impl Rate {
 /// Derives the rate of every value (indexed like `Program::exprs`; values not reachable from
 /// the top-level block get `Const`). A value's rate is the highest of its operands'; streams,
 /// light samples (and their visibility), ambient light, the scene queries (`trace`,
-/// `occlusion`) and messages (`print`) are varying; parameters and component queries uniform;
+/// `occlusion`, `probe`) and messages (`print`) are varying; parameters and component queries uniform;
 /// a region's results are at least as varying as its condition or point and everything it
 /// yields.
 pub fn rates(program: &Program) -> Vec<Rate> {
@@ -1130,6 +1194,7 @@ fn rate_block(program: &Program, block: &Block, rates: &mut [Rate], carried: &mu
             | Op::Attribute { .. }
             | Op::AttributeFound { .. }
             | Op::Occlusion { .. }
+            | Op::Probe { .. }
             | Op::Print { .. } => Rate::Varying,
             Op::Illuminance { .. } => Rate::Varying,
             Op::LoopVar(k) => carried

@@ -106,6 +106,7 @@
 //! | `attribute.found #0` | [`Op::AttributeFound`] (whether the geometry has table entry 0) |
 //! | `trace reflection %d` or `trace reflection %d, %pdf` | [`Op::Trace`] (the ray type by name, [`super::ray_type_name`], or `#K` for any other code `K`; the optional second operand is the BSDF sample's density) |
 //! | `occlusion %n, %samples, %maxdist` | [`Op::Occlusion`] |
+//! | `probe hitdist %origin, %dir, %min, %max` | [`Op::Probe`] (the field by name, [`ProbeField::name`]) |
 //! | `printf "x = %g\n", %x` (or `warning`, `error`) | [`Op::Print`] (the format as a quoted string, then the values it formats) |
 //!
 //! A region's blocks hold value lines and end with `yield %a, %b, …` (left out when the
@@ -139,8 +140,8 @@
 
 use super::{
     AttributeDecl, BinOp, Block, ColorSpace, Expr, Filter, Intrinsic, Op, Output, ParamDecl,
-    Program, Sampling, Severity, Space, Stream, TextureFile, UnOp, Value, Wrap, XformKind,
-    ray_type_from_name, ray_type_name,
+    ProbeField, Program, Sampling, Severity, Space, Stream, TextureFile, UnOp, Value, Wrap,
+    XformKind, ray_type_from_name, ray_type_name,
 };
 use crate::types::{ConstValue, Type, fmt_float};
 use std::collections::HashMap;
@@ -429,6 +430,17 @@ impl<W: fmt::Write> Printer<'_, W> {
                 samples,
                 max_distance,
             } => format!("occlusion {}", self.vals(&[*n, *samples, *max_distance])),
+            Op::Probe {
+                field,
+                origin,
+                dir,
+                min_distance,
+                max_distance,
+            } => format!(
+                "probe {} {}",
+                field.name(),
+                self.vals(&[*origin, *dir, *min_distance, *max_distance])
+            ),
             Op::Print {
                 severity,
                 format,
@@ -1368,6 +1380,26 @@ impl Parser {
                     max_distance,
                 }
             }
+            "probe" => {
+                let (w, t) = self.ident("a probe field")?;
+                let field = ProbeField::from_name(&w).ok_or_else(|| {
+                    Self::err(
+                        &t,
+                        ParseErrorKind::Expected {
+                            expected: "a probe field (hit, hitdist, P, N, Ng, u, v)".into(),
+                            found: format!("`{w}`"),
+                        },
+                    )
+                })?;
+                let [origin, dir, min_distance, max_distance] = self.operands()?;
+                Op::Probe {
+                    field,
+                    origin,
+                    dir,
+                    min_distance,
+                    max_distance,
+                }
+            }
             "printf" | "warning" | "error" => {
                 let t = self.next();
                 let Tok::Str(format) = t.tok.clone() else {
@@ -1632,6 +1664,19 @@ mod tests {
             Op::Illuminance { p, body } => Op::Illuminance {
                 p: m(*p),
                 body: remap_block(body, m),
+            },
+            Op::Probe {
+                field,
+                origin,
+                dir,
+                min_distance,
+                max_distance,
+            } => Op::Probe {
+                field: *field,
+                origin: m(*origin),
+                dir: m(*dir),
+                min_distance: m(*min_distance),
+                max_distance: m(*max_distance),
             },
             Op::Print {
                 severity,
@@ -2368,7 +2413,17 @@ program \"m\" { components diffuse ; the components
     }
 
     #[test]
-    fn prints_round_trip() {
+    fn prints_and_probes_round_trip() {
+        let probe = "program \"m\" {\n  %0 = stream P : vec3\n  %1 = stream N : vec3\n  %2 = const 0.0 : float\n  %3 = probe hitdist %0, %1, %2, %2 : float\n  %4 = probe Ng %0, %1, %2, %2 : vec3\n}\n";
+        let q = parse(probe).unwrap();
+        assert!(matches!(
+            q.exprs[4].op,
+            Op::Probe {
+                field: ProbeField::Ng,
+                ..
+            }
+        ));
+        round_trip(&q);
         let src = "program \"m\" {\n  %0 = stream P : vec3\n  %1 = printf \"P = %g \\\"%%\\\"\\n\", %0 : int\n  %2 = warning \"plain\" : int\n  %3 = error \"%d %g\", %1, %0 : int\n}\n";
         let p = parse(src).unwrap();
         assert_eq!(

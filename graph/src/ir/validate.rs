@@ -337,7 +337,9 @@ pub fn validate(p: &Program) -> Result<(), ValidationError> {
             Op::LightL | Op::LightCl | Op::LightVisible | Op::LightPdf | Op::Ambient => {
                 Some("it reads the lights")
             }
-            Op::Trace { .. } | Op::Occlusion { .. } => Some("it asks the scene for rays"),
+            Op::Trace { .. } | Op::Occlusion { .. } | Op::Probe { .. } => {
+                Some("it asks the scene for rays")
+            }
             Op::Texture { .. } => Some("it reads a texture"),
             Op::Attribute { .. } | Op::AttributeFound { .. } => {
                 Some("it reads the geometry's attributes")
@@ -763,6 +765,22 @@ impl Validator<'_> {
                     )));
                 }
                 Some(Type::Float)
+            }
+            Op::Probe {
+                field,
+                origin,
+                dir,
+                min_distance,
+                max_distance,
+            } => {
+                let ts = self.operands(value, &[*origin, *dir, *min_distance, *max_distance])?;
+                if ts != [Type::Vec3, Type::Vec3, Type::Float, Type::Float] {
+                    return Err(ill(format!(
+                        "probe takes (vec3, vec3, float, float), not ({})",
+                        tys(&ts)
+                    )));
+                }
+                Some(field.ty())
             }
             Op::Print { format, args, .. } => {
                 let ts = self.operands(value, args)?;

@@ -35,7 +35,8 @@
 
 use super::Specialization;
 use crate::ir::{
-    BinOp, Block, Intrinsic, Op, Program, Sampling, Space, Stream, UnOp, Value, XformKind,
+    BinOp, Block, Intrinsic, Op, ProbeField, Program, Sampling, Space, Stream, UnOp, Value,
+    XformKind,
 };
 use crate::types::{ConstValue, Type};
 use std::collections::HashMap;
@@ -95,6 +96,7 @@ enum Key {
     LoopVar(Option<Value>, u8),
     Trace(Value, i32, Option<Value>),
     Occlusion(Value, Value, Value),
+    Probe(ProbeField, [Value; 4]),
     Ambient,
     Proj(Value, u8),
     Texture(u32, Value, Option<[Value; 2]>, Sampling, bool),
@@ -251,6 +253,16 @@ impl Numbering<'_> {
                 samples,
                 max_distance,
             } => Key::Occlusion(r(n), r(samples), r(max_distance)),
+            Op::Probe {
+                field,
+                origin,
+                dir,
+                min_distance,
+                max_distance,
+            } => Key::Probe(
+                *field,
+                [r(origin), r(dir), r(min_distance), r(max_distance)],
+            ),
             Op::Ambient => Key::Ambient,
             Op::Proj(region, i) => Key::Proj(r(region), *i),
             Op::Texture {

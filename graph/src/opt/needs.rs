@@ -26,7 +26,8 @@ pub struct Needs {
     pub lights: bool,
     /// Whether ambient light is read.
     pub ambient: bool,
-    /// Whether the program traces secondary rays ([`Op::Trace`]).
+    /// Whether the program traces secondary rays ([`Op::Trace`]) or probe rays
+    /// ([`Op::Probe`]).
     pub trace: bool,
     /// Whether the program asks for ambient occlusion ([`Op::Occlusion`]).
     pub occlusion: bool,
@@ -81,7 +82,7 @@ pub fn analyze(p: &Program) -> Needs {
             }
             Op::Illuminance { .. } => n.lights = true,
             Op::Ambient => n.ambient = true,
-            Op::Trace { .. } => n.trace = true,
+            Op::Trace { .. } | Op::Probe { .. } => n.trace = true,
             Op::Occlusion { .. } => n.occlusion = true,
             Op::Param(i) => {
                 params.insert(*i);

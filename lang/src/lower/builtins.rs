@@ -111,6 +111,12 @@ impl<'a> Lower<'a> {
             }
         }
         let name = callee.name.as_str();
+        if self.dialect == Dialect::Osl && name == "trace" {
+            return self.osl_trace(b, &vals, span);
+        }
+        if self.dialect == Dialect::Osl && name == "getmessage" {
+            return self.getmessage(b, &vals, args, span);
+        }
         if self.dialect == Dialect::Osl && name == "getattribute" {
             return self.getattribute(b, vals, args, span);
         }

@@ -32,6 +32,7 @@ mod noise;
 mod osl;
 mod oslmath;
 mod print;
+mod probe;
 mod returns;
 mod spectral;
 mod spline;

@@ -19,6 +19,8 @@ use std::collections::HashMap;
 /// OSL's builtins beyond those both dialects share (for "did you mean"); the string
 /// builtins are [`super::strings::NAMES`].
 pub(crate) const NAMES: &[&str] = &[
+    "trace",
+    "getmessage",
     "noise",
     "snoise",
     "cellnoise",
@@ -76,16 +78,8 @@ pub(crate) const RSL_ONLY: &[&str] = &["ambient", "specular", "trace", "xcomp", 
 /// The OSL builtins we know of but have not built, with what to use instead.
 const UNBUILT: &[(&str, &str)] = &[
     (
-        "trace",
-        "OSL's trace (a probe ray whose hit getmessage reads) is not built yet",
-    ),
-    (
-        "getmessage",
-        "messages (getmessage, setmessage) are not built yet",
-    ),
-    (
         "setmessage",
-        "messages (getmessage, setmessage) are not built yet",
+        "messages between layers (setmessage, and getmessage of them) are not built yet; getmessage(\"trace\", …) is",
     ),
     ("transformu", "unit conversions are not built yet"),
     ("gettextureinfo", "texture queries are not built yet"),
@@ -240,6 +234,7 @@ impl<'a> Lower<'a> {
             },
         );
         set(self, "Ci", Val::Closure(Box::default()));
+        self.declare_trace_vars(b);
     }
 
     /// An OSL `output` parameter (or a closure parameter): a variable holding its default

@@ -284,6 +284,12 @@ impl<'a> Lower<'a> {
         {
             names.extend(self.return_names(first.span));
         }
+        // A `trace` (directly or in a called function) sets the hidden trace variables.
+        if let Some(first) = stmts.first()
+            && self.stmts_trace(stmts)
+        {
+            names.extend(super::probe::trace_vars(first.span));
+        }
         if let Some(first) = stmts.iter().find(|s| has_jump(s)) {
             for f in &self.loops {
                 for name in [&f.brk, &f.cnt] {
@@ -311,7 +317,9 @@ impl<'a> Lower<'a> {
                     }
                 }
             }
-        } else if callee == "getattribute" && self.dialect == crate::Dialect::Osl {
+        } else if matches!(callee, "getattribute" | "getmessage")
+            && self.dialect == crate::Dialect::Osl
+        {
             out.extend(args.last());
         } else if callee == "texture" && self.dialect == crate::Dialect::Osl {
             // The value after an `"alpha"` token.
@@ -951,7 +959,7 @@ impl<'a> Lower<'a> {
 }
 
 /// Calls `f` on every expression of `s`, nested ones included.
-fn walk_stmt<'s>(s: &'s Stmt, f: &mut dyn FnMut(&'s Expr)) {
+pub(crate) fn walk_stmt<'s>(s: &'s Stmt, f: &mut dyn FnMut(&'s Expr)) {
     match &s.kind {
         StmtKind::Block(b) => b.stmts.iter().for_each(|s| walk_stmt(s, f)),
         StmtKind::Decl(d) => d

@@ -1,5 +1,5 @@
 //! The scene services shaders call back into: secondary rays (`trace`), shadow rays
-//! (`occluded`) and ambient occlusion, started from a hit with a robust offset and carrying
+//! (`occluded`), probe rays (`probe`: OSL's `trace`, unshaded) and ambient occlusion, started from a hit with a robust offset and carrying
 //! its differentials; a batch's services hand each fragment its own. It owns no shading.
 
 use super::compile::Specialized;
@@ -13,7 +13,7 @@ use crate::geometry::{AttributeMap, Mesh, attribute_at};
 use crate::passes::RayMatch;
 use glam::Vec3;
 use shadenet_graph::ops::math;
-use shadenet_runtime::SceneServices;
+use shadenet_runtime::{ProbeHit, SceneServices};
 use std::sync::atomic::Ordering;
 
 /// The scene services of one hit: secondary rays start from its point with a robust
@@ -44,6 +44,32 @@ pub(super) struct HitAttributes<'a> {
 }
 
 impl HitServices<'_> {
+    /// The closest surface along a probe ray (see [`SceneServices::probe`]): one closest-hit
+    /// traversal from the offset start, the hit's surface read as a shaded hit's is; counted
+    /// with the secondary rays. Each field a shader reads is one probe op and one traversal
+    /// (equal fields of one ray are merged by CSE); a memo across fields would need state
+    /// the services, shared by threads, do not have.
+    fn probe_ray(&self, origin: [f32; 3], dir: [f32; 3], lo: f32, hi: f32) -> Option<ProbeHit> {
+        let d = Vec3::from(dir).normalize_or_zero();
+        let o = Vec3::from(origin);
+        let interval = hi.partial_cmp(&lo).is_some_and(|c| c.is_ge());
+        if d == Vec3::ZERO || !o.is_finite() || !interval {
+            return None;
+        }
+        self.stats.secondary_rays.fetch_add(1, Ordering::Relaxed);
+        let start = self.start(o, d);
+        let from = start + d * lo;
+        let hit = self.r.accel.closest(from, d, (hi - lo).max(0.0))?;
+        let s = self.r.accel.surface(&hit, true);
+        Some(ProbeHit {
+            distance: lo + hit.t,
+            p: s.p.to_array(),
+            n: s.n.to_array(),
+            ng: s.ng.to_array(),
+            uv: s.uv.to_array(),
+        })
+    }
+
     /// The start of a ray from `origin` towards `dir`: the hit point offset to the side
     /// `dir` leaves on, when `origin` is the hit point (never for detached services, whose
     /// point is NaN).
@@ -164,6 +190,16 @@ impl SceneServices for HitServices<'_> {
         self.r.radiance(&state, self.stats)
     }
 
+    fn probe(
+        &self,
+        origin: [f32; 3],
+        dir: [f32; 3],
+        min_distance: f32,
+        max_distance: f32,
+    ) -> Option<ProbeHit> {
+        self.probe_ray(origin, dir, min_distance, max_distance)
+    }
+
     fn occluded(&self, from: [f32; 3], to: [f32; 3]) -> bool {
         let count = self.stats.shadow_rays.fetch_add(1, Ordering::Relaxed);
         let (from, to) = (Vec3::from(from), Vec3::from(to));
@@ -266,6 +302,17 @@ impl SceneServices for BatchServices<'_> {
 
     fn occluded(&self, from: [f32; 3], to: [f32; 3]) -> bool {
         self.detached(from).occluded(from, to)
+    }
+
+    fn probe(
+        &self,
+        origin: [f32; 3],
+        dir: [f32; 3],
+        min_distance: f32,
+        max_distance: f32,
+    ) -> Option<ProbeHit> {
+        self.detached(origin)
+            .probe(origin, dir, min_distance, max_distance)
     }
 
     fn occlusion(
