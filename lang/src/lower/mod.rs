@@ -42,6 +42,7 @@ mod strings;
 mod structs;
 mod texture_opts;
 mod unroll;
+mod walk;
 
 use crate::ast::{self, Item, ShaderKind};
 use crate::diag::{Diagnostic, Diagnostics};

@@ -79,7 +79,7 @@ impl<'a> Lower<'a> {
             return defs.iter().any(|f| {
                 let mut found = false;
                 for s in &f.body.stmts {
-                    super::stmt::walk_stmt(s, &mut |x| {
+                    super::walk::walk_stmt(s, &mut |x| {
                         found = found || self.trace_vars_assigned(x, depth + 1);
                     });
                 }
@@ -93,7 +93,7 @@ impl<'a> Lower<'a> {
     pub(crate) fn stmts_trace(&self, stmts: &[&'a Stmt]) -> bool {
         let mut found = false;
         for s in stmts {
-            super::stmt::walk_stmt(s, &mut |e| {
+            super::walk::walk_stmt(s, &mut |e| {
                 found = found || self.trace_vars_assigned(e, 0);
             });
         }

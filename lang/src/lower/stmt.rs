@@ -3,6 +3,7 @@
 //! the body's contributions to outer variables are summed over the light samples), and
 //! user functions, inlined at each call.
 
+use super::walk::{walk_expr, walk_stmt};
 use super::{Lower, MAX_INLINE_DEPTH, Ty, Val, Var};
 use crate::ast::{self, AssignOp, Expr, ExprKind, Stmt, StmtKind};
 use crate::source::Span;
@@ -958,57 +959,6 @@ impl<'a> Lower<'a> {
     }
 }
 
-/// Calls `f` on every expression of `s`, nested ones included.
-pub(crate) fn walk_stmt<'s>(s: &'s Stmt, f: &mut dyn FnMut(&'s Expr)) {
-    match &s.kind {
-        StmtKind::Block(b) => b.stmts.iter().for_each(|s| walk_stmt(s, f)),
-        StmtKind::Decl(d) => d
-            .vars
-            .iter()
-            .filter_map(|v| v.init.as_ref())
-            .for_each(|e| walk_expr(e, f)),
-        StmtKind::Expr(e) => walk_expr(e, f),
-        StmtKind::If { cond, then, els } => {
-            walk_expr(cond, f);
-            walk_stmt(then, f);
-            if let Some(e) = els {
-                walk_stmt(e, f);
-            }
-        }
-        StmtKind::Illuminance { args, body, .. }
-        | StmtKind::Illuminate { args, body }
-        | StmtKind::Solar { args, body } => {
-            args.iter().for_each(|e| walk_expr(e, f));
-            walk_stmt(body, f);
-        }
-        StmtKind::For {
-            init,
-            cond,
-            step,
-            body,
-        } => {
-            match init {
-                ast::ForInit::None => {}
-                ast::ForInit::Decl(d) => d
-                    .vars
-                    .iter()
-                    .filter_map(|v| v.init.as_ref())
-                    .for_each(|e| walk_expr(e, f)),
-                ast::ForInit::Exprs(es) => es.iter().for_each(|e| walk_expr(e, f)),
-            }
-            cond.iter().chain(step).for_each(|e| walk_expr(e, f));
-            walk_stmt(body, f);
-        }
-        StmtKind::While { cond, body } | StmtKind::DoWhile { body, cond } => {
-            walk_expr(cond, f);
-            walk_stmt(body, f);
-        }
-        StmtKind::Return(Some(e)) => walk_expr(e, f),
-        _ => {}
-    }
-}
-
-/// The span of an assignment (or `++`/`--`) inside `e`, if any.
 /// The array a write into a field of one of its elements changes (`a[i].f`, `s.a[i].f.g`:
 /// the array whole).
 fn indexed(t: &ExprKind) -> Option<ast::Ident> {
@@ -1019,6 +969,7 @@ fn indexed(t: &ExprKind) -> Option<ast::Ident> {
     }
 }
 
+/// The span of an assignment (or `++`/`--`) inside `e`, if any.
 fn assignment_in(e: &Expr) -> Option<Span> {
     let mut at = None;
     walk_expr(e, &mut |x| {
@@ -1039,39 +990,6 @@ pub(crate) fn has_jump(s: &Stmt) -> bool {
         | StmtKind::While { body, .. }
         | StmtKind::DoWhile { body, .. } => has_jump(body),
         _ => false,
-    }
-}
-
-/// Calls `f` on `e` and every expression inside it.
-fn walk_expr<'s>(e: &'s Expr, f: &mut dyn FnMut(&'s Expr)) {
-    f(e);
-    match &e.kind {
-        ExprKind::Call { args, .. } | ExprKind::Tuple(args) | ExprKind::InitList(args) => {
-            args.iter().for_each(|a| walk_expr(a, f))
-        }
-        ExprKind::Construct { args, .. } => args.iter().for_each(|a| walk_expr(a, f)),
-        ExprKind::Cast { expr, .. } => walk_expr(expr, f),
-        ExprKind::Unary { operand, .. } => walk_expr(operand, f),
-        ExprKind::Binary { lhs, rhs, .. } => {
-            walk_expr(lhs, f);
-            walk_expr(rhs, f);
-        }
-        ExprKind::Ternary { cond, then, els } => {
-            walk_expr(cond, f);
-            walk_expr(then, f);
-            walk_expr(els, f);
-        }
-        ExprKind::Assign { target, value, .. } => {
-            walk_expr(target, f);
-            walk_expr(value, f);
-        }
-        ExprKind::IncDec { target, .. } => walk_expr(target, f),
-        ExprKind::Index { base, index } => {
-            walk_expr(base, f);
-            walk_expr(index, f);
-        }
-        ExprKind::Member { base, .. } => walk_expr(base, f),
-        _ => {}
     }
 }
 
