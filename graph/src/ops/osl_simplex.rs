@@ -189,24 +189,33 @@ fn offset<F: Real, const D: usize>(x0: [F; D], o: [i32; D], kg: F) -> [F; D] {
     std::array::from_fn(|d| x0[d] - F::from_i32(o[d]) + kg)
 }
 
-/// One corner's contribution in 2D–4D: `t⁴ (g · x)` with `t = 0.5 − |x|²` (subtracted
-/// coordinate by coordinate), 0 outside the corner's radius (`t < 0`, or NaN).
-fn corner<F: Real, const D: usize>(x: [F; D], grad: impl FnOnce() -> [F; D]) -> F {
+/// One corner's contribution in 2D–4D for each of `S` seeds: `t⁴ (g · x)` with
+/// `t = 0.5 − |x|²` (subtracted coordinate by coordinate), 0 outside the corner's radius
+/// (`t < 0`, or NaN). `t` is computed once; the gradient (`grad(seed)`) and the dot
+/// product per seed, each in the source's order, so every seed's value has the bits of a
+/// noise evaluated for that seed alone.
+fn corner<F: Real, const D: usize, const S: usize>(
+    x: [F; D],
+    seeds: [u32; S],
+    grad: impl Fn(u32) -> [F; D],
+) -> [F; S] {
     let mut t = F::from_f64(0.5);
     for c in x {
         t = t - c * c;
     }
     if t >= F::ZERO {
-        let grad = grad();
         let t2 = t * t;
         let t4 = t2 * t2;
-        let mut dot = grad[0] * x[0];
-        for d in 1..D {
-            dot = dot + grad[d] * x[d];
-        }
-        t4 * dot
+        seeds.map(|seed| {
+            let grad = grad(seed);
+            let mut dot = grad[0] * x[0];
+            for d in 1..D {
+                dot = dot + grad[d] * x[d];
+            }
+            t4 * dot
+        })
     } else {
-        F::ZERO
+        [F::ZERO; S]
     }
 }
 
@@ -228,19 +237,28 @@ pub fn simplex1<F: Real>(x: F, seed: u32) -> F {
 /// OSL `simplexnoise2(x, y, seed)`: three corners of the skewed triangle grid, scaled by
 /// 64.
 pub fn simplex2<F: Real>(p: [F; 2], seed: u32) -> F {
+    simplex2_seeds(p, [seed])[0]
+}
+
+/// [`simplex2`] for each of `S` seeds, the lattice walked once.
+fn simplex2_seeds<F: Real, const S: usize>(p: [F; 2], seeds: [u32; S]) -> [F; S] {
     let g2 = F::from_f64(0.211324865);
     let (c, x0) = skew(p, 0.366025403, g2);
     let o1 = if x0[0] > x0[1] { [1, 0] } else { [0, 1] };
     let grad = |o: [i32; 2]| {
-        move || {
+        move |seed| {
             let [i, j] = std::array::from_fn(|d| c[d].wrapping_add(o[d]) as u32);
             g(GRAD2[(scramble(i, j, seed) & 7) as usize])
         }
     };
-    let n0 = corner(x0, grad([0; 2]));
-    let n1 = corner(offset(x0, o1, g2), grad(o1));
-    let n2 = corner(offset(x0, [1; 2], F::from_f64(2.0) * g2), grad([1; 2]));
-    F::from_f64(64.0) * (n0 + n1 + n2)
+    let n0 = corner(x0, seeds, grad([0; 2]));
+    let n1 = corner(offset(x0, o1, g2), seeds, grad(o1));
+    let n2 = corner(
+        offset(x0, [1; 2], F::from_f64(2.0) * g2),
+        seeds,
+        grad([1; 2]),
+    );
+    std::array::from_fn(|s| F::from_f64(64.0) * (n0[s] + n1[s] + n2[s]))
 }
 
 /// The second and third corners' lattice offsets of the 3D simplex the offset `x0` lies
@@ -266,21 +284,26 @@ fn order3<F: Real>(x0: F, y0: F, z0: F) -> ([i32; 3], [i32; 3]) {
 /// OSL `simplexnoise3(x, y, z, seed)`: four corners of the skewed tetrahedral grid, scaled
 /// by 68.
 pub fn simplex3<F: Real>(p: [F; 3], seed: u32) -> F {
+    simplex3_seeds(p, [seed])[0]
+}
+
+/// [`simplex3`] for each of `S` seeds, the lattice walked once.
+fn simplex3_seeds<F: Real, const S: usize>(p: [F; 3], seeds: [u32; S]) -> [F; S] {
     let g3 = F::from_f64(0.166666667);
     let (c, x0) = skew(p, 0.333333333, g3);
     let (o1, o2) = order3(x0[0], x0[1], x0[2]);
     let kg = |k: f64| F::from_f64(k) * g3;
     let grad = |o: [i32; 3]| {
-        move || {
+        move |seed| {
             let [i, j, k] = std::array::from_fn(|d| c[d].wrapping_add(o[d]) as u32);
             g(GRAD3[(scramble(i, j, scramble(k, seed, 0)) & 15) as usize])
         }
     };
-    let n0 = corner(x0, grad([0; 3]));
-    let n1 = corner(offset(x0, o1, g3), grad(o1));
-    let n2 = corner(offset(x0, o2, kg(2.0)), grad(o2));
-    let n3 = corner(offset(x0, [1; 3], kg(3.0)), grad([1; 3]));
-    F::from_f64(68.0) * (n0 + n1 + n2 + n3)
+    let n0 = corner(x0, seeds, grad([0; 3]));
+    let n1 = corner(offset(x0, o1, g3), seeds, grad(o1));
+    let n2 = corner(offset(x0, o2, kg(2.0)), seeds, grad(o2));
+    let n3 = corner(offset(x0, [1; 3], kg(3.0)), seeds, grad([1; 3]));
+    std::array::from_fn(|s| F::from_f64(68.0) * (n0[s] + n1[s] + n2[s] + n3[s]))
 }
 
 /// The index into [`SIMPLEX4`] of OSL's six comparisons of the 4D offsets.
@@ -296,6 +319,11 @@ fn order4<F: Real>(x: [F; 4]) -> usize {
 
 /// OSL `simplexnoise4(x, y, z, w, seed)`: five corners of the skewed 4D grid, scaled by 54.
 pub fn simplex4<F: Real>(p: [F; 3], w: F, seed: u32) -> F {
+    simplex4_seeds(p, w, [seed])[0]
+}
+
+/// [`simplex4`] for each of `S` seeds, the lattice walked once.
+fn simplex4_seeds<F: Real, const S: usize>(p: [F; 3], w: F, seeds: [u32; S]) -> [F; S] {
     let g4 = F::from_f64(0.138196601);
     let (c, x0) = skew([p[0], p[1], p[2], w], 0.309016994, g4);
     let rank = SIMPLEX4[order4(x0)];
@@ -304,17 +332,17 @@ pub fn simplex4<F: Real>(p: [F; 3], w: F, seed: u32) -> F {
     let (o1, o2, o3) = (step(1), step(2), step(3));
     let kg = |k: f64| F::from_f64(k) * g4;
     let grad = |o: [i32; 4]| {
-        move || {
+        move |seed| {
             let [i, j, k, l] = std::array::from_fn(|d| c[d].wrapping_add(o[d]) as u32);
             g(GRAD4[(scramble(i, j, scramble(k, l, seed)) & 31) as usize])
         }
     };
-    let n0 = corner(x0, grad([0; 4]));
-    let n1 = corner(offset(x0, o1, g4), grad(o1));
-    let n2 = corner(offset(x0, o2, kg(2.0)), grad(o2));
-    let n3 = corner(offset(x0, o3, kg(3.0)), grad(o3));
-    let n4 = corner(offset(x0, [1; 4], kg(4.0)), grad([1; 4]));
-    F::from_f64(54.0) * (n0 + n1 + n2 + n3 + n4)
+    let n0 = corner(x0, seeds, grad([0; 4]));
+    let n1 = corner(offset(x0, o1, g4), seeds, grad(o1));
+    let n2 = corner(offset(x0, o2, kg(2.0)), seeds, grad(o2));
+    let n3 = corner(offset(x0, o3, kg(3.0)), seeds, grad(o3));
+    let n4 = corner(offset(x0, [1; 4], kg(4.0)), seeds, grad([1; 4]));
+    std::array::from_fn(|s| F::from_f64(54.0) * (n0[s] + n1[s] + n2[s] + n3[s] + n4[s]))
 }
 
 /// OSL `vector noise("simplex", x)`: the 1D noise at seeds 0, 1, 2.
@@ -322,19 +350,20 @@ pub fn vsimplex1<F: Real>(x: F) -> [F; 3] {
     [0, 1, 2].map(|s| simplex1(x, s))
 }
 
-/// OSL `vector noise("simplex", x, y)`.
+/// OSL `vector noise("simplex", x, y)`: seeds 0, 1, 2 (the lattice walked once, where
+/// OSL walks it per seed: the same values).
 pub fn vsimplex2<F: Real>(p: [F; 2]) -> [F; 3] {
-    [0, 1, 2].map(|s| simplex2(p, s))
+    simplex2_seeds(p, [0, 1, 2])
 }
 
 /// OSL `vector noise("simplex", p)`.
 pub fn vsimplex3<F: Real>(p: [F; 3]) -> [F; 3] {
-    [0, 1, 2].map(|s| simplex3(p, s))
+    simplex3_seeds(p, [0, 1, 2])
 }
 
 /// OSL `vector noise("simplex", p, t)`.
 pub fn vsimplex4<F: Real>(p: [F; 3], t: F) -> [F; 3] {
-    [0, 1, 2].map(|s| simplex4(p, t, s))
+    simplex4_seeds(p, t, [0, 1, 2])
 }
 
 #[cfg(test)]
@@ -488,6 +517,54 @@ mod tests {
             assert!(d < 1e-4, "3D at {p:?}: {d}");
             let d = (simplex4(p, p[0], 2) as f64 - simplex4(q, q[0], 2)).abs();
             assert!(d < 1e-4, "4D at {p:?}: {d}");
+        }
+    }
+
+    /// Vector noise walks the lattice once for its three seeds: the same bits as the float
+    /// noise at seeds 0, 1 and 2, over random, lattice-aligned and raw-bit coordinates, in
+    /// f32 and f64.
+    #[test]
+    fn vector_noise_is_the_float_noise_per_seed() {
+        let mut state = 0x9e37_79b9_u32;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            state
+        };
+        let bits32 = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let bits64 = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for k in 0..20_000 {
+            let x: [f32; 4] = std::array::from_fn(|_| match k % 3 {
+                0 => (next() as f32 / u32::MAX as f32 - 0.5) * 40.0,
+                1 => (next() % 17) as f32 - 8.0,
+                _ => f32::from_bits(next()),
+            });
+            let p = [x[0], x[1], x[2]];
+            let per_seed = |f: &dyn Fn(u32) -> f32| [0, 1, 2].map(f);
+            assert_eq!(
+                bits32(&vsimplex2([x[0], x[1]])),
+                bits32(&per_seed(&|s| simplex2([x[0], x[1]], s)))
+            );
+            assert_eq!(
+                bits32(&vsimplex3(p)),
+                bits32(&per_seed(&|s| simplex3(p, s)))
+            );
+            assert_eq!(
+                bits32(&vsimplex4(p, x[3])),
+                bits32(&per_seed(&|s| simplex4(p, x[3], s)))
+            );
+            let q = p.map(f64::from);
+            let w = f64::from(x[3]);
+            let per_seed64 = |f: &dyn Fn(u32) -> f64| [0, 1, 2].map(f);
+            assert_eq!(
+                bits64(&vsimplex3(q)),
+                bits64(&per_seed64(&|s| simplex3(q, s)))
+            );
+            assert_eq!(
+                bits64(&vsimplex4(q, w)),
+                bits64(&per_seed64(&|s| simplex4(q, w, s)))
+            );
         }
     }
 }

@@ -313,6 +313,10 @@ pub(crate) struct Lower<'a> {
     /// and whether the arm is where it holds), outermost first: a print there runs under
     /// them ([`print`]).
     pub(crate) print_guard: Vec<(Value, bool)>,
+    /// The user functions that run OSL's `trace`, directly or through the functions they
+    /// call ([`probe`]): computed once, so that asking whether a statement traces does not
+    /// walk the call graph again.
+    pub(crate) tracing: std::collections::HashSet<&'a str>,
 }
 
 /// Compiles shader `name` (the file's only or first shader when `None`) of a parsed file to
@@ -410,6 +414,7 @@ impl<'a> Lower<'a> {
                 Item::Shader(_) => {}
             }
         }
+        let tracing = probe::tracing_functions(parsed.dialect, &functions);
         Lower {
             scopes: vec![HashMap::new()],
             functions,
@@ -427,6 +432,7 @@ impl<'a> Lower<'a> {
             shader_params: HashMap::new(),
             connections: HashMap::new(),
             print_guard: Vec::new(),
+            tracing,
         }
     }
 
