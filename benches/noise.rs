@@ -4,12 +4,13 @@
 //! `fbm3_x4` on each SIMD path the CPU has; then the same for OSL's generators that the
 //! MaterialX noise nodes call (`ops::osl_noise` per lane against `ops::osl_noise_x4`):
 //! `perlin3`, `fractal3` (the same 6 octaves, 2.1, 0.55), `cell3` and `worley3` (jitter 1,
-//! Euclidean distance). One thread. `cargo bench --bench noise`; `cargo test --benches` runs
-//! a quick check that the paths agree instead.
+//! Euclidean distance); and OSL's vector simplex noise (`osl_vsimplex3_640x480`). One
+//! thread. `cargo bench --bench noise`; `cargo test --benches` runs a quick check that the
+//! paths agree instead.
 
 use criterion::{Criterion, criterion_group};
 use shadenet::graph::ops::noise_x4::{self, Path};
-use shadenet::graph::ops::{noise, osl_noise, osl_noise_x4};
+use shadenet::graph::ops::{noise, osl_noise, osl_noise_x4, osl_simplex};
 use std::hint::black_box;
 
 const W: usize = 640;
@@ -118,8 +119,42 @@ fn bench_osl(c: &mut Criterion, ps: &[[[f32; 4]; 3]]) {
     }
 }
 
+/// OSL's vector simplex noise (`vector noise("simplex", p)`) over the grid: three float
+/// noises at seeds 0, 1, 2 (what it computed before, as OSL's own code does) against the
+/// vector noise that walks the lattice once for the three seeds (the same bits).
+fn bench_vsimplex(c: &mut Criterion, ps: &[[[f32; 4]; 3]]) {
+    let points = || {
+        ps.iter()
+            .flat_map(|p| (0..4).map(move |l| [p[0][l], p[1][l], p[2][l] + 0.37 * p[0][l]]))
+    };
+    let mut g = c.benchmark_group("osl_vsimplex3_640x480");
+    g.sample_size(10);
+    g.bench_function("three_float_noises", |b| {
+        b.iter(|| {
+            let mut acc = 0.0f32;
+            for p in points() {
+                for s in 0..3 {
+                    acc += osl_simplex::simplex3(p, s);
+                }
+            }
+            black_box(acc)
+        })
+    });
+    g.bench_function("vector_noise", |b| {
+        b.iter(|| {
+            let mut acc = 0.0f32;
+            for p in points() {
+                acc += osl_simplex::vsimplex3(p).iter().sum::<f32>();
+            }
+            black_box(acc)
+        })
+    });
+    g.finish();
+}
+
 fn bench(c: &mut Criterion) {
     let ps = packets();
+    bench_vsimplex(c, &ps);
     let mut g = c.benchmark_group("fbm3_640x480");
     g.sample_size(20);
     g.bench_function("per_lane_scalar", |b| b.iter(|| black_box(per_lane(&ps))));

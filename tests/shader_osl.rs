@@ -1762,8 +1762,8 @@ fn string_builtins_are_osls() {
             "`strlen`: takes 1 arguments, not 2",
         ),
         (
-            "shader s(output float o = 0) { int h = trace(P, N); }",
-            "`trace`: OSL's trace (a probe ray whose hit getmessage reads) is not built yet",
+            "shader s(output float o = 0) { setmessage(\"k\", u); }",
+            "`setmessage`: messages between layers",
         ),
         (
             "shader s(output float o = 0) { o = transformu(\"cm\", \"m\", u); }",
