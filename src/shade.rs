@@ -103,15 +103,12 @@ pub struct Grid {
     pub messages: Messages,
 }
 
-/// Sums the rows' (or runs') non-finite counts and joins their messages in order.
-fn join(parts: Vec<(u64, Messages)>) -> (u64, Messages) {
-    let mut all = Messages::default();
-    let mut bad = 0;
-    for (b, m) in parts {
-        bad += b;
-        all.append(m);
-    }
-    (bad, all)
+/// Two adjacent rows' (or runs') non-finite counts summed and their messages joined in
+/// order: what the parallel shading loops reduce with (rayon keeps the order of an indexed
+/// iterator's items), so a frame allocates nothing for rows that print nothing.
+fn join((bad, mut all): (u64, Messages), (more, m): (u64, Messages)) -> (u64, Messages) {
+    all.append(m);
+    (bad + more, all)
 }
 
 impl Grid {
@@ -175,7 +172,7 @@ pub fn shade_grid<F: Real>(
     let interp = Interpreter::<F>::new(program)?;
     let stride: usize = interp.slots().iter().map(|s| s.ty.width().max(1)).sum();
     let mut values = vec![0.0f64; (w * h) as usize * stride];
-    let rows: Vec<(u64, Messages)> = values
+    let (nonfinite, messages) = values
         .par_chunks_mut((w as usize * stride).max(1))
         .enumerate()
         .map(|(y, row)| {
@@ -193,8 +190,7 @@ pub fn shade_grid<F: Real>(
             }
             (bad, messages::take())
         })
-        .collect();
-    let (nonfinite, messages) = join(rows);
+        .reduce(Default::default, join);
     Ok(Grid {
         width: w,
         height: h,
@@ -286,8 +282,7 @@ pub fn shade_grid_into(
     let stride = material.width();
     let row_len = packed_len(stride, w as usize);
     data.resize(row_len * h as usize, 0.0);
-    let rows: Vec<(u64, Messages)> = data
-        .par_chunks_mut(row_len.max(1))
+    data.par_chunks_mut(row_len.max(1))
         .enumerate()
         .map_init(RowPackets::default, |rows, (y, dst)| {
             let y = y as u32;
@@ -312,8 +307,7 @@ pub fn shade_grid_into(
             }
             (bad, messages::take())
         })
-        .collect();
-    join(rows)
+        .reduce(Default::default, join)
 }
 
 /// Shades every pixel of a `w × h` grid with one [`Material::shade_many`] call (the batch
@@ -370,38 +364,36 @@ pub fn shade_fragments(
             let r = material.shade_many(env, mask, None, &all, &mut data);
             (r.nonfinite, messages::take())
         }
-        BatchMode::Batches => join(
-            data.par_chunks_mut(per_packet * FRAGMENTS_PER_BATCH / LANES)
-                .zip(frags.par_chunks(FRAGMENTS_PER_BATCH))
-                .map(|(dst, chunk)| {
-                    let chunk = Fragments::from_slice(chunk);
-                    let bad = material.shade_many(env, mask, None, &chunk, dst).nonfinite;
-                    (bad, messages::take())
-                })
-                .collect::<Vec<_>>(),
-        ),
-        BatchMode::Single => join(
-            data.par_chunks_mut(per_packet)
-                .zip(frags.par_chunks(LANES))
-                .map(|(dst, packet)| {
-                    let mut one = vec![0.0f32; stride];
-                    let mut bad = 0u64;
-                    for (lane, frag) in packet.iter().enumerate() {
-                        let ctx = ShadeCtx {
-                            frag: *frag,
-                            env,
-                            mask,
-                            scene: None,
-                        };
-                        bad += material.shade(&ctx, &mut one) as u64;
-                        for (k, v) in one.iter().enumerate() {
-                            dst[packed_index(stride, lane, k)] = *v;
-                        }
+        BatchMode::Batches => data
+            .par_chunks_mut(per_packet * FRAGMENTS_PER_BATCH / LANES)
+            .zip(frags.par_chunks(FRAGMENTS_PER_BATCH))
+            .map(|(dst, chunk)| {
+                let chunk = Fragments::from_slice(chunk);
+                let bad = material.shade_many(env, mask, None, &chunk, dst).nonfinite;
+                (bad, messages::take())
+            })
+            .reduce(Default::default, join),
+        BatchMode::Single => data
+            .par_chunks_mut(per_packet)
+            .zip(frags.par_chunks(LANES))
+            .map(|(dst, packet)| {
+                let mut one = vec![0.0f32; stride];
+                let mut bad = 0u64;
+                for (lane, frag) in packet.iter().enumerate() {
+                    let ctx = ShadeCtx {
+                        frag: *frag,
+                        env,
+                        mask,
+                        scene: None,
+                    };
+                    bad += material.shade(&ctx, &mut one) as u64;
+                    for (k, v) in one.iter().enumerate() {
+                        dst[packed_index(stride, lane, k)] = *v;
                     }
-                    (bad, messages::take())
-                })
-                .collect::<Vec<_>>(),
-        ),
+                }
+                (bad, messages::take())
+            })
+            .reduce(Default::default, join),
     };
     Grid {
         width: n as u32,

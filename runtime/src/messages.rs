@@ -93,28 +93,28 @@ thread_local! {
 /// its arguments (a program the validator would reject) writes the reason as an error
 /// instead. Does nothing while the thread is [`muted`].
 pub fn write(severity: Severity, format: &str, args: &[Arg]) {
-    if MUTED.get() {
-        return;
-    }
-    let m = message(severity, format, args);
-    LOG.with_borrow_mut(|log| {
-        if log.fits(&m.text) {
-            log.messages.list.push(m);
-        }
-    });
+    record(None, severity, format, args);
 }
 
 /// [`write`] for fragment `fragment` of a batch that runs its fragments in lockstep (a
 /// packet's lanes write one op's messages together): the message waits until
 /// [`flush_batch`] puts the batch's messages in fragment order.
 pub fn write_at(fragment: u32, severity: Severity, format: &str, args: &[Arg]) {
+    record(Some(fragment), severity, format, args);
+}
+
+/// The message into the log (`at: None`) or among the batch's pending ones.
+fn record(at: Option<u32>, severity: Severity, format: &str, args: &[Arg]) {
     if MUTED.get() {
         return;
     }
     let m = message(severity, format, args);
     LOG.with_borrow_mut(|log| {
         if log.fits(&m.text) {
-            log.pending.push((fragment, m));
+            match at {
+                Some(f) => log.pending.push((f, m)),
+                None => log.messages.list.push(m),
+            }
         }
     });
 }

@@ -230,6 +230,24 @@ pub(crate) fn print_out(text: &str) {
     let _ = std::io::stdout().lock().write_all(text.as_bytes());
 }
 
+/// The summary line of what shaders printed (`None` when they printed nothing).
+pub(crate) fn messages_line(m: &shadenet::runtime::messages::Messages) -> Option<String> {
+    use shadenet::graph::ir::Severity;
+    (!m.is_empty()).then(|| {
+        let dropped = if m.dropped > 0 {
+            format!(", {} dropped", m.dropped)
+        } else {
+            String::new()
+        };
+        format!(
+            "shader messages: {} printf, {} warnings, {} errors{dropped}",
+            m.count(Severity::Printf),
+            m.count(Severity::Warning),
+            m.errors()
+        )
+    })
+}
+
 /// Writes what shaders printed, in the order given: `printf` output to standard output as
 /// it is (a shader ends its own lines), warnings and errors to standard error as `WARNING:`
 /// and `ERROR:` lines (OSL's error handler's form), then how many the log dropped.

@@ -141,13 +141,8 @@ pub(crate) fn run(args: RenderArgs) -> Result<()> {
         messages.append(m);
     }
     super::print_messages(&messages);
-    if !args.quiet && !messages.is_empty() {
-        say!(
-            "shader messages: {} printf, {} warnings, {} errors",
-            messages.count(shadenet::graph::ir::Severity::Printf),
-            messages.count(shadenet::graph::ir::Severity::Warning),
-            messages.errors()
-        );
+    if let Some(line) = super::messages_line(&messages).filter(|_| !args.quiet) {
+        say!("{line}");
     }
     // Each file is written to a temporary name and renamed: an error leaves any existing
     // output untouched.

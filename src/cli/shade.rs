@@ -6,7 +6,7 @@ use super::{BackendArg, GpuPassesArg, OptArgs, ThreadsArg, check_extension, load
 use anyhow::{Context, Result, bail};
 use clap::ValueEnum;
 use shadenet::bench::report::Timing;
-use shadenet::graph::ir::{Program, Severity};
+use shadenet::graph::ir::Program;
 use shadenet::graph::nodes::LightDesc;
 use shadenet::graph::opt::{self, Specialization};
 use shadenet::lights::{DEFAULT_LIGHT, parse_light};
@@ -339,19 +339,8 @@ fn summary(args: &ShadeArgs, s: &Shaded) {
             n as f64 / t.median / 1e6
         );
     }
-    let m = &s.grid.messages;
-    if !m.is_empty() {
-        say!(
-            "shader messages: {} printf, {} warnings, {} errors{}",
-            m.count(Severity::Printf),
-            m.count(Severity::Warning),
-            m.errors(),
-            if m.dropped > 0 {
-                format!(", {} dropped", m.dropped)
-            } else {
-                String::new()
-            }
-        );
+    if let Some(line) = super::messages_line(&s.grid.messages) {
+        say!("{line}");
     }
     if let Some((_, st)) = &s.stats {
         say!("compile: {st}");

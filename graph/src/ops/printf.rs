@@ -394,7 +394,7 @@ mod tests {
         format(fmt, args).unwrap()
     }
 
-    /// What C's printf prints for these conversions (checked against glibc).
+    /// Known arguments become text; the others stay conversions, checked against their kind.
     #[test]
     fn specializing_splices_known_arguments_and_keeps_the_rest() {
         let args = [
@@ -427,6 +427,7 @@ mod tests {
         assert_eq!(s, "%-+ 0#12.4e");
     }
 
+    /// What C's printf prints for these conversions (checked against glibc).
     #[test]
     #[allow(clippy::approx_constant)] // 3.14159 is a value to format, not π.
     fn conversions_are_cs() {

@@ -16,6 +16,8 @@
 //! It owns these conversions; parsing the call and its errors are `osl.rs`' and
 //! `expr.rs`'.
 
+use super::Ty;
+use super::components::componentwise;
 use shadenet_graph::ir::{BinOp, Builder, Intrinsic, Value};
 use shadenet_graph::types::Type;
 
@@ -70,7 +72,7 @@ pub(crate) fn to_rgb(b: &mut Builder, space: Space, c: Value) -> Value {
             let xyz = xyy_to_xyz(b, c);
             row_times(b, xyz, xyz_to_rgb_rows())
         }
-        Space::Srgb => per_channel(b, c, srgb_to_linear),
+        Space::Srgb => componentwise(b, c, Ty::Color, srgb_to_linear),
     }
 }
 
@@ -86,7 +88,7 @@ pub(crate) fn from_rgb(b: &mut Builder, space: Space, c: Value) -> Value {
             let xyz = row_times(b, c, rgb_to_xyz_rows());
             xyz_to_xyy(b, xyz)
         }
-        Space::Srgb => per_channel(b, c, linear_to_srgb),
+        Space::Srgb => componentwise(b, c, Ty::Color, linear_to_srgb),
     }
 }
 
@@ -131,17 +133,6 @@ fn row_times(b: &mut Builder, c: Value, m: [[f64; 3]; 3]) -> Value {
                 .collect();
             let s = b.add(terms[0], terms[1]);
             b.add(s, terms[2])
-        })
-        .collect();
-    b.construct(Type::Color, &out)
-}
-
-/// `f` on each channel of `c`.
-fn per_channel(b: &mut Builder, c: Value, f: fn(&mut Builder, Value) -> Value) -> Value {
-    let out: Vec<Value> = (0..3)
-        .map(|i| {
-            let x = b.extract(c, i);
-            f(b, x)
         })
         .collect();
     b.construct(Type::Color, &out)

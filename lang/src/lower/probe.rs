@@ -153,8 +153,7 @@ impl<'a> Lower<'a> {
             }
         };
         let (mut lo, mut hi) = (b.float(0.0), b.float(1.0e30));
-        let mut rest = args[2..].chunks(2);
-        for pair in rest.by_ref() {
+        for pair in args[2..].chunks(2) {
             let [(Val::Str(name), at), (value, vat)] = pair else {
                 let why = "`trace`'s options come in pairs: a name (a string) and its value";
                 return fail(self, b, why.into(), pair[0].1);
@@ -208,16 +207,16 @@ impl<'a> Lower<'a> {
                 }
             }
         }
+        // `hit` (first in FIELDS) is the call's value too.
         let mut hit = None;
         for (f, ty) in FIELDS {
             let v = b.probe(f, pos, dir, lo, hi);
             let v = if ty == Ty::Int {
-                let i = b.convert(Type::Int, v);
-                hit = Some(i);
-                i
+                b.convert(Type::Int, v)
             } else {
                 v
             };
+            hit.get_or_insert(v);
             self.set_flag(
                 &hidden(f),
                 Val::V {
@@ -228,7 +227,7 @@ impl<'a> Lower<'a> {
             );
         }
         Val::V {
-            v: hit.unwrap_or_else(|| b.int(0)),
+            v: hit.expect("FIELDS is not empty"),
             ty: Ty::Int,
             varying: true,
         }
@@ -300,8 +299,7 @@ impl<'a> Lower<'a> {
         let Val::V { v: got, .. } = got else {
             return Self::poison(b, Ty::Int);
         };
-        let zero = b.int(0);
-        let found = b.binary(shadenet_graph::ir::BinOp::Ne, hit, zero);
+        let found = super::nonzero(b, hit, Ty::Int);
         let new = if field == ProbeField::Hit {
             got
         } else {
