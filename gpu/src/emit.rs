@@ -499,6 +499,7 @@ fn unary(op: UnOp, t: Type, x: &str) -> Result<String, EmitError> {
         return match op {
             Neg => Ok(format!("sn_ineg({x})")),
             Abs => Ok(format!("sn_iabs({x})")),
+            BitNot => Ok(format!("(~{a})")),
             _ => Err(ill_typed(op.name(), t)),
         };
     }
@@ -535,7 +536,7 @@ fn unary(op: UnOp, t: Type, x: &str) -> Result<String, EmitError> {
         Acos => map1(t, "sn_acos", x),
         Length => vector("sn_length2", "sn_length3", "sn_length4"),
         Normalize => vector("sn_normalize2", "sn_normalize3", "sn_normalize4"),
-        Not => Err(ill_typed(op.name(), t)),
+        Not | BitNot => Err(ill_typed(op.name(), t)),
     }
 }
 
@@ -568,6 +569,12 @@ fn binary(op: BinOp, t: Type, x: &str, y: &str) -> Result<String, EmitError> {
             Ge => infix(">="),
             Eq => infix("=="),
             Ne => infix("!="),
+            BitAnd => infix("&"),
+            BitOr => infix("|"),
+            BitXor => infix("^"),
+            // The count's low five bits, as the CPU's (WGSL wants a u32 count).
+            Shl => Ok(format!("({x} << (bitcast<u32>({y}) & 31u))")),
+            Shr => Ok(format!("({x} >> (bitcast<u32>({y}) & 31u))")),
             _ => Err(ill_typed(op.name(), t)),
         },
         Type::Bool => match op {

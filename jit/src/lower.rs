@@ -1438,6 +1438,7 @@ impl<'a, 'b> Lowerer<'a, 'b> {
                 let r = match op {
                     Neg => self.b.ins().ineg(x[0]),
                     Abs => self.b.ins().iabs(x[0]),
+                    BitNot => self.b.ins().bnot(x[0]),
                     _ => x[0],
                 };
                 return Ok(vec![r]);
@@ -1472,7 +1473,7 @@ impl<'a, 'b> Lowerer<'a, 'b> {
                 Tan => self.call_math("sn_tan", &[c]),
                 Asin => self.call_math("sn_asin", &[c]),
                 Acos => self.call_math("sn_acos", &[c]),
-                Not | Length | Normalize => c,
+                Not | Length | Normalize | BitNot => c,
             };
             out.push(r);
         }
@@ -1597,15 +1598,20 @@ impl<'a, 'b> Lowerer<'a, 'b> {
             Mul => self.b.ins().imul(a, b),
             Min => self.b.ins().smin(a, b),
             Max => self.b.ins().smax(a, b),
-            Div | Mod => {
+            BitAnd => self.b.ins().band(a, b),
+            BitOr => self.b.ins().bor(a, b),
+            BitXor => self.b.ins().bxor(a, b),
+            Div | Mod | Shl | Shr => {
+                // Cranelift has neither vector division nor per-lane shift counts: lane by
+                // lane in the batch entry.
                 if !self.batch() {
-                    return Ok(self.int_divmod(op == Div, a, b));
+                    return Ok(self.int_scalar_op(op, a, b));
                 }
                 let mut acc = None;
                 for lane in 0..4u8 {
                     let x = self.b.ins().extractlane(a, lane);
                     let y = self.b.ins().extractlane(b, lane);
-                    let r = self.int_divmod(op == Div, x, y);
+                    let r = self.int_scalar_op(op, x, y);
                     acc = Some(match acc {
                         None => self.b.ins().splat(I32X4, r),
                         Some(acc) => self.b.ins().insertlane(acc, r, lane),
@@ -1615,6 +1621,23 @@ impl<'a, 'b> Lowerer<'a, 'b> {
             }
             _ => return Err(self.unsupported(v, "not defined on ints")),
         })
+    }
+
+    /// One lane of `Div`, `Mod`, `Shl` or `Shr` on scalar i32s.
+    fn int_scalar_op(&mut self, op: BinOp, a: V, b: V) -> V {
+        match op {
+            // The count's low five bits, as `ops::binary` (Cranelift masks it too; stated
+            // so the code says what it relies on).
+            BinOp::Shl | BinOp::Shr => {
+                let n = self.b.ins().band_imm_s(b, 31);
+                if op == BinOp::Shl {
+                    self.b.ins().ishl(a, n)
+                } else {
+                    self.b.ins().sshr(a, n)
+                }
+            }
+            _ => self.int_divmod(op == BinOp::Div, a, b),
+        }
     }
 
     /// Scalar i32 `wrapping_div` / `wrapping_rem_euclid`, 0 for a zero divisor, never a trap.

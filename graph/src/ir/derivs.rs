@@ -260,7 +260,7 @@ impl Builder {
         let factor = match u {
             Neg => return Some(da.map(|d| self.unary(Neg, d))),
             Fract => return Some(da),
-            Floor | Ceil | Not => return None,
+            Floor | Ceil | Not | BitNot => return None,
             Abs => {
                 let parts: Vec<Value> = (0..ty.width())
                     .map(|i| {

@@ -396,6 +396,8 @@ named_enum! {
         Length = "length",
         /// Unit vector; the zero vector stays zero.
         Normalize = "normalize",
+        /// Bitwise complement `!x` of an int (OSL `~x`).
+        BitNot = "bitnot",
     }
 }
 
@@ -447,6 +449,17 @@ named_enum! {
         MulPoint = "mulpoint",
         /// matrix44 × vector (vec3, w = 0) → vec3.
         MulVector = "mulvector",
+        /// Bitwise and of two ints.
+        BitAnd = "bitand",
+        /// Bitwise or of two ints.
+        BitOr = "bitor",
+        /// Bitwise exclusive or of two ints.
+        BitXor = "bitxor",
+        /// `a << b` on ints: the bits shifted out are lost; the count is `b`'s low five bits
+        /// (`b mod 32`, as x86, Cranelift and WGSL take it), so any count is defined.
+        Shl = "shl",
+        /// `a >> b` on ints, arithmetic (the sign bit is copied in); the count as for `shl`.
+        Shr = "shr",
     }
 }
 

@@ -1890,7 +1890,7 @@ mod tests {
             let a = match op {
                 UnOp::Not => t,
                 UnOp::Length | UnOp::Normalize => v3,
-                UnOp::Neg | UnOp::Abs => i,
+                UnOp::Neg | UnOp::Abs | UnOp::BitNot => i,
                 _ => c,
             };
             b.unary(*op, a);
@@ -1904,6 +1904,7 @@ mod tests {
                 BinOp::Cross => (c, c),
                 BinOp::Lt | BinOp::Le | BinOp::Gt | BinOp::Ge => (f, f),
                 BinOp::Eq | BinOp::Ne => (i, i),
+                BinOp::BitAnd | BinOp::BitOr | BinOp::BitXor | BinOp::Shl | BinOp::Shr => (i, i),
                 BinOp::Pow | BinOp::Atan2 => (v3, v3),
                 _ => (prm, c),
             };

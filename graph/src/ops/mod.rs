@@ -518,6 +518,7 @@ pub fn unary_type(op: UnOp, a: Type) -> Option<Type> {
     use UnOp::*;
     match op {
         Not => (a == Type::Bool).then_some(Type::Bool),
+        BitNot => (a == Type::Int).then_some(Type::Int),
         Neg | Abs => (a == Type::Int || a.is_float_based()).then_some(a),
         Length => a.is_vector().then_some(Type::Float),
         Normalize => a.is_vector().then_some(a),
@@ -540,6 +541,7 @@ pub fn binary_type(op: BinOp, a: Type, b: Type) -> Option<Type> {
         Lt | Le | Gt | Ge => matches!(a, Type::Int | Type::Float).then_some(Type::Bool),
         Eq | Ne => matches!(a, Type::Int | Type::Float | Type::Bool).then_some(Type::Bool),
         And | Or => (a == Type::Bool).then_some(Type::Bool),
+        BitAnd | BitOr | BitXor | Shl | Shr => (a == Type::Int).then_some(Type::Int),
     }
 }
 
@@ -632,6 +634,7 @@ pub fn unary<F: Real>(op: UnOp, a: Val<F>) -> Val<F> {
         (Not, Val::Bool(b)) => Val::Bool(!b),
         (Neg, Val::Int(i)) => Val::Int(i.wrapping_neg()),
         (Abs, Val::Int(i)) => Val::Int(i.wrapping_abs()),
+        (BitNot, Val::Int(i)) => Val::Int(!i),
         (Length, v) => Val::Float(length(v.floats())),
         (Normalize, Val::Vec2(v)) => Val::Vec2(normalize(v)),
         (Normalize, Val::Vec3(v)) => Val::Vec3(normalize(v)),
@@ -649,7 +652,7 @@ pub fn unary<F: Real>(op: UnOp, a: Val<F>) -> Val<F> {
         (Tan, v) => v.map(tan),
         (Asin, v) => v.map(asin),
         (Acos, v) => v.map(acos),
-        (Not | Normalize, v) => v,
+        (Not | Normalize | BitNot, v) => v,
     }
 }
 
@@ -672,6 +675,12 @@ pub fn binary<F: Real>(op: BinOp, a: Val<F>, b: Val<F>) -> Val<F> {
             Ge => Val::Bool(x >= y),
             Eq => Val::Bool(x == y),
             Ne => Val::Bool(x != y),
+            BitAnd => Val::Int(x & y),
+            BitOr => Val::Int(x | y),
+            BitXor => Val::Int(x ^ y),
+            // `wrapping_sh*` take the count's low five bits, as documented on the op.
+            Shl => Val::Int(x.wrapping_shl(y as u32)),
+            Shr => Val::Int(x.wrapping_shr(y as u32)),
             _ => Val::Int(0),
         };
     }
@@ -706,7 +715,7 @@ pub fn binary<F: Real>(op: BinOp, a: Val<F>, b: Val<F>) -> Val<F> {
         Ge => Val::Bool(a.as_float() >= b.as_float()),
         Eq => Val::Bool(a.as_float() == b.as_float()),
         Ne => Val::Bool(a.as_float() != b.as_float()),
-        And | Or | MulPoint | MulVector => Val::Bool(false),
+        And | Or | MulPoint | MulVector | BitAnd | BitOr | BitXor | Shl | Shr => Val::Bool(false),
     }
 }
 

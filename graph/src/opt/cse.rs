@@ -137,9 +137,9 @@ impl ConstKey {
 fn commutative(op: BinOp) -> bool {
     use BinOp::*;
     match op {
-        Add | Mul | Dot | Eq | Ne | And | Or => true,
+        Add | Mul | Dot | Eq | Ne | And | Or | BitAnd | BitOr | BitXor => true,
         Sub | Div | Mod | Pow | Min | Max | Atan2 | Cross | Distance | Lt | Le | Gt | Ge
-        | MulPoint | MulVector => false,
+        | MulPoint | MulVector | Shl | Shr => false,
     }
 }
 

@@ -301,15 +301,11 @@ impl<'a> Lower<'a> {
             return Self::poison(b, Ty::Float);
         };
         let old = self.field_of(b, elem, f);
-        let new = match super::arith_of(op) {
-            _ if op == AssignOp::Set => self.expr(b, value),
+        let new = match super::compound_of(op) {
+            None => self.expr(b, value),
             Some(bin) => {
                 let v = self.expr(b, value);
                 self.binary_vals(b, bin, (old.clone(), span), (v, value.span), span)
-            }
-            None => {
-                self.error("bitwise assignments are not built", span, "not built yet");
-                return old;
             }
         };
         let new = self.fit(b, new, &old, value.span);
@@ -376,27 +372,25 @@ impl<'a> Lower<'a> {
         };
         let rhs = match rhs {
             Rhs::Val(v) => self.fit(b, v, &first, span),
-            Rhs::Expr(AssignOp::Set, value) => {
-                let v = match (&first, ty) {
-                    (_, Some(ty)) => self.expr_as(b, value, ty),
-                    (Val::Struct(s, _), None) => match self.struct_def(s) {
-                        Some(def) => self.expr_for_struct(b, value, def),
-                        None => self.expr(b, value),
-                    },
-                    _ => self.expr(b, value),
-                };
-                self.fit(b, v, &first, value.span)
-            }
-            Rhs::Expr(op, value) => {
-                let Some(bin) = super::arith_of(op) else {
-                    self.error("bitwise assignments are not built", span, "not built yet");
-                    return first;
-                };
-                let old = self.pick(b, &elems, &pos, span);
-                let v = self.expr(b, value);
-                let v = self.binary_vals(b, bin, (old, span), (v, value.span), span);
-                self.fit(b, v, &first, span)
-            }
+            Rhs::Expr(op, value) => match super::compound_of(op) {
+                None => {
+                    let v = match (&first, ty) {
+                        (_, Some(ty)) => self.expr_as(b, value, ty),
+                        (Val::Struct(s, _), None) => match self.struct_def(s) {
+                            Some(def) => self.expr_for_struct(b, value, def),
+                            None => self.expr(b, value),
+                        },
+                        _ => self.expr(b, value),
+                    };
+                    self.fit(b, v, &first, value.span)
+                }
+                Some(bin) => {
+                    let old = self.pick(b, &elems, &pos, span);
+                    let v = self.expr(b, value);
+                    let v = self.binary_vals(b, bin, (old, span), (v, value.span), span);
+                    self.fit(b, v, &first, span)
+                }
+            },
         };
         match pos {
             Position::Known(k) => elems[k] = rhs.clone(),

@@ -2,7 +2,7 @@
 //! normals mix, a point minus a point is a vector; colors mix only with colors and
 //! floats), operators, constructors, assignments as expressions, calls.
 
-use super::{Lower, Ty, Val, an, arith_of, closest};
+use super::{Lower, Ty, Val, an, closest, compound_of};
 use crate::ast::{self, AssignOp, BinaryOp, Expr, ExprKind, UnaryOp};
 use crate::source::Span;
 use shadenet_graph::ir::{BinOp, Builder, UnOp, Value};
@@ -337,6 +337,12 @@ impl<'a> Lower<'a> {
     }
 
     fn unary(&mut self, b: &mut Builder, op: UnaryOp, operand: &'a Expr, span: Span) -> Val {
+        // `-2147483648`: the literal is negated before it must fit an int.
+        if let (UnaryOp::Neg, ExprKind::Int(i), crate::Dialect::Osl) =
+            (op, &operand.kind, self.dialect)
+        {
+            return self.int(b, -i, span);
+        }
         let v = self.expr(b, operand);
         if let Val::Struct(..) = v {
             let name = match op {
@@ -357,6 +363,7 @@ impl<'a> Lower<'a> {
             (UnaryOp::Neg, Ty::Matrix) => Self::matrix_neg(b, v),
             (UnaryOp::Neg, _) if ty != Ty::Bool => b.unary(UnOp::Neg, v),
             (UnaryOp::Not, Ty::Bool) => b.unary(UnOp::Not, v),
+            (UnaryOp::BitNot, Ty::Int) => b.unary(UnOp::BitNot, v),
             _ => {
                 self.error(
                     format!("this operator does not apply to a {}", ty.name()),
@@ -584,15 +591,47 @@ impl<'a> Lower<'a> {
                 };
                 out(b.binary(ir, a, c), Ty::Bool)
             }
-            _ => {
-                self.error(
-                    "bitwise operators (`&`, `|`, `^`, `<<`, `>>`) are not built yet (the IR has no integer bit operations)",
-                    span,
-                    "not built yet",
-                );
-                Self::poison(b, ta)
-            }
+            BinaryOp::BitAnd
+            | BinaryOp::BitOr
+            | BinaryOp::BitXor
+            | BinaryOp::Shl
+            | BinaryOp::Shr => match self.bitwise(b, op, (a, ta), (c, tc), span) {
+                Some(v) => out(v, Ty::Int),
+                None => Self::poison(b, Ty::Int),
+            },
         }
+    }
+
+    /// OSL's bitwise operators, defined on two ints (`None` after reporting anything else).
+    fn bitwise(
+        &mut self,
+        b: &mut Builder,
+        op: BinaryOp,
+        (a, ta): (Value, Ty),
+        (c, tc): (Value, Ty),
+        span: Span,
+    ) -> Option<Value> {
+        if self.dialect != crate::Dialect::Osl || ta != Ty::Int || tc != Ty::Int {
+            let why = if self.dialect == crate::Dialect::Osl {
+                format!("not {} and {}", an(ta.name()), an(tc.name()))
+            } else {
+                "RSL has no integers (OSL's bitwise operators are)".to_string()
+            };
+            self.error(
+                format!("`{}` takes two ints: {why}", op.as_str()),
+                span,
+                "here",
+            );
+            return None;
+        }
+        let ir = match op {
+            BinaryOp::BitAnd => BinOp::BitAnd,
+            BinaryOp::BitOr => BinOp::BitOr,
+            BinaryOp::BitXor => BinOp::BitXor,
+            BinaryOp::Shl => BinOp::Shl,
+            _ => BinOp::Shr,
+        };
+        Some(b.binary(ir, a, c))
     }
 
     fn ternary(&mut self, b: &mut Builder, cond: &'a Expr, then: &'a Expr, els: &'a Expr) -> Val {
@@ -742,8 +781,8 @@ impl<'a> Lower<'a> {
                 return self.assign_array(b, id, len, value);
             }
             Val::StructVar(s) => {
-                let v = match arith_of(op) {
-                    _ if op == AssignOp::Set => match self.struct_def(&s) {
+                let v = match compound_of(op) {
+                    None => match self.struct_def(&s) {
                         Some(def) => self.expr_for_struct(b, value, def),
                         None => self.expr(b, value),
                     },
@@ -752,10 +791,6 @@ impl<'a> Lower<'a> {
                         let old = self.read_var(&id.name).unwrap_or(Val::Str(String::new()));
                         let x = self.expr(b, value);
                         self.binary_vals(b, bin, (old, target.span), (x, value.span), span)
-                    }
-                    None => {
-                        self.error("bitwise assignments are not built", span, "not built yet");
-                        return Self::poison(b, Ty::Float);
                     }
                 };
                 if !matches!(&v, Val::Struct(t, _) if *t == s) {
@@ -782,17 +817,9 @@ impl<'a> Lower<'a> {
             }
             Val::Str(_) => return self.assign_string(b, op, id, value, span),
         };
-        let rhs = match op {
-            AssignOp::Set => self.expr_as(b, value, ty),
-            _ => {
-                let Some(bin) = arith_of(op) else {
-                    self.error(
-                        "bitwise assignments are OSL's (issue 22)",
-                        span,
-                        "not built yet",
-                    );
-                    return Self::poison(b, ty);
-                };
+        let rhs = match compound_of(op) {
+            None => self.expr_as(b, value, ty),
+            Some(bin) => {
                 let v = self.binary(b, bin, target, value, span);
                 self.coerce(b, v, ty, span)
             }

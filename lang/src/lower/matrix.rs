@@ -429,17 +429,13 @@ impl<'a> Lower<'a> {
                 varying,
             })
             .collect();
-        let rhs = match super::arith_of(op) {
-            _ if op == ast::AssignOp::Set => self.expr_as(b, value, Ty::Float),
+        let rhs = match super::compound_of(op) {
+            None => self.expr_as(b, value, Ty::Float),
             Some(bin) => {
                 let old = self.pick(b, &elems, &pos, span);
                 let v = self.expr(b, value);
                 let v = self.binary_vals(b, bin, (old, span), (v, value.span), span);
                 self.coerce(b, v, Ty::Float, span)
-            }
-            None => {
-                self.error("bitwise assignments are not built", span, "not built yet");
-                return Self::poison(b, Ty::Float);
             }
         };
         match pos {

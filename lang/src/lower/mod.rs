@@ -220,16 +220,22 @@ pub(crate) fn an(name: &str) -> String {
     }
 }
 
-/// The arithmetic operator of a compound assignment (`None` for `=` and the bitwise ones).
-pub(crate) fn arith_of(op: ast::AssignOp) -> Option<ast::BinaryOp> {
-    match op {
-        ast::AssignOp::Add => Some(ast::BinaryOp::Add),
-        ast::AssignOp::Sub => Some(ast::BinaryOp::Sub),
-        ast::AssignOp::Mul => Some(ast::BinaryOp::Mul),
-        ast::AssignOp::Div => Some(ast::BinaryOp::Div),
-        ast::AssignOp::Rem => Some(ast::BinaryOp::Rem),
-        _ => None,
-    }
+/// The binary operator of a compound assignment (`a op= b` is `a = a op b`); `None` for `=`.
+pub(crate) fn compound_of(op: ast::AssignOp) -> Option<ast::BinaryOp> {
+    use ast::{AssignOp as A, BinaryOp as B};
+    Some(match op {
+        A::Set => return None,
+        A::Add => B::Add,
+        A::Sub => B::Sub,
+        A::Mul => B::Mul,
+        A::Div => B::Div,
+        A::Rem => B::Rem,
+        A::BitAnd => B::BitAnd,
+        A::BitOr => B::BitOr,
+        A::BitXor => B::BitXor,
+        A::Shl => B::Shl,
+        A::Shr => B::Shr,
+    })
 }
 
 /// What a group gives a layer's parameter.

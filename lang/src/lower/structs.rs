@@ -395,19 +395,15 @@ impl<'a> Lower<'a> {
             // Not a field of a struct variable: read it for the error it gives.
             return self.expr(b, target);
         };
-        let rhs = match op {
-            ast::AssignOp::Set => {
+        let rhs = match super::compound_of(op) {
+            None => {
                 let v = self.expr(b, value);
                 match (&old, v) {
                     (Val::V { ty, .. }, v) => self.coerce(b, v, *ty, value.span),
                     (_, v) => v,
                 }
             }
-            _ => {
-                let Some(bin) = super::arith_of(op) else {
-                    self.error("bitwise assignments are not built", span, "not built yet");
-                    return old;
-                };
+            Some(bin) => {
                 let v = self.expr(b, value);
                 let ty = match &old {
                     Val::V { ty, .. } => *ty,

@@ -287,7 +287,14 @@ impl Parser<'_> {
             TokenKind::Int => {
                 self.bump();
                 let v = match text.strip_prefix("0x").or_else(|| text.strip_prefix("0X")) {
-                    Some(h) => i64::from_str_radix(h, 16).ok(),
+                    // A hex literal of 32 bits is its bit pattern, as C's and OSL's
+                    // (`0xdeadbeef` is a negative int): hashes are written that way.
+                    Some(h) => i64::from_str_radix(h, 16)
+                        .ok()
+                        .map(|v| match u32::try_from(v) {
+                            Ok(bits) => i64::from(bits as i32),
+                            Err(_) => v,
+                        }),
                     None => text.parse::<i64>().ok(),
                 };
                 match v {
