@@ -1762,8 +1762,8 @@ fn string_builtins_are_osls() {
             "`strlen`: takes 1 arguments, not 2",
         ),
         (
-            "shader s(output float o = 0) { setmessage(\"k\", u); }",
-            "`setmessage`: messages between layers",
+            "shader s(output float o = 0) { setmessage(\"k\", \"text\"); }",
+            "`setmessage` of a string is not built",
         ),
         (
             "shader s(output float o = 0) { o = transformu(\"cm\", \"m\", u); }",
@@ -2042,4 +2042,37 @@ fn periodic_noise_is_osls() {
             "each followed by as many periods",
         ),
     ]);
+}
+
+/// A user function that assigns a global (`N`, `Ci`) changes the caller's: straight, through
+/// another function, and called under a varying `if` (the region yields what the functions
+/// write).
+#[test]
+fn functions_write_the_globals() {
+    let src = r#"
+        void bend(float x) { N = normalize(N + vector(x, 0, 0)); }
+        void twice(float x) { bend(x); bend(x); }
+        void paint(float k) { Ci = k * emission(); }
+        surface s(output color f = 0) {
+            if (u > 0.5)
+                twice(v);
+            paint(2);
+            f = color(N);
+        }"#;
+    let p = common::compile_shader(src, Dialect::Osl).unwrap_or_else(|e| panic!("{e}"));
+    for u in [0.25f32, 0.75] {
+        let mut frag = plane_fragment();
+        frag.uv = [u, 0.5];
+        let o = run_program(&p, &frag, &[], u32::MAX);
+        let mut n = [0.0f64, 0.0, 1.0];
+        if u > 0.5 {
+            for _ in 0..2 {
+                let m = [n[0] + 0.5, n[1], n[2]];
+                let l = (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
+                n = m.map(|x| x / l);
+            }
+        }
+        assert_close(&o.get("f"), &n, 1e-6, &format!("N at u = {u}"));
+        assert_close(&o.get("Ci"), &[2.0; 3], 0.0, "Ci");
+    }
 }

@@ -258,7 +258,6 @@ fn bad_traces_are_errors_that_say_why() {
             "float d; getmessage(\"other\", \"x\", d);",
             "only the \"trace\" source is built",
         ),
-        ("float d; setmessage(\"x\", d);", "messages between layers"),
     ] {
         let err = compile_shader(&format!("surface s() {{ {body} }}"), Dialect::Osl).unwrap_err();
         assert!(err.contains(want), "{body}\n→ {err}");

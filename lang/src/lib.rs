@@ -45,6 +45,8 @@ pub struct Parsed {
     pub file: ast::File,
     /// Warnings (ignored pragmas, `#warning`); rendered like errors.
     pub warnings: Diagnostics,
+    /// What the lowering learns once about the file's functions (filled on first use).
+    pub(crate) facts: std::sync::OnceLock<lower::FileFacts>,
 }
 
 /// Reads, preprocesses and parses the file at `path` into `sources`. The dialect is
@@ -157,5 +159,6 @@ fn parse_loaded_here(
         main,
         file,
         warnings: Diagnostics(pre.warnings),
+        facts: std::sync::OnceLock::new(),
     })
 }

@@ -115,7 +115,13 @@ impl<'a> Lower<'a> {
             return self.osl_trace(b, &vals, span);
         }
         if self.dialect == Dialect::Osl && name == "getmessage" {
+            if vals.len() == 2 {
+                return self.layer_getmessage(b, &vals, args, span);
+            }
             return self.getmessage(b, &vals, args, span);
+        }
+        if self.dialect == Dialect::Osl && name == "setmessage" {
+            return self.setmessage(b, &vals, span);
         }
         if self.dialect == Dialect::Osl && name == "getattribute" {
             return self.getattribute(b, vals, args, span);

@@ -1,18 +1,18 @@
 //! An OSL shader group ([`crate::group`]) lowered into one program: each layer is its
 //! shader lowered into the same builder, in order, its parameters bound to the group's
 //! instance values (program parameters named `layer.param`) or to the outputs of the
-//! earlier layers connected to them, `Ci` handed on from layer to layer; the last layer's
-//! outputs are the program's. Unused layers cost nothing: the optimizer removes what no
+//! earlier layers connected to them, `Ci` and the messages ([`super::messages`]) handed on
+//! from layer to layer; the last layer's outputs are the program's. Unused layers cost nothing: the optimizer removes what no
 //! output reads. It owns how a group binds its layers; the layers' lowering is the
 //! shaders'.
 
-use super::{LayerInput, Lower, Ty, Val, osl};
+use super::{LayerInput, Lower, Ty, Val, messages, osl};
 use crate::ast::{self, Item, ShaderKind};
 use crate::diag::{Diagnostic, Diagnostics};
 use crate::group::{Group, LoadedGroup, ParamValue};
 use shadenet_graph::ConstValue;
 use shadenet_graph::ir::{Builder, Program};
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 
 /// Lowers the shader group `loaded` (its shaders parsed) into one program named after its
 /// last layer. Errors name the group statement or the shader source at fault.
@@ -21,25 +21,45 @@ pub fn compile_group(loaded: &LoadedGroup) -> Result<Program, Diagnostics> {
 }
 
 fn compile_here(loaded: &LoadedGroup) -> Result<Program, Diagnostics> {
-    let g = &loaded.group;
     let shaders = shader_defs(loaded)?;
-    check_connections(g)?;
+    check_connections(&loaded.group)?;
+    // A group whose layers set messages is lowered twice: the first finds their types.
+    let types = if loaded.shaders.values().any(messages::calls_setmessage) {
+        lower_layers(loaded, &shaders, BTreeMap::new()).1
+    } else {
+        BTreeMap::new()
+    };
+    lower_layers(loaded, &shaders, types).0
+}
+
+/// One lowering of the group's layers with the messages of `message_types` declared; the
+/// program, and the messages the layers set with their types.
+fn lower_layers(
+    loaded: &LoadedGroup,
+    shaders: &[&ast::ShaderDef],
+    message_types: BTreeMap<String, Ty>,
+) -> (Result<Program, Diagnostics>, BTreeMap<String, Ty>) {
+    let g = &loaded.group;
     let last = g.layers.last().expect("a parsed group has a layer");
     let mut b = Builder::new(&last.name.name);
     let mut done: HashMap<&str, Vec<(String, Val)>> = HashMap::new();
     let mut ci = Val::Closure(Box::default());
     let mut diags = Diagnostics::new();
     let mut outputs = Vec::new();
+    let mut found: BTreeMap<String, (Ty, crate::source::Span)> = BTreeMap::new();
     // The globals once for all layers (the streams they read are the same).
-    let globals = {
+    let mut globals = {
         let mut first = Lower::new(&loaded.shaders[&last.shader.name]);
+        first.message_types = message_types.clone();
         first.osl_globals(&mut b);
         first.scopes.swap_remove(0)
     };
-    for (layer, shader) in g.layers.iter().zip(&shaders) {
+    for (layer, shader) in g.layers.iter().zip(shaders) {
         let parsed = &loaded.shaders[&layer.shader.name];
         let mut lower = Lower::new(parsed);
         lower.scopes[0] = globals.clone();
+        lower.message_types = message_types.clone();
+        lower.messages_found = std::mem::take(&mut found);
         lower.prefix = format!("{}.", layer.name.name);
         for p in &layer.params {
             lower.inputs.insert(
@@ -81,6 +101,13 @@ fn compile_here(loaded: &LoadedGroup) -> Result<Program, Diagnostics> {
             }
         }
         let out = lower.osl_layer(&mut b, shader, ci.clone());
+        // The messages this layer leaves are the next layers' to read.
+        for (name, var) in &lower.scopes[0] {
+            if messages::is_message_var(name) {
+                globals.insert(name.clone(), var.clone());
+            }
+        }
+        found = std::mem::take(&mut lower.messages_found);
         for (name, input) in &lower.inputs {
             let at = match input {
                 LayerInput::Values(_, at) | LayerInput::Connected(_, at) => *at,
@@ -104,14 +131,16 @@ fn compile_here(loaded: &LoadedGroup) -> Result<Program, Diagnostics> {
         outputs = out.clone();
         done.insert(layer.name.name.as_str(), out);
     }
+    let types = found.into_iter().map(|(n, (t, _))| (n, t)).collect();
     if diags.has_errors() {
-        return Err(diags);
+        return (Err(diags), types);
     }
     osl::declare_outputs(&mut b, outputs);
-    b.finish().map_err(|e| {
+    let program = b.finish().map_err(|e| {
         Diagnostic::error_nowhere(format!("internal error: the lowered group is invalid: {e}"))
             .into()
-    })
+    });
+    (program, types)
 }
 
 /// Each layer's shader definition, in layer order: an OSL `surface` or `shader` named as

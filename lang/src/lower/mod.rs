@@ -28,6 +28,7 @@ mod group;
 pub mod light;
 mod loops;
 mod matrix;
+mod messages;
 mod noise;
 mod osl;
 mod oslmath;
@@ -51,7 +52,7 @@ use crate::{Dialect, Parsed};
 use shadenet_graph::closure::Closure;
 use shadenet_graph::ir::{BinOp, Builder, Program, Stream, Value};
 use shadenet_graph::{ConstValue, Type};
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap, HashSet};
 
 pub use group::compile_group;
 
@@ -319,10 +320,88 @@ pub(crate) struct Lower<'a> {
     /// and whether the arm is where it holds), outermost first: a print there runs under
     /// them ([`print`]).
     pub(crate) print_guard: Vec<(Value, bool)>,
-    /// The user functions that run OSL's `trace`, directly or through the functions they
-    /// call ([`probe`]): computed once, so that asking whether a statement traces does not
-    /// walk the call graph again.
-    pub(crate) tracing: std::collections::HashSet<&'a str>,
+    /// What the file's user functions do beyond their own variables, found once per file
+    /// ([`FileFacts`]).
+    pub(crate) facts: &'a FileFacts,
+    /// The messages' types, known before lowering (from a first lowering that found them:
+    /// [`messages`]); each has its hidden variables from the start.
+    pub(crate) message_types: BTreeMap<String, Ty>,
+    /// The messages `setmessage` sets, with the type and place of the first.
+    pub(crate) messages_found: BTreeMap<String, (Ty, Span)>,
+}
+
+/// Facts about a parsed file's user functions, each a fixpoint over the call graph, found
+/// once per file (kept in [`Parsed`]: a module of many shaders, as MaterialX's, lowers each
+/// with the same functions) so that asking them of a statement never walks the call graph.
+#[derive(Debug, Default)]
+pub(crate) struct FileFacts {
+    /// The functions that run OSL's `trace`, directly or through the functions they call
+    /// ([`probe`]).
+    pub(crate) tracing: HashSet<String>,
+    /// The functions that call `setmessage`, likewise ([`messages`]).
+    pub(crate) messaging: HashSet<String>,
+    /// The names each function may assign beyond its own variables (the globals it writes,
+    /// directly or through its calls): a call of it assigns them too
+    /// ([`Lower::function_writes`]).
+    pub(crate) globals_written: HashMap<String, Vec<String>>,
+}
+
+impl FileFacts {
+    /// The facts of `parsed` (see [`FileFacts`]).
+    fn of(parsed: &Parsed) -> FileFacts {
+        let functions = function_map(parsed);
+        let owned = |set: HashSet<&str>| set.into_iter().map(str::to_string).collect();
+        let mut facts = FileFacts {
+            tracing: owned(walk::functions_calling(parsed.dialect, &functions, "trace")),
+            messaging: owned(walk::functions_calling(
+                parsed.dialect,
+                &functions,
+                "setmessage",
+            )),
+            globals_written: HashMap::new(),
+        };
+        // What each function's own statements assign, once; then each pass adds what the
+        // functions it calls assign (at most one pass per level of calls).
+        let (mut writes, calls) = Lower::with_facts(parsed, &facts).function_writes();
+        for _ in 0..=functions.len() {
+            let mut grew = false;
+            for (f, callees) in &calls {
+                let mut add: Vec<String> = callees
+                    .iter()
+                    .filter_map(|g| writes.get(g))
+                    .flatten()
+                    .filter(|n| !writes[f].contains(*n))
+                    .cloned()
+                    .collect();
+                if add.is_empty() {
+                    continue;
+                }
+                add.sort();
+                add.dedup();
+                grew = true;
+                writes
+                    .get_mut(f)
+                    .expect("every function has writes")
+                    .extend(add);
+            }
+            if !grew {
+                break;
+            }
+        }
+        facts.globals_written = writes;
+        facts
+    }
+}
+
+/// The user functions of a file by name (overloads in order).
+fn function_map(parsed: &Parsed) -> HashMap<&str, Vec<&ast::FunctionDef>> {
+    let mut functions: HashMap<&str, Vec<&ast::FunctionDef>> = HashMap::new();
+    for item in &parsed.file.items {
+        if let Item::Function(f) = item {
+            functions.entry(f.name.name.as_str()).or_default().push(f);
+        }
+    }
+    functions
 }
 
 /// Compiles shader `name` (the file's only or first shader when `None`) of a parsed file to
@@ -374,13 +453,15 @@ fn compile_here(parsed: &Parsed, name: Option<&str>) -> Result<Program, Diagnost
         )
         .into());
     }
-    let mut lower = Lower::new(parsed);
-    let mut b = Builder::new(&shader.name.name);
-    match (parsed.dialect, shader.kind) {
-        (Dialect::Osl, _) => lower.osl_shader(&mut b, shader),
-        (Dialect::Rsl, ShaderKind::Light) => lower.light(&mut b, shader),
-        (Dialect::Rsl, _) => lower.surface(&mut b, shader),
-    }
+    // A shader that sets messages is lowered twice: the first finds their types.
+    let types = if messages::calls_setmessage(parsed) {
+        lower_shader(parsed, shader, BTreeMap::new())
+            .0
+            .found_message_types()
+    } else {
+        BTreeMap::new()
+    };
+    let (lower, b) = lower_shader(parsed, shader, types);
     if lower.diags.has_errors() {
         return Err(lower.diags);
     }
@@ -392,6 +473,23 @@ fn compile_here(parsed: &Parsed, name: Option<&str>) -> Result<Program, Diagnost
         )
         .into()
     })
+}
+
+/// One lowering of `shader` with the messages of `message_types` declared.
+fn lower_shader<'a>(
+    parsed: &'a Parsed,
+    shader: &'a ast::ShaderDef,
+    message_types: BTreeMap<String, Ty>,
+) -> (Lower<'a>, Builder) {
+    let mut lower = Lower::new(parsed);
+    lower.message_types = message_types;
+    let mut b = Builder::new(&shader.name.name);
+    match (parsed.dialect, shader.kind) {
+        (Dialect::Osl, _) => lower.osl_shader(&mut b, shader),
+        (Dialect::Rsl, ShaderKind::Light) => lower.light(&mut b, shader),
+        (Dialect::Rsl, _) => lower.surface(&mut b, shader),
+    }
+    (lower, b)
 }
 
 /// The name of a shader kind in messages.
@@ -409,21 +507,21 @@ pub fn kind_name(k: ShaderKind) -> &'static str {
 impl<'a> Lower<'a> {
     /// A lowering of a shader of `parsed`: its user functions known, nothing else bound.
     pub(crate) fn new(parsed: &'a Parsed) -> Lower<'a> {
-        let mut functions: HashMap<&str, Vec<&ast::FunctionDef>> = HashMap::new();
+        let facts = parsed.facts.get_or_init(|| FileFacts::of(parsed));
+        Lower::with_facts(parsed, facts)
+    }
+
+    /// [`Lower::new`] with the file's facts given.
+    fn with_facts(parsed: &'a Parsed, facts: &'a FileFacts) -> Lower<'a> {
         let mut structs = HashMap::new();
         for item in &parsed.file.items {
-            match item {
-                Item::Function(f) => functions.entry(f.name.name.as_str()).or_default().push(f),
-                Item::Struct(d) => {
-                    structs.insert(d.name.name.as_str(), d);
-                }
-                Item::Shader(_) => {}
+            if let Item::Struct(d) = item {
+                structs.insert(d.name.name.as_str(), d);
             }
         }
-        let tracing = probe::tracing_functions(parsed.dialect, &functions);
         Lower {
             scopes: vec![HashMap::new()],
-            functions,
+            functions: function_map(parsed),
             inlining: Vec::new(),
             diags: Diagnostics::new(),
             in_illuminance: false,
@@ -438,7 +536,9 @@ impl<'a> Lower<'a> {
             shader_params: HashMap::new(),
             connections: HashMap::new(),
             print_guard: Vec::new(),
-            tracing,
+            facts,
+            message_types: BTreeMap::new(),
+            messages_found: BTreeMap::new(),
         }
     }
 

@@ -21,6 +21,7 @@ use std::collections::HashMap;
 pub(crate) const NAMES: &[&str] = &[
     "trace",
     "getmessage",
+    "setmessage",
     "noise",
     "snoise",
     "cellnoise",
@@ -77,10 +78,6 @@ pub(crate) const RSL_ONLY: &[&str] = &["ambient", "specular", "trace", "xcomp", 
 
 /// The OSL builtins we know of but have not built, with what to use instead.
 const UNBUILT: &[(&str, &str)] = &[
-    (
-        "setmessage",
-        "messages between layers (setmessage, and getmessage of them) are not built yet; getmessage(\"trace\", …) is",
-    ),
     ("transformu", "unit conversions are not built yet"),
     ("gettextureinfo", "texture queries are not built yet"),
     ("pointcloud_search", "point clouds are not built"),
@@ -235,6 +232,7 @@ impl<'a> Lower<'a> {
         );
         set(self, "Ci", Val::Closure(Box::default()));
         self.declare_trace_vars(b);
+        self.declare_message_vars(b);
     }
 
     /// An OSL `output` parameter (or a closure parameter): a variable holding its default

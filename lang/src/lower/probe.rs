@@ -8,17 +8,16 @@
 //! them. Because they are variables, a `trace` under an `if` or in a loop reaches a
 //! `getmessage` after it through the regions' yields, as an assignment would (the
 //! statements that call `trace`, directly or through a user function, count as assigning
-//! them: [`Lower::trace_vars_assigned`], with the tracing functions found once per file); probes no `getmessage` reads are removed as dead
+//! them: [`Lower::stmts_trace`], with the tracing functions found once per file); probes no `getmessage` reads are removed as dead
 //! code, and equal ones merged. Options: `"mindist"`, `"maxdist"` (floats, default 0 and
 //! 10³⁰); `"shade"` only 0 (what a probe hits is not shaded), `"traceset"` is not built.
 //! Owns these two builtins; the ray itself is the runtime's and the renderer's.
 
 use super::{Lower, Ty, Val};
-use crate::ast::{self, Expr, ExprKind, Stmt};
+use crate::ast::{self, Expr, Stmt};
 use crate::source::Span;
 use shadenet_graph::ir::{Builder, ProbeField, Value};
 use shadenet_graph::types::{ConstValue, Type};
-use std::collections::{HashMap, HashSet};
 
 /// The properties a `trace` records, by their `getmessage` names, with their OSL types.
 const FIELDS: [(ProbeField, Ty); 7] = [
@@ -47,45 +46,6 @@ pub(crate) fn trace_vars(span: Span) -> Vec<ast::Ident> {
         .collect()
 }
 
-/// The user functions of an OSL file that run `trace`, directly or through the functions
-/// they call: a fixpoint over the call graph (each pass adds the callers of what it knows).
-pub(crate) fn tracing_functions<'a>(
-    dialect: crate::Dialect,
-    functions: &HashMap<&'a str, Vec<&'a ast::FunctionDef>>,
-) -> HashSet<&'a str> {
-    let mut set = HashSet::new();
-    if dialect != crate::Dialect::Osl {
-        return set;
-    }
-    loop {
-        let before = set.len();
-        for (name, defs) in functions {
-            if set.contains(name) {
-                continue;
-            }
-            let mut calls = false;
-            for s in defs.iter().flat_map(|f| &f.body.stmts) {
-                super::walk::walk_stmt(s, &mut |e| {
-                    if let ExprKind::Call { callee, .. } = &e.kind {
-                        let c = callee.name.as_str();
-                        calls |= if functions.contains_key(c) {
-                            set.contains(c)
-                        } else {
-                            c == "trace"
-                        };
-                    }
-                });
-            }
-            if calls {
-                set.insert(*name);
-            }
-        }
-        if set.len() == before {
-            return set;
-        }
-    }
-}
-
 impl<'a> Lower<'a> {
     /// Declares the hidden trace variables in the globals' scope: zero (no trace yet).
     pub(crate) fn declare_trace_vars(&mut self, b: &mut Builder) {
@@ -106,30 +66,10 @@ impl<'a> Lower<'a> {
         }
     }
 
-    /// Whether `e` (a call) runs an OSL `trace`: `trace` itself, or a user function that
-    /// does ([`Lower::tracing`]).
-    pub(crate) fn trace_vars_assigned(&self, e: &Expr) -> bool {
-        let ExprKind::Call { callee, .. } = &e.kind else {
-            return false;
-        };
-        if self.dialect != crate::Dialect::Osl {
-            return false;
-        }
-        if self.functions.contains_key(callee.name.as_str()) {
-            return self.tracing.contains(callee.name.as_str());
-        }
-        callee.name == "trace"
-    }
-
-    /// Whether any of `stmts` runs an OSL `trace` ([`Lower::trace_vars_assigned`]).
+    /// Whether any of `stmts` runs an OSL `trace`, directly or through a user function
+    /// ([`super::FileFacts::tracing`]).
     pub(crate) fn stmts_trace(&self, stmts: &[&'a Stmt]) -> bool {
-        let mut found = false;
-        for s in stmts {
-            super::walk::walk_stmt(s, &mut |e| {
-                found = found || self.trace_vars_assigned(e);
-            });
-        }
-        found
+        self.stmts_call(stmts, "trace", &self.facts.tracing)
     }
 
     /// `trace(pos, dir, "option", value, …)`: one probe per property into the hidden
@@ -255,7 +195,7 @@ impl<'a> Lower<'a> {
         };
         if source != "trace" {
             let why = format!(
-                "`getmessage(\"{source}\", …)`: only the \"trace\" source is built (messages between layers, setmessage, are not)"
+                "`getmessage(\"{source}\", …)`: only the \"trace\" source is built (a message `setmessage` left is `getmessage(name, value)`)"
             );
             return fail(self, b, why, *sat);
         }

@@ -245,6 +245,42 @@ impl<'a> Lower<'a> {
             .collect()
     }
 
+    /// Each user function's own writes — every name its statements assign, a superset of
+    /// the globals it writes, which costs nothing (a region yields only the variables
+    /// visible around it) — and the user functions it calls. `FileFacts::of` closes the
+    /// writes over the calls.
+    #[allow(clippy::type_complexity)]
+    pub(crate) fn function_writes(
+        &self,
+    ) -> (HashMap<String, Vec<String>>, Vec<(String, Vec<String>)>) {
+        let mut writes = HashMap::new();
+        let mut calls = Vec::new();
+        for (name, defs) in &self.functions {
+            let stmts: Vec<&'a Stmt> = defs.iter().flat_map(|f| &f.body.stmts).collect();
+            let mut names: Vec<String> = self
+                .assigned_places(&stmts)
+                .into_iter()
+                .map(|n| n.name)
+                .collect();
+            names.sort();
+            names.dedup();
+            writes.insert(name.to_string(), names);
+            let mut callees: Vec<String> = Vec::new();
+            for s in &stmts {
+                walk_stmt(s, &mut |e| {
+                    if let ExprKind::Call { callee, .. } = &e.kind
+                        && self.functions.contains_key(callee.name.as_str())
+                        && !callees.contains(&callee.name)
+                    {
+                        callees.push(callee.name.clone());
+                    }
+                });
+            }
+            calls.push((name.to_string(), callees));
+        }
+        (writes, calls)
+    }
+
     /// Every variable `stmts` may assign (arrays and structs expanded to their hidden
     /// variables), with the return and loop flags they may set.
     fn assigned_places(&self, stmts: &[&'a Stmt]) -> Vec<ast::Ident> {
@@ -255,7 +291,19 @@ impl<'a> Lower<'a> {
                     ExprKind::Assign { target, .. } | ExprKind::IncDec { target, .. } => {
                         vec![&**target]
                     }
-                    ExprKind::Call { callee, args } => self.output_args(&callee.name, args),
+                    ExprKind::Call { callee, args } => {
+                        // The globals a user function assigns are the call's too.
+                        let written = self.facts.globals_written.get(callee.name.as_str());
+                        for w in written.into_iter().flatten() {
+                            if !names.iter().any(|n| n.name == *w) {
+                                names.push(ast::Ident {
+                                    name: w.clone(),
+                                    span: e.span,
+                                });
+                            }
+                        }
+                        self.output_args(&callee.name, args)
+                    }
                     _ => return,
                 };
                 for target in targets {
@@ -290,6 +338,13 @@ impl<'a> Lower<'a> {
             && self.stmts_trace(stmts)
         {
             names.extend(super::probe::trace_vars(first.span));
+        }
+        // So does a `setmessage` every message's.
+        if let Some(first) = stmts.first()
+            && !self.message_types.is_empty()
+            && self.stmts_set_messages(stmts)
+        {
+            names.extend(self.message_vars(first.span));
         }
         if let Some(first) = stmts.iter().find(|s| has_jump(s)) {
             for f in &self.loops {
@@ -857,26 +912,7 @@ impl<'a> Lower<'a> {
         };
         let globals = self.scopes[0].clone();
         let saved = std::mem::replace(&mut self.scopes, vec![globals, HashMap::new()]);
-        for (p, a) in f.params.iter().zip(args) {
-            if p.ty.output.is_some() && self.dialect == crate::Dialect::Rsl {
-                self.error("output parameters are not built yet", p.span, "`output`");
-            }
-            if p.array.is_some() {
-                self.bind_array_param(b, p, a, span);
-            } else if let (ast::BaseType::Struct(_), Val::Struct(..)) = (&p.ty.base, &a) {
-                // `accepts` matched the struct type.
-                self.bind_value(&p.name, a, false);
-            } else if p.ty.base == ast::BaseType::String && matches!(a, Val::Str(_)) {
-                // A string argument (a noise or space name): known while compiling.
-                self.declare(&p.name, a, true);
-            } else if p.ty.closure.is_some() && self.dialect == crate::Dialect::Osl {
-                // `accepts` matched a closure to it.
-                self.declare(&p.name, a, false);
-            } else if let Some(ty) = self.declared_type(&p.ty) {
-                let v = self.coerce(b, a, ty, span);
-                self.declare(&p.name, v, false);
-            }
-        }
+        self.bind_params(b, f, args, span);
         self.inlining.push((f.name.name.as_str(), span, f.span));
         let outer_returns = self.returns.take();
         let early = body.iter().any(super::returns::has_return);
@@ -954,8 +990,41 @@ impl<'a> Lower<'a> {
             .collect();
         self.inlining.pop();
         self.returns = outer_returns;
-        self.scopes = saved;
+        // What the function wrote into the globals (`Ci`, `N`, the hidden trace and message
+        // variables) is the caller's: the function's scope 0 is the globals.
+        let globals = std::mem::replace(&mut self.scopes, saved).swap_remove(0);
+        self.scopes[0].extend(globals);
         (out, outs)
+    }
+
+    /// Binds a function's parameters to the arguments of a call, in the function's scope.
+    fn bind_params(
+        &mut self,
+        b: &mut Builder,
+        f: &'a ast::FunctionDef,
+        args: Vec<Val>,
+        span: Span,
+    ) {
+        for (p, a) in f.params.iter().zip(args) {
+            if p.ty.output.is_some() && self.dialect == crate::Dialect::Rsl {
+                self.error("output parameters are not built yet", p.span, "`output`");
+            }
+            if p.array.is_some() {
+                self.bind_array_param(b, p, a, span);
+            } else if let (ast::BaseType::Struct(_), Val::Struct(..)) = (&p.ty.base, &a) {
+                // `accepts` matched the struct type.
+                self.bind_value(&p.name, a, false);
+            } else if p.ty.base == ast::BaseType::String && matches!(a, Val::Str(_)) {
+                // A string argument (a noise or space name): known while compiling.
+                self.declare(&p.name, a, true);
+            } else if p.ty.closure.is_some() && self.dialect == crate::Dialect::Osl {
+                // `accepts` matched a closure to it.
+                self.declare(&p.name, a, false);
+            } else if let Some(ty) = self.declared_type(&p.ty) {
+                let v = self.coerce(b, a, ty, span);
+                self.declare(&p.name, v, false);
+            }
+        }
     }
 }
 
