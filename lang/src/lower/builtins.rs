@@ -4,6 +4,7 @@
 //! normalisation: `diffuse` has no 1/π), `ambient` is the ambient light, `trace` traces a
 //! reflection ray, `noise` is OSL's Perlin noise mapped to [0, 1].
 
+use super::geometry::{reflect, refract};
 use super::{Lower, Ty, Val, osl};
 use crate::Dialect;
 use crate::ast::{self, Expr};
@@ -70,7 +71,11 @@ fn signature(name: &str) -> &'static str {
         "radians" | "degrees" => "(float) -> float",
         "length" => "(vector) -> float",
         "normalize" => "(vector) -> vector",
-        "distance" => "(point, point) -> float",
+        "distance" => "(point, point) or (point a, point b, point q) -> float",
+        "rotate" => {
+            "(point p, float angle, vector axis) or (point p, float angle, point a, point b) -> point"
+        }
+        "logb" => "(float or triple) -> same",
         "faceforward" => "(normal N, vector I[, normal Nref]) -> normal",
         "reflect" => "(vector I, normal N) -> vector",
         "refract" => "(vector I, normal N, float eta) -> vector",
@@ -141,6 +146,9 @@ impl<'a> Lower<'a> {
         if self.dialect == Dialect::Osl && name == "sincos" {
             return self.sincos(b, &vals, args, span);
         }
+        if self.dialect == Dialect::Osl && name == "fresnel" {
+            return self.fresnel(b, &vals, args, span);
+        }
         if let Some(def) = self.struct_def(name) {
             if let Some(v) = self.construct_struct(b, def, &vals) {
                 return v;
@@ -177,12 +185,15 @@ impl<'a> Lower<'a> {
                     return self.unknown(b, callee, "function");
                 } else {
                     let got: Vec<&str> = vals.iter().map(|(v, _)| v.type_name()).collect();
+                    let takes = match signature(&callee.name) {
+                        "" => String::new(),
+                        s => format!(": it takes {s}"),
+                    };
                     self.error(
                         format!(
-                            "`{}` does not take ({}): it takes {}",
+                            "`{}` does not take ({}){takes}",
                             callee.name,
                             got.join(", "),
-                            signature(&callee.name)
                         ),
                         span,
                         "wrong arguments",
@@ -751,39 +762,4 @@ fn faceforward(b: &mut Builder, n: Value, i: Value, nref: Value) -> Value {
     let away = b.binary(BinOp::Gt, d, zero);
     let neg = b.unary(UnOp::Neg, n);
     b.select(away, neg, n)
-}
-
-/// `reflect(I, N) = I − 2 (N·I) N`.
-fn reflect(b: &mut Builder, i: Value, n: Value) -> Value {
-    let d = b.dot(n, i);
-    let two = b.float(2.0);
-    let k = b.mul(two, d);
-    let k = b.splat(Type::Vec3, k);
-    let kn = b.mul(k, n);
-    b.sub(i, kn)
-}
-
-/// `refract(I, N, eta)` (unit `I`, `N`): `eta I − (eta (N·I) + √k) N` with `k = 1 − eta²
-/// (1 − (N·I)²)`; the zero vector under total internal reflection (`k < 0`).
-fn refract(b: &mut Builder, i: Value, n: Value, eta: Value) -> Value {
-    let d = b.dot(n, i);
-    let one = b.float(1.0);
-    let dd = b.mul(d, d);
-    let s = b.sub(one, dd);
-    let ee = b.mul(eta, eta);
-    let es = b.mul(ee, s);
-    let k = b.sub(one, es);
-    let zero = b.float(0.0);
-    let kc = b.max(k, zero);
-    let sk = b.unary(UnOp::Sqrt, kc);
-    let ed = b.mul(eta, d);
-    let m = b.add(ed, sk);
-    let ei = b.splat(Type::Vec3, eta);
-    let ei = b.mul(ei, i);
-    let mn = b.splat(Type::Vec3, m);
-    let mn = b.mul(mn, n);
-    let r = b.sub(ei, mn);
-    let tir = b.binary(BinOp::Lt, k, zero);
-    let z = b.zero(Type::Vec3);
-    b.select(tir, z, r)
 }

@@ -24,6 +24,7 @@ mod colorspace;
 mod components;
 mod derivs;
 mod expr;
+mod geometry;
 mod group;
 pub mod light;
 mod loops;

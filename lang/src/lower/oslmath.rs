@@ -3,7 +3,9 @@
 //! (Kahan's `(eˣ − 1)·x / ln eˣ`, accurate near 0), `cbrt` (`sign(x)·|x|^⅓`), `log(x, b)`
 //! (`ln x / ln b`), `erf` (its Taylor series below |x| = ½, else `1 − erfc`) and `erfc`
 //! (Numerical Recipes' Chebyshev fit, relative error below 1.2·10⁻⁷, for x ≥ ½; else
-//! `1 − erf`). Owns these formulas; `sincos` (output arguments) is the caller's.
+//! `1 − erf`) and `logb` (the exponent of `|x|` clamped to f32's normal range, exact: by
+//! halving and doubling with powers of two). Owns these formulas; `sincos` (output
+//! arguments) is the caller's.
 
 use super::components::componentwise;
 use super::{Ty, Val};
@@ -34,6 +36,7 @@ pub(crate) fn builtin(b: &mut Builder, name: &str, vs: &[(Value, Ty, bool)]) -> 
         ("cbrt", [(_, t, _)]) if num(*t) => cbrt,
         ("erf", [(_, t, _)]) if num(*t) => erf,
         ("erfc", [(_, t, _)]) if num(*t) => erfc,
+        ("logb", [(_, t, _)]) if num(*t) => logb,
         _ => return None,
     };
     let (x, t, _) = vs[0];
@@ -204,4 +207,43 @@ fn erfc_fit(b: &mut Builder, z: Value) -> Value {
     let a = b.add(nz2, p);
     let e = b.unary(UnOp::Exp, a);
     b.mul(t, e)
+}
+
+/// `logb(x)`: the binary exponent of `|x|` as a float, `⌊log₂ |x|⌋` exactly — found by
+/// scaling with powers of two (exact products) rather than from a logarithm, which rounds
+/// next to powers of two. `|x|` is first clamped to f32's normal range, as OpenImageIO's
+/// `fast_logb` that OSL's runtime calls does: 0 and subnormals give −126, infinities 127,
+/// in f32 and f64 alike.
+fn logb(b: &mut Builder, x: Value) -> Value {
+    let ax = b.unary(UnOp::Abs, x);
+    let (lo, hi) = (
+        b.float(f64::from(f32::MIN_POSITIVE)),
+        b.float(f64::from(f32::MAX)),
+    );
+    let y = b.max(ax, lo);
+    let mut y = b.min(y, hi);
+    let mut e = b.float(0.0);
+    // Down to [1, 2) from above: at most 127 halvings, in steps of 64, 32, …, 1.
+    for k in [64, 32, 16, 8, 4, 2, 1] {
+        let big = b.float(2f64.powi(k));
+        let c = b.binary(BinOp::Ge, y, big);
+        let scale = b.float(2f64.powi(-k));
+        let scaled = b.mul(y, scale);
+        y = b.select(c, scaled, y);
+        let kf = b.float(f64::from(k));
+        let up = b.add(e, kf);
+        e = b.select(c, up, e);
+    }
+    // Up to [1, 2) from below: at most 126 doublings.
+    for k in [64, 32, 16, 8, 4, 2, 1] {
+        let small = b.float(2f64.powi(1 - k));
+        let c = b.binary(BinOp::Lt, y, small);
+        let scale = b.float(2f64.powi(k));
+        let scaled = b.mul(y, scale);
+        y = b.select(c, scaled, y);
+        let kf = b.float(f64::from(k));
+        let down = b.sub(e, kf);
+        e = b.select(c, down, e);
+    }
+    e
 }

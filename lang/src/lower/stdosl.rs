@@ -2,7 +2,8 @@
 //! math, lowered to IR arithmetic in the header's order of operations: `smooth_linearstep`
 //! (a linear ramp with quadratic corners of half-width `eps`; a step where the edges
 //! coincide), `select(a, b, cond)` (`cond ? b : a`, per component for a triple condition)
-//! and `hypot(x, y, z)`. Owns these builtins' formulas.
+//! and `hypot(x, y, z)`; the geometric ones are [`super::geometry`]'s. Owns these builtins'
+//! formulas.
 
 use super::components::componentwise_n;
 use super::{Ty, Val, nonzero};
@@ -45,7 +46,7 @@ pub(crate) fn builtin(b: &mut Builder, name: &str, vs: &[(Value, Ty, bool)]) -> 
             };
             out(v, t)
         }
-        _ => None,
+        _ => super::geometry::builtin(b, name, vs),
     }
 }
 

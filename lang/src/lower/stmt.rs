@@ -361,8 +361,10 @@ impl<'a> Lower<'a> {
     }
 
     /// The arguments of a call of `callee` that it may assign: those passed for an
-    /// `output` parameter of any of the user function's overloads that take as many,
-    /// `getattribute`'s last, and `texture`'s `"alpha"` value.
+    /// `output` parameter of any of the user function's overloads that take as many, and
+    /// the builtins' output arguments (`getattribute`'s, `getmessage`'s and `getmatrix`'s
+    /// last, `sincos`'s two, `fresnel`'s after the third, `texture`'s and `environment`'s
+    /// `"alpha"` value).
     fn output_args<'e>(&self, callee: &str, args: &'e [Expr]) -> Vec<&'e Expr> {
         let mut out: Vec<&Expr> = Vec::new();
         if let Some(defs) = self.functions.get(callee) {
@@ -373,18 +375,25 @@ impl<'a> Lower<'a> {
                     }
                 }
             }
-        } else if matches!(callee, "getattribute" | "getmessage")
-            && self.dialect == crate::Dialect::Osl
-        {
+        } else if self.dialect == crate::Dialect::Osl {
+            match callee {
+                "getattribute" | "getmessage" | "getmatrix" => out.extend(args.last()),
+                "sincos" => out.extend(args.iter().skip(1)),
+                "fresnel" => out.extend(args.iter().skip(3)),
+                "texture" | "environment" => {
+                    // The value after an `"alpha"` token among the options.
+                    let first = if callee == "texture" { 3 } else { 2 };
+                    let alpha = args
+                        .iter()
+                        .skip(first)
+                        .step_by(2)
+                        .position(|a| matches!(&a.kind, ExprKind::Str(s) if s == "alpha"));
+                    out.extend(alpha.and_then(|k| args.get(first + 2 * k + 1)));
+                }
+                _ => {}
+            }
+        } else if callee == "getmatrix" {
             out.extend(args.last());
-        } else if callee == "texture" && self.dialect == crate::Dialect::Osl {
-            // The value after an `"alpha"` token.
-            let alpha = args
-                .iter()
-                .skip(3)
-                .step_by(2)
-                .position(|a| matches!(&a.kind, ExprKind::Str(s) if s == "alpha"));
-            out.extend(alpha.and_then(|k| args.get(3 + 2 * k + 1)));
         }
         out
     }
