@@ -1212,8 +1212,12 @@ fn texture_options_and_string_comparisons() {
     check(&o, "eq", &[3.0], 0.0);
     assert_errors(&[
         (
-            "shader s(output color c = 0) { c = texture(\"t.png\", u, v, \"blur\", 0.1); }",
-            "`texture` option \"blur\" is not built",
+            "shader s(output color c = 0) { c = texture(\"t.png\", u, v, \"firstchannel\", 1); }",
+            "`texture` option \"firstchannel\" is not built",
+        ),
+        (
+            "shader s(output color c = 0) { c = texture(\"t.png\", u, v, \"blur\", \"x\"); }",
+            "`texture` option \"blur\": a float",
         ),
         (
             "shader s(output color c = 0) { c = texture(\"t.png\", u, v, \"swrap\", \"wobble\"); }",
@@ -2074,5 +2078,55 @@ fn functions_write_the_globals() {
         }
         assert_close(&o.get("f"), &n, 1e-6, &format!("N at u = {u}"));
         assert_close(&o.get("Ci"), &[2.0; 3], 0.0, "Ci");
+    }
+}
+
+/// `texture`'s `"width"` and `"blur"`: a 64² checker of single texels looked up at a texel
+/// centre is that texel unfiltered, and blurred over half the image it is the checker's
+/// mean; `"width", 0` is the point lookup whatever the derivatives; `"time"` is accepted.
+#[test]
+fn texture_width_and_blur() {
+    let dir = folder("texblur", &[]);
+    let path = dir.join("checker.png");
+    let px: Vec<u8> = (0..64 * 64)
+        .flat_map(|i| {
+            let (x, y) = (i % 64, i / 64);
+            let c = if (x + y) % 2 == 0 { 255u8 } else { 0 };
+            [c, c, c]
+        })
+        .collect();
+    image::save_buffer(&path, &px, 64, 64, image::ExtendedColorType::Rgb8).unwrap();
+    let shade = |opts: &str| {
+        let src = format!(
+            "shader s(output color c = 0) {{ c = texture(\"{}\", u, v{opts}); }}",
+            path.display()
+        );
+        let p = compile(&src).unwrap_or_else(|e| panic!("{e}"));
+        let mut f = plane_fragment();
+        // The centre of texel (32, 31) (t runs down the image: v = 1 − t).
+        f.uv = [32.5 / 64.0, 1.0 - 31.5 / 64.0];
+        run_program(&p, &f, &[], u32::MAX).get("c")[0]
+    };
+    let plain = shade("");
+    assert!(plain == 0.0 || plain == 1.0, "one texel: {plain}");
+    assert_eq!(shade(", \"width\", 0, \"time\", 1"), plain);
+    let blurred = shade(", \"blur\", 0.5");
+    assert!((blurred - 0.5).abs() < 0.02, "blurred: {blurred}");
+    let one_axis = shade(", \"sblur\", 0.5");
+    assert!((one_axis - 0.5).abs() < 0.1, "blurred along s: {one_axis}");
+    // The footprint is the options' in the IR: swidth scales uv's derivatives along s,
+    // tblur lengthens ∂t/∂y (towards its sign).
+    let p = compile(
+        "shader s(output color c = 0) { c = texture(\"t.png\", u * 3, v, \"swidth\", 2, \"tblur\", 0.25); }",
+    )
+    .unwrap();
+    let (o, _) = opt::run(&p, &Specialization::default());
+    let text = o.to_string();
+    for want in [
+        "const (2.0, 1.0) : vec2",
+        "const -0.25 : float",
+        "const 0.25 : float",
+    ] {
+        assert!(text.contains(want), "{want}\n{text}");
     }
 }

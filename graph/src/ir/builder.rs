@@ -407,14 +407,30 @@ impl Builder {
     /// A filtered lookup of texture `texture` at `uv` over the footprint of uv's
     /// screen-space derivatives ([`Builder::derivs`]): color, or alpha (float) if `alpha`.
     pub fn texture(&mut self, texture: u32, uv: Value, sampling: Sampling, alpha: bool) -> Value {
-        if self.ty(uv) != Type::Vec2 {
-            self.fail("texture coordinates must be a vec2");
-            return self.zero(if alpha { Type::Float } else { Type::Color });
-        }
         let derivs = match sampling.filter {
             Filter::Closest | Filter::Bilinear => None,
             Filter::Trilinear | Filter::Anisotropic => self.derivs(uv),
         };
+        self.texture_over(texture, uv, derivs, sampling, alpha)
+    }
+
+    /// [`Builder::texture`] over the footprint `derivs` (∂uv/∂x, ∂uv/∂y; `None`: a point
+    /// lookup) given by the caller: uv's own derivatives widened or narrowed, as OSL's
+    /// `"width"` and `"blur"` options ask.
+    pub fn texture_over(
+        &mut self,
+        texture: u32,
+        uv: Value,
+        derivs: Option<[Value; 2]>,
+        sampling: Sampling,
+        alpha: bool,
+    ) -> Value {
+        if self.ty(uv) != Type::Vec2
+            || derivs.is_some_and(|d| d.iter().any(|v| self.ty(*v) != Type::Vec2))
+        {
+            self.fail("texture coordinates and their derivatives must be vec2s");
+            return self.zero(if alpha { Type::Float } else { Type::Color });
+        }
         let ty = if alpha { Type::Float } else { Type::Color };
         self.push(
             Op::Texture {

@@ -12,6 +12,12 @@
 //!   format, as without it).
 //! - `"alpha"`: an output float that receives the lookup's alpha.
 //! - `"subimage"`: only `""` (the first image; named layers are not built).
+//! - `"width"`, `"swidth"`, `"twidth"` (`texture` only): factors of the filter footprint
+//!   along s and t (0: the finest level, unfiltered); `"blur"`, `"sblur"`, `"tblur"`: the
+//!   footprint widened along s and t by that much in texture coordinates (0.1 blurs over a
+//!   tenth of the image); `"time"` is accepted and ignored (no texture varies in time, as in
+//!   OpenImageIO). Ours widen `∂s/∂x` and `∂t/∂y`; OpenImageIO's exact ellipse arithmetic
+//!   for blur is not reproduced.
 //! - `"missingcolor"`, `"missingalpha"`: what a lookup of the empty file name `""` returns
 //!   (black and 0 without them; MaterialX's OSL passes `""` for an unset file, as its
 //!   nodes' defaults do). Any other file that cannot be read is an error when the material
@@ -58,6 +64,11 @@ struct Options<'a> {
     missing_color: Option<(Value, bool)>,
     /// `"missingalpha"`'s value, if given, and whether it varies.
     missing_alpha: Option<(Value, bool)>,
+    /// `"swidth"`, `"twidth"` (or `"width"`, both): factors of the footprint along s and t.
+    width: [Option<(Value, Ty)>; 2],
+    /// `"sblur"`, `"tblur"` (or `"blur"`, both): widening of the footprint along s and t, in
+    /// texture coordinates.
+    blur: [Option<(Value, Ty)>; 2],
 }
 
 impl<'a> Lower<'a> {
@@ -147,8 +158,11 @@ impl<'a> Lower<'a> {
                 colorspace: o.colorspace,
             };
             let index = b.texture_index(&file);
-            let c = b.texture(index, uv, o.sampling, false);
-            let a = o.alpha.map(|_| b.texture(index, uv, o.sampling, true));
+            let derivs = footprint(b, uv, &o);
+            let c = b.texture_over(index, uv, derivs, o.sampling, false);
+            let a = o
+                .alpha
+                .map(|_| b.texture_over(index, uv, derivs, o.sampling, true));
             ((c, true), a.map(|a| (a, true)))
         };
         if let (Some((n, target)), Some((v, varying))) = (o.alpha, alpha) {
@@ -181,6 +195,8 @@ impl<'a> Lower<'a> {
             alpha: None,
             missing_color: None,
             missing_alpha: None,
+            width: [None; 2],
+            blur: [None; 2],
         };
         let mut ok = true;
         for (k, pair) in vals.chunks(2).enumerate() {
@@ -264,6 +280,31 @@ impl<'a> Lower<'a> {
                         ok = false;
                     }
                 },
+                ("width" | "swidth" | "twidth" | "blur" | "sblur" | "tblur" | "time", _)
+                    if call == "texture" =>
+                {
+                    let Val::V {
+                        v,
+                        ty: ty @ (Ty::Float | Ty::Int),
+                        ..
+                    } = value
+                    else {
+                        bad(self, "a float");
+                        ok = false;
+                        continue;
+                    };
+                    let slot = match token.as_str() {
+                        // No texture varies in time (as in OpenImageIO, which ignores it).
+                        "time" => continue,
+                        t if t.ends_with("blur") => &mut o.blur,
+                        _ => &mut o.width,
+                    };
+                    match token.as_bytes()[0] {
+                        b's' => slot[0] = Some((*v, *ty)),
+                        b't' => slot[1] = Some((*v, *ty)),
+                        _ => *slot = [Some((*v, *ty)); 2],
+                    }
+                }
                 ("swrap" | "twrap" | "wrap" | "interp" | "colorspace" | "subimage", None) => {
                     bad(self, "a string");
                     ok = false;
@@ -271,7 +312,12 @@ impl<'a> Lower<'a> {
                 _ => {
                     self.error(
                         format!(
-                            "`{call}` option \"{token}\" is not built (built: swrap, twrap, wrap, interp, colorspace, alpha, subimage \"\", missingcolor, missingalpha)"
+                            "`{call}` option \"{token}\" is not built (built: swrap, twrap, wrap, interp, colorspace, alpha, subimage \"\", missingcolor, missingalpha{})",
+                            if call == "texture" {
+                                ", width, swidth, twidth, blur, sblur, tblur, time"
+                            } else {
+                                ""
+                            }
                         ),
                         *at,
                         "this option",
@@ -282,6 +328,60 @@ impl<'a> Lower<'a> {
         }
         ok.then_some(o)
     }
+}
+
+/// The footprint of a lookup at `uv`: uv's derivatives for a filtered lookup (none for
+/// `"closest"` and `"linear"`), each scaled along s and t by the `"width"` factors, then
+/// `∂s/∂x` and `∂t/∂y` lengthened by the `"blur"` amounts (away from zero) — a footprint
+/// at least `blur` wide along each axis, zero derivatives included.
+fn footprint(b: &mut Builder, uv: Value, o: &Options) -> Option<[Value; 2]> {
+    use shadenet_graph::Type;
+    use shadenet_graph::ir::{BinOp, UnOp};
+    if matches!(o.sampling.filter, Filter::Closest | Filter::Bilinear) {
+        return None;
+    }
+    let own = b.derivs(uv);
+    if o.width == [None; 2] && o.blur == [None; 2] {
+        return own;
+    }
+    let [dx, dy] = own.unwrap_or_else(|| [b.zero(Type::Vec2), b.zero(Type::Vec2)]);
+    let float = |b: &mut Builder, x: Option<(Value, Ty)>, default: f64| match x {
+        Some((v, Ty::Int)) => b.convert(Type::Float, v),
+        Some((v, _)) => v,
+        None => b.float(default),
+    };
+    let (dx, dy) = if o.width == [None; 2] {
+        (dx, dy)
+    } else {
+        let (sw, tw) = (float(b, o.width[0], 1.0), float(b, o.width[1], 1.0));
+        let w = b.construct(Type::Vec2, &[sw, tw]);
+        (b.mul(dx, w), b.mul(dy, w))
+    };
+    let widen = |b: &mut Builder, d: Value, k: usize, amount: Value| {
+        let c = [b.extract(d, 0), b.extract(d, 1)];
+        let zero = b.float(0.0);
+        let neg = b.binary(BinOp::Lt, c[k], zero);
+        let minus = b.unary(UnOp::Neg, amount);
+        let step = b.select(neg, minus, amount);
+        let mut c = c;
+        c[k] = b.add(c[k], step);
+        b.construct(Type::Vec2, &c)
+    };
+    let dx = match o.blur[0] {
+        Some(_) => {
+            let sb = float(b, o.blur[0], 0.0);
+            widen(b, dx, 0, sb)
+        }
+        None => dx,
+    };
+    let dy = match o.blur[1] {
+        Some(_) => {
+            let tb = float(b, o.blur[1], 0.0);
+            widen(b, dy, 1, tb)
+        }
+        None => dy,
+    };
+    Some([dx, dy])
 }
 
 /// The lat-long map coordinates `(s, t)` of direction `r` (OSL's `t` down from the top
