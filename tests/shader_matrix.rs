@@ -290,8 +290,8 @@ fn matrix_errors_name_the_place() {
             "a matrix is made of 1 or 16 floats, not 3",
         ),
         (
-            "matrix m = matrix(\"shader\");",
-            "the space \"shader\" is not available here",
+            "matrix m = matrix(\"screen\");",
+            "the space \"screen\" is not available here",
         ),
         (
             "matrix m = matrix(\"object\", \"raster\");",
@@ -340,4 +340,19 @@ fn matrix_errors_name_the_place() {
         assert!(e.contains(want), "{body}: {e}");
         assert!(e.contains("t.osl:1:"), "{body}: no place in {e}");
     }
+}
+
+/// OSL's `"shader"` space is the object's (our shaders are bound to objects with no transform
+/// of their own): the same program as `"object"`.
+#[test]
+fn shader_space_is_object_space() {
+    let lower = |space: &str| {
+        let src = format!(
+            "shader s(output point p = 0, output vector n = 0) {{ p = transform(\"{space}\", \"world\", P); n = vector(\"{space}\", 1, 2, 3); }}"
+        );
+        let p = compile_shader(&src, Dialect::Osl).unwrap_or_else(|e| panic!("{e}"));
+        p.to_string()
+    };
+    assert_eq!(lower("shader"), lower("object"));
+    assert_ne!(lower("camera"), lower("object"));
 }

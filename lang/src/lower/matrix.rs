@@ -43,11 +43,13 @@ pub(crate) fn slot(r: usize, c: usize) -> usize {
     c * 4 + r
 }
 
-/// The renderer space a space name stands for, or `None` where we have none.
+/// The renderer space a space name stands for, or `None` where we have none. OSL's
+/// `"shader"` space is the one the shader was bound in; ours are bound to objects with no
+/// transform of their own, so it is object space (as in Cycles).
 fn space(name: &str) -> Option<Space> {
     match name {
         "common" | "world" | "current" => Some(Space::World),
-        "object" => Some(Space::Object),
+        "object" | "shader" => Some(Space::Object),
         "camera" => Some(Space::Camera),
         _ => None,
     }
@@ -76,7 +78,7 @@ impl<'a> Lower<'a> {
         if s.is_none() {
             self.error(
                 format!(
-                    "the space \"{name}\" is not available here: matrices and transforms are built for \"common\" (= \"world\"), \"object\" and \"camera\""
+                    "the space \"{name}\" is not available here: matrices and transforms are built for \"common\" (= \"world\"), \"object\" (= \"shader\") and \"camera\""
                 ),
                 at,
                 "unknown space",
