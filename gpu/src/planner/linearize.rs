@@ -170,6 +170,28 @@ impl Linearizer<'_> {
     }
 }
 
+/// Why the GPU path refuses the ops [`cpu_only`] finds, in the order they are reported.
+const CPU_ONLY: [&str; 3] = [
+    // Messages go to the calling thread's log in fragment order, which no kernel can do.
+    "the GPU path does not write messages (printf, warning, error); the CPU shades a \
+     material that prints, in fragment order",
+    "probe rays (OSL's trace) ask the renderer's scene on the CPU; the GPU back end has no \
+     host step for them",
+    // Geometry attributes (primvars) live in the renderer's meshes, which no kernel reads.
+    "geometry attributes (vertex colours, primvars) are read through the renderer's \
+     services on the CPU; the GPU back end has no attribute buffers",
+];
+
+/// Which of [`CPU_ONLY`]'s reasons refuses `op`, if any.
+fn cpu_only(op: &Op) -> Option<usize> {
+    match op {
+        Op::Print { .. } => Some(0),
+        Op::Probe { .. } => Some(1),
+        Op::Attribute { .. } | Op::AttributeFound { .. } => Some(2),
+        _ => None,
+    }
+}
+
 /// The items and host steps of `p`'s body in order, and the light sets its light loops read.
 /// `prelude` holds the uniform slot of each prelude value; `names` the printer's numbering
 /// (for the errors).
@@ -178,40 +200,16 @@ pub(super) fn linearize(
     prelude: &HashMap<usize, usize>,
     names: &[Option<u32>],
 ) -> Result<(Vec<Entry>, Vec<LightSet>), BackendError> {
-    // Geometry attributes (primvars) live in the renderer's meshes, which no kernel reads:
-    // refused, so the material falls back to a CPU back end.
-    // Messages (printf, warning, error) are written to the calling thread's log in fragment
-    // order, which no kernel can do: refused, and the CPU shades the material.
-    let (mut attribute, mut print, mut probe) = (None, None, None);
-    p.walk(&p.body, &mut |v| match p.op(v) {
-        Op::Attribute { .. } | Op::AttributeFound { .. } => {
-            attribute.get_or_insert(v);
+    // Ops that need what no kernel has, in the order their refusals are reported: the
+    // material falls back to a CPU back end.
+    let mut found: [Option<Value>; 3] = [None; 3];
+    p.walk(&p.body, &mut |v| {
+        if let Some(k) = cpu_only(p.op(v)) {
+            found[k].get_or_insert(v);
         }
-        Op::Probe { .. } => {
-            probe.get_or_insert(v);
-        }
-        Op::Print { .. } => {
-            print.get_or_insert(v);
-        }
-        _ => {}
     });
-    if let Some(v) = print {
-        let why = "the GPU path does not write messages (printf, warning, error); the CPU \
-                   shades a material that prints, in fragment order"
-            .to_string();
-        return Err(unsupported(p, names, v, why));
-    }
-    if let Some(v) = probe {
-        let why = "probe rays (OSL's trace) ask the renderer's scene on the CPU; the GPU \
-                   back end has no host step for them"
-            .to_string();
-        return Err(unsupported(p, names, v, why));
-    }
-    if let Some(v) = attribute {
-        let why = "geometry attributes (vertex colours, primvars) are read through the \
-                   renderer's services on the CPU; the GPU back end has no attribute buffers"
-            .to_string();
-        return Err(unsupported(p, names, v, why));
+    if let Some((k, v)) = found.iter().enumerate().find_map(|(k, v)| Some((k, (*v)?))) {
+        return Err(unsupported(p, names, v, CPU_ONLY[k].to_string()));
     }
     let mut lin = Linearizer {
         p,
