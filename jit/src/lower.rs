@@ -182,12 +182,8 @@ impl Helpers {
             mem.insert(h.name, (s, b));
         }
         let mut sig = module.make_signature();
-        sig.params.extend([
-            AbiParam::new(ptr),
-            AbiParam::new(I32),
-            AbiParam::new(ptr),
-            AbiParam::new(I32),
-        ]);
+        sig.params
+            .extend([AbiParam::new(ptr), AbiParam::new(I32), AbiParam::new(ptr)]);
         let mut print = [None; 2];
         for (slot, name) in print.iter_mut().zip(["sn_print", "sn_print_x4"]) {
             *slot = Some(
@@ -288,6 +284,9 @@ pub struct Lowerer<'a, 'b> {
     /// Loads of immutable memory (fragment, uniforms, environment) already emitted, per
     /// block scope (innermost last): each is loaded once per scope.
     loads: Vec<HashMap<LoadKey, V>>,
+    /// Each print op's number in the material's print table, by arena index
+    /// ([`abi::PrintTable::numbers`], the table's own numbering).
+    prints: HashMap<usize, u32>,
 }
 
 /// A read of memory that does not change during a call.
@@ -356,6 +355,7 @@ impl<'a, 'b> Lowerer<'a, 'b> {
             budget: None,
             left: None,
             loads: vec![HashMap::new()],
+            prints: abi::PrintTable::numbers(p),
         }
     }
 
@@ -1037,10 +1037,9 @@ impl<'a, 'b> Lowerer<'a, 'b> {
     /// (`abi/print.rs`), with the op's number in the material's print table. Its value is
     /// the int 0.
     fn print(&mut self, v: Value, args: &[Value]) -> R<Vec<V>> {
-        let index = self.p.exprs[..v.index()]
-            .iter()
-            .filter(|e| matches!(e.op, Op::Print { .. }))
-            .count();
+        let Some(&index) = self.prints.get(&v.index()) else {
+            return Err(self.unsupported(v, "a print op the print table does not hold"));
+        };
         let mut words = Vec::new();
         if self.batch() {
             let mask = match self.active {
@@ -1070,8 +1069,7 @@ impl<'a, 'b> Lowerer<'a, 'b> {
         let f = self.func(if self.batch() { bt } else { s });
         let index = self.b.ins().iconst(I32, index as i64);
         let addr = self.b.ins().stack_addr(self.ptr, ss, 0);
-        let zero = self.b.ins().iconst(I32, 0);
-        self.b.ins().call(f, &[self.ctx, index, addr, zero]);
+        self.b.ins().call(f, &[self.ctx, index, addr]);
         Ok(vec![self.iconst(0)])
     }
 

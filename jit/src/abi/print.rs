@@ -34,7 +34,7 @@ pub struct PrintTable(Vec<PrintDesc>);
 impl PrintTable {
     /// The table of `program`'s print ops.
     pub fn new(program: &Program) -> PrintTable {
-        let descs = program.exprs.iter().filter_map(|e| match &e.op {
+        let descs = print_ops(program).filter_map(|(_, op)| match op {
             Op::Print {
                 severity,
                 format,
@@ -47,6 +47,15 @@ impl PrintTable {
             _ => None,
         });
         PrintTable(descs.collect())
+    }
+
+    /// The number of each of `program`'s print ops in its table, by arena index: what the
+    /// compiled code passes the message helpers.
+    pub fn numbers(program: &Program) -> std::collections::HashMap<usize, u32> {
+        print_ops(program)
+            .enumerate()
+            .map(|(k, (at, _))| (at, k as u32))
+            .collect()
     }
 
     /// Whether the program has no print op.
@@ -92,6 +101,16 @@ impl PrintTable {
     }
 }
 
+/// A program's print ops in arena order with their arena indices: the table's numbering.
+fn print_ops(program: &Program) -> impl Iterator<Item = (usize, &Op)> {
+    program
+        .exprs
+        .iter()
+        .enumerate()
+        .filter(|(_, e)| matches!(e.op, Op::Print { .. }))
+        .map(|(k, e)| (k, &e.op))
+}
+
 /// The print table of the context's material (empty for a null pointer).
 fn table(ctx: &CallCtx) -> Option<&PrintTable> {
     // SAFETY: a non-null `prints` points at the material's table, which outlives its calls.
@@ -103,7 +122,7 @@ fn table(ctx: &CallCtx) -> Option<&PrintTable> {
 ///
 /// # Safety
 /// `ctx` is a live call context; `words` holds the op's words.
-pub unsafe extern "C" fn sn_print(ctx: *const CallCtx, index: u32, words: *const u32, _: u32) {
+pub unsafe extern "C" fn sn_print(ctx: *const CallCtx, index: u32, words: *const u32) {
     // SAFETY: see above.
     let Some(t) = table(unsafe { &*ctx }) else {
         return;
@@ -121,7 +140,7 @@ pub unsafe extern "C" fn sn_print(ctx: *const CallCtx, index: u32, words: *const
 ///
 /// # Safety
 /// `ctx` is a live call context; `words` holds `4 × (1 + components)` words.
-pub unsafe extern "C" fn sn_print_x4(ctx: *const CallCtx, index: u32, words: *const u32, _: u32) {
+pub unsafe extern "C" fn sn_print_x4(ctx: *const CallCtx, index: u32, words: *const u32) {
     // SAFETY: see above.
     let ctx = unsafe { &*ctx };
     let Some(t) = table(ctx) else {
