@@ -438,7 +438,7 @@ fn options(libraries: &Path, extra: Option<&Path>) -> shadenet_lang::Options {
     shadenet_lang::Options {
         dialect: Some(shadenet_lang::Dialect::Osl),
         include_dirs,
-        defines: Vec::new(),
+        ..shadenet_lang::Options::default()
     }
 }
 

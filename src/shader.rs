@@ -90,7 +90,8 @@ fn compile_file(
     include: &[PathBuf],
     defines: &[String],
 ) -> Result<(Program, ShaderKind), ShaderError> {
-    let options = front_end_options(include, defines);
+    let mut options = front_end_options(include, defines);
+    options.texture_info = Some(texture_info(path.parent().unwrap_or(Path::new(""))));
     let mut sources = SourceMap::new();
     let fail = |sources: &SourceMap, d| compile_error(path, sources, d);
     if path.extension().is_some_and(|e| e == GROUP_EXTENSION) {
@@ -110,6 +111,28 @@ fn compile_file(
         })
         .unwrap_or(ShaderKind::Surface);
     Ok((program, kind))
+}
+
+/// What answers `gettextureinfo` for a shader whose textures are relative to `dir` (as
+/// [`shadenet_graph::ir::Program::resolve_textures`] resolves them): the file's header, read
+/// by the texture system's decoder within its memory budget.
+fn texture_info(dir: &Path) -> shadenet_lang::TextureInfoSource {
+    let dir = dir.to_path_buf();
+    shadenet_lang::TextureInfoSource(std::sync::Arc::new(move |name: &str| {
+        let p = Path::new(name);
+        let path = if p.is_relative() {
+            dir.join(p)
+        } else {
+            p.to_path_buf()
+        };
+        let budget = shadenet_runtime::texture::cache::budget_bytes().map_err(|e| e.to_string())?;
+        let (width, height, channels) = shadenet_runtime::texture::decode::header(&path, budget)?;
+        Ok(shadenet_lang::TextureInfo {
+            width,
+            height,
+            channels: channels as u32,
+        })
+    }))
 }
 
 /// The front end's options for `-I` folders `include` and `-D` macros `defines`.
@@ -174,7 +197,8 @@ pub fn load_group(
     include: &[PathBuf],
     defines: &[String],
 ) -> Result<Compiled, ShaderError> {
-    let options = front_end_options(include, defines);
+    let mut options = front_end_options(include, defines);
+    options.texture_info = Some(texture_info(path.parent().unwrap_or(Path::new(""))));
     let mut sources = SourceMap::new();
     let fail = |sources: &SourceMap, d| compile_error(path, sources, d);
     let loaded =

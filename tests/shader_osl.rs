@@ -2130,3 +2130,78 @@ fn texture_width_and_blur() {
         assert!(text.contains(want), "{want}\n{text}");
     }
 }
+
+/// `gettextureinfo` reads the file's header while the shader loads (a missing file: not
+/// found, the output unchanged; `"exists"` succeeds either way); without a texture system,
+/// an unknown query, a wrong output type and a UDIM pattern are errors naming them.
+#[test]
+fn gettextureinfo_reads_the_header() {
+    let dir = folder("texinfo", &[]);
+    let rgb: Vec<u8> = (0..64 * 32 * 3).map(|i| (i % 251) as u8).collect();
+    image::save_buffer(
+        dir.join("rgb.png"),
+        &rgb,
+        64,
+        32,
+        image::ExtendedColorType::Rgb8,
+    )
+    .unwrap();
+    let la: Vec<u8> = (0..5 * 7 * 2).map(|i| i as u8).collect();
+    image::save_buffer(dir.join("la.png"), &la, 5, 7, image::ExtendedColorType::La8).unwrap();
+    let src = r#"
+        shader s(output color r = 0, output color c = 0, output color e = 0) {
+            int res[2] = { -1, -1 };
+            int got = 0;
+            if (u > 0.25)
+                got = gettextureinfo("rgb.png", "resolution", res);
+            int ch = 0;
+            gettextureinfo("la.png", "channels", ch);
+            int ex = -1, ex2 = -1;
+            int okex = gettextureinfo("missing.png", "exists", ex);
+            gettextureinfo("rgb.png", "exists", ex2);
+            int miss[2] = { 7, 7 };
+            int gotmiss = gettextureinfo("missing.png", "resolution", miss);
+            int dw[4] = { 0, 0, 0, 0 };
+            gettextureinfo("rgb.png", "datawindow", dw);
+            string t = "";
+            gettextureinfo("rgb.png", "type", t);
+            r = color(res[0], res[1], got);
+            c = color(ch, ex, okex);
+            e = color(ex2, miss[0] + gotmiss * 100, dw[2] + dw[3] * 100 + (t == "Plain Texture") * 10000);
+        }"#;
+    std::fs::write(dir.join("info.osl"), src).unwrap();
+    let compiled = shadenet::shader::load(&dir.join("info.osl"), &[], &[]).unwrap();
+    let o = run_program(&compiled.program, &plane_fragment(), &[], u32::MAX);
+    check(&o, "r", &[64.0, 32.0, 1.0], 0.0);
+    check(&o, "c", &[2.0, 0.0, 1.0], 0.0);
+    check(&o, "e", &[1.0, 7.0, 63.0 + 3100.0 + 10000.0], 0.0);
+    assert_errors(&[(
+        "shader s(output float o = 0) { int n; gettextureinfo(\"a.png\", \"channels\", n); }",
+        "this compile has no texture system",
+    )]);
+    for (body, want) in [
+        (
+            "int n; gettextureinfo(\"rgb.png\", \"averagecolor\", n);",
+            "`gettextureinfo`: \"averagecolor\" is not built (built: exists, resolution",
+        ),
+        (
+            "float n; gettextureinfo(\"rgb.png\", \"channels\", n);",
+            "`gettextureinfo(…, \"channels\", …)` writes an int (not into a float)",
+        ),
+        (
+            "int n[3]; gettextureinfo(\"rgb.png\", \"resolution\", n);",
+            "writes an int[2]",
+        ),
+        (
+            "int n; gettextureinfo(\"t.<UDIM>.png\", \"channels\", n);",
+            "of a UDIM pattern is not built",
+        ),
+    ] {
+        let path = dir.join("bad.osl");
+        std::fs::write(&path, format!("shader s(output float o = 0) {{ {body} }}")).unwrap();
+        let err = shadenet::shader::load(&path, &[], &[])
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains(want), "{body}\n→ {err}");
+    }
+}

@@ -29,7 +29,7 @@ pub mod pretty;
 pub mod source;
 
 pub use diag::{Diagnostic, Diagnostics, Severity};
-pub use options::{Dialect, Options};
+pub use options::{Dialect, Options, TextureInfo, TextureInfoFn, TextureInfoSource};
 pub use source::{FileId, SourceMap, Span};
 
 use std::path::Path;
@@ -45,6 +45,8 @@ pub struct Parsed {
     pub file: ast::File,
     /// Warnings (ignored pragmas, `#warning`); rendered like errors.
     pub warnings: Diagnostics,
+    /// What answers `gettextureinfo` ([`Options::texture_info`] of the parse).
+    pub(crate) texture_info: Option<TextureInfoSource>,
     /// What the lowering learns once about the file's functions (filled on first use).
     pub(crate) facts: std::sync::OnceLock<lower::FileFacts>,
 }
@@ -159,6 +161,7 @@ fn parse_loaded_here(
         main,
         file,
         warnings: Diagnostics(pre.warnings),
+        texture_info: options.texture_info.clone(),
         facts: std::sync::OnceLock::new(),
     })
 }

@@ -2,6 +2,7 @@
 //! inputs ([`Options`]: include directories and `-D` defines).
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Which shading language a source is written in. The dialect decides the keywords, the
 /// predefined macros and what `^` and `.` mean.
@@ -44,6 +45,43 @@ pub struct Options {
     pub include_dirs: Vec<PathBuf>,
     /// `-D NAME[=VALUE]` defines, in order: `(NAME, VALUE)`, the value `1` when not given.
     pub defines: Vec<(String, String)>,
+    /// What answers OSL's `gettextureinfo` while compiling (the texture system, which this
+    /// crate does not hold); without one, `gettextureinfo` is an error that says so.
+    pub texture_info: Option<TextureInfoSource>,
+}
+
+/// What `gettextureinfo` learns of a texture file: its header.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TextureInfo {
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// Channels per texel (1 grey, 2 grey and alpha, 3 RGB, 4 RGBA).
+    pub channels: u32,
+}
+
+/// The header of the texture file a shader names (as written in the shader: the source
+/// resolves a relative name as the loader resolves the shader's textures), or why it cannot
+/// be read. OSL's optimizer folds `gettextureinfo` of a constant name the same way, once,
+/// while the shader group is prepared.
+#[derive(Clone)]
+pub struct TextureInfoSource(pub Arc<TextureInfoFn>);
+
+/// The function inside a [`TextureInfoSource`]: a file name as the shader wrote it to its
+/// header, or why it cannot be read.
+pub type TextureInfoFn = dyn Fn(&str) -> Result<TextureInfo, String> + Send + Sync;
+
+impl std::fmt::Debug for TextureInfoSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("TextureInfoSource(..)")
+    }
+}
+
+impl PartialEq for TextureInfoSource {
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.0, &other.0)
+    }
 }
 
 impl Options {
@@ -53,6 +91,7 @@ impl Options {
             dialect: Some(dialect),
             include_dirs: Vec::new(),
             defines: Vec::new(),
+            texture_info: None,
         }
     }
 

@@ -403,11 +403,7 @@ fn the_classic_rsl_shaders() {
     for (name, want) in expect {
         let mut sm = SourceMap::new();
         // The dialect comes from the extension.
-        let opts = Options {
-            dialect: None,
-            include_dirs: Vec::new(),
-            defines: Vec::new(),
-        };
+        let opts = Options::default();
         let p = parse_file(&mut sm, &dir.join(name), &opts)
             .unwrap_or_else(|e| panic!("{}", e.render(&sm)));
         assert_eq!(p.dialect, RSL);
@@ -419,11 +415,7 @@ fn the_classic_rsl_shaders() {
 fn an_osl_shader_with_metadata_closures_and_a_struct() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/shaders");
     let mut sm = SourceMap::new();
-    let opts = Options {
-        dialect: None,
-        include_dirs: Vec::new(),
-        defines: Vec::new(),
-    };
+    let opts = Options::default();
     let p = parse_file(&mut sm, &dir.join("layered.osl"), &opts)
         .unwrap_or_else(|e| panic!("{}", e.render(&sm)));
     assert_eq!(p.dialect, OSL);

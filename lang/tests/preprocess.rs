@@ -419,11 +419,7 @@ fn files_that_cannot_be_read() {
     );
     let e = run_file(&dir.join("none.sl"), &Options::new(Dialect::Rsl), &dir).unwrap_err();
     assert!(e.starts_with("error: cannot read 'DIR/none.sl': "), "{e}");
-    let opts = Options {
-        dialect: None,
-        include_dirs: Vec::new(),
-        defines: Vec::new(),
-    };
+    let opts = Options::default();
     let e = run_file(&dir.join("bad.txt"), &opts, &dir).unwrap_err();
     assert_eq!(
         e,

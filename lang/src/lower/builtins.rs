@@ -146,6 +146,9 @@ impl<'a> Lower<'a> {
         if self.dialect == Dialect::Osl && name == "sincos" {
             return self.sincos(b, &vals, args, span);
         }
+        if self.dialect == Dialect::Osl && name == "gettextureinfo" {
+            return self.gettextureinfo(b, &vals, args, span);
+        }
         if self.dialect == Dialect::Osl && name == "fresnel" {
             return self.fresnel(b, &vals, args, span);
         }

@@ -42,6 +42,7 @@ mod stdosl;
 mod stmt;
 mod strings;
 mod structs;
+mod texinfo;
 mod texture_opts;
 mod unroll;
 mod walk;
@@ -324,6 +325,8 @@ pub(crate) struct Lower<'a> {
     /// What the file's user functions do beyond their own variables, found once per file
     /// ([`FileFacts`]).
     pub(crate) facts: &'a FileFacts,
+    /// What answers `gettextureinfo` ([`crate::Options::texture_info`]), if anything.
+    pub(crate) texture_info: Option<&'a crate::TextureInfoSource>,
     /// The messages' types, known before lowering (from a first lowering that found them:
     /// [`messages`]); each has its hidden variables from the start.
     pub(crate) message_types: BTreeMap<String, Ty>,
@@ -538,6 +541,7 @@ impl<'a> Lower<'a> {
             connections: HashMap::new(),
             print_guard: Vec::new(),
             facts,
+            texture_info: parsed.texture_info.as_ref(),
             message_types: BTreeMap::new(),
             messages_found: BTreeMap::new(),
         }

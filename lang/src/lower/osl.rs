@@ -25,6 +25,7 @@ pub(crate) const NAMES: &[&str] = &[
     "rotate",
     "fresnel",
     "logb",
+    "gettextureinfo",
     "noise",
     "snoise",
     "cellnoise",
@@ -82,7 +83,6 @@ pub(crate) const RSL_ONLY: &[&str] = &["ambient", "specular", "trace", "xcomp", 
 /// The OSL builtins we know of but have not built, with what to use instead.
 const UNBUILT: &[(&str, &str)] = &[
     ("transformu", "unit conversions are not built yet"),
-    ("gettextureinfo", "texture queries are not built yet"),
     ("pointcloud_search", "point clouds are not built"),
     ("pointcloud_get", "point clouds are not built"),
     ("pointcloud_write", "point clouds are not built"),

@@ -377,7 +377,9 @@ impl<'a> Lower<'a> {
             }
         } else if self.dialect == crate::Dialect::Osl {
             match callee {
-                "getattribute" | "getmessage" | "getmatrix" => out.extend(args.last()),
+                "getattribute" | "getmessage" | "getmatrix" | "gettextureinfo" => {
+                    out.extend(args.last())
+                }
                 "sincos" => out.extend(args.iter().skip(1)),
                 "fresnel" => out.extend(args.iter().skip(3)),
                 "texture" | "environment" => {

@@ -84,6 +84,40 @@ pub fn decode(path: &Path, budget: u64) -> Result<Decoded, String> {
     }
 }
 
+/// A texture file's width, height and channel count from its header (a Radiance file is
+/// decoded: its header does not say the size in one place), refused as [`decode`] refuses
+/// it where it could not load as a texture within `budget` bytes — what OSL's
+/// `gettextureinfo` reads.
+pub fn header(path: &Path, budget: u64) -> Result<(u32, u32, usize), String> {
+    let bytes = input::read(path, FileKind::Image, "texture").map_err(|e| e.to_string())?;
+    if bytes.starts_with(b"#?") {
+        let d = decode_hdr(&bytes, budget)?;
+        return Ok((d.width, d.height, d.channels));
+    }
+    if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
+        let limit = FileKind::Image.limit().map_err(|e| e.to_string())?;
+        let meta = check_exr_header(&bytes, limit)?;
+        let h = meta.headers.first().ok_or("the file has no image")?;
+        let side = |n: usize| u32::try_from(n).unwrap_or(u32::MAX);
+        let (w, ht) = (side(h.layer_size.0), side(h.layer_size.1));
+        check_size(w, ht, budget)?;
+        return Ok((w, ht, h.channels.list.len()));
+    }
+    let reader = image::ImageReader::new(Cursor::new(&bytes))
+        .with_guessed_format()
+        .map_err(|e| e.to_string())?;
+    if reader.format().is_none() {
+        return Err(
+            "not a PNG, JPEG, Radiance HDR or OpenEXR file (unrecognized first bytes)".into(),
+        );
+    }
+    let decoder = reader.into_decoder().map_err(|e| e.to_string())?;
+    let (width, height) = image::ImageDecoder::dimensions(&decoder);
+    check_size(width, height, budget)?;
+    let channels = image::ImageDecoder::color_type(&decoder).channel_count();
+    Ok((width, height, usize::from(channels)))
+}
+
 /// PNG and JPEG through the `image` crate: the decoder reads the header, the size is
 /// checked, then the texels are decoded.
 fn decode_image(bytes: &[u8], budget: u64) -> Result<Decoded, String> {
