@@ -1,5 +1,5 @@
 //! stdosl.h's functions that were missing (issue 22): `distance(a, b, q)`, `rotate` (both
-//! forms), `fresnel` (both forms) and `logb` — against the header's formulas computed here in
+//! forms), `fresnel` (both forms, OSL's and RSL's, issue 21) and `logb` — against the header's formulas computed here in
 //! f64 and against independent facts (Fresnel's normal incidence, total internal reflection,
 //! exact exponents next to powers of two), interpreter f32/f64, and the JIT's scalar and
 //! batch entries bit for bit with the interpreter; and builtins' output arguments assigned
@@ -154,6 +154,12 @@ fn fresnel_is_stdosls() {
     }
     // eta = 1.5 from inside at 0.9 rad is beyond the critical angle (asin(1/1.5) ≈ 0.73).
     assert!(fresnel([0.9f64.sin(), 0.0, -0.9f64.cos()], [0.0, 0.0, 1.0], 1.5).2);
+    // RSL's fresnel is the same function (RenderMan's, which stdosl.h keeps).
+    let src = "surface s() { float kr, kt; fresnel(vector(0.29552, 0, -0.955336), normal(0, 0, 1), 1 / 1.5, kr, kt); Ci = color(kr, kt, 0); }";
+    let p = compile_shader(src, Dialect::Rsl).unwrap_or_else(|e| panic!("{e}"));
+    let o = run_program(&p, &plane_fragment(), &[], u32::MAX);
+    let (kr, kt, _) = fresnel([0.29552, 0.0, -0.955336], [0.0, 0.0, 1.0], 1.0 / 1.5);
+    assert_close(&o.get("Ci"), &[kr, kt, 0.0], 1e-5, "RSL fresnel");
 }
 
 #[test]

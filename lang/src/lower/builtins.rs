@@ -42,6 +42,7 @@ pub(crate) const NAMES: &[&str] = &[
     "faceforward",
     "reflect",
     "refract",
+    "fresnel",
     "xcomp",
     "ycomp",
     "zcomp",
@@ -79,6 +80,7 @@ fn signature(name: &str) -> &'static str {
         "faceforward" => "(normal N, vector I[, normal Nref]) -> normal",
         "reflect" => "(vector I, normal N) -> vector",
         "refract" => "(vector I, normal N, float eta) -> vector",
+        "fresnel" => "(vector I, normal N, float eta, output float Kr, output float Kt[, output vector R, output vector T])",
         "xcomp" | "ycomp" | "zcomp" => "(point) -> float",
         "comp" => "(triple, constant 0, 1 or 2) -> float",
         "ambient" => "() -> color",
@@ -149,7 +151,7 @@ impl<'a> Lower<'a> {
         if self.dialect == Dialect::Osl && name == "gettextureinfo" {
             return self.gettextureinfo(b, &vals, args, span);
         }
-        if self.dialect == Dialect::Osl && name == "fresnel" {
+        if name == "fresnel" {
             return self.fresnel(b, &vals, args, span);
         }
         if let Some(def) = self.struct_def(name) {

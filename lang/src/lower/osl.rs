@@ -23,7 +23,6 @@ pub(crate) const NAMES: &[&str] = &[
     "getmessage",
     "setmessage",
     "rotate",
-    "fresnel",
     "logb",
     "gettextureinfo",
     "noise",

@@ -396,6 +396,8 @@ impl<'a> Lower<'a> {
             }
         } else if callee == "getmatrix" {
             out.extend(args.last());
+        } else if callee == "fresnel" {
+            out.extend(args.iter().skip(3));
         }
         out
     }
