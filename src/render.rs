@@ -255,6 +255,11 @@ pub fn compile_material(
     {
         return shader_material(m, p, files).map_err(fail);
     }
+    if m.displacement.is_some() {
+        return Err(fail(
+            "`displacement` applies to a shader-source material (network = \"….osl\" or \"….sl\"): this one is a network or a MaterialX document".into(),
+        ));
+    }
     let standard;
     let mut geomprops = BTreeSet::new();
     let (mut network, lib): (Network, &NodeLibrary) = match &m.source {
@@ -315,7 +320,11 @@ fn shader_material(m: &MaterialRef, path: &Path, files: Files) -> Result<Compile
     if files == Files::Embedded {
         return Err("shader sources are read from disk only".into());
     }
-    let compiled = crate::shader::load(path, &[], &[]).map_err(|e| e.to_string())?;
+    let compiled = match &m.displacement {
+        Some(d) => crate::shader::load_displaced(path, d, &[], &[]),
+        None => crate::shader::load(path, &[], &[]),
+    }
+    .map_err(|e| e.to_string())?;
     let mut program = compiled.program;
     crate::shader::set_overrides(&mut program, &m.overrides)?;
     shadenet_graph::ir::validate(&program)

@@ -185,6 +185,36 @@ fn json_numbers(value: &serde_json::Value) -> Option<Vec<f64>> {
     }
 }
 
+/// Reads and compiles surface shader `path` with displacement shader `displacement` (each
+/// its file's first shader; RSL or OSL, not groups) into one material that shades with the
+/// displaced normal (`shadenet_lang::lower::compile_displaced`): the displacement's
+/// parameters are `displacement.NAME`; relative texture names in both are relative to the
+/// surface shader's folder.
+pub fn load_displaced(
+    path: &Path,
+    displacement: &Path,
+    include: &[PathBuf],
+    defines: &[String],
+) -> Result<Compiled, ShaderError> {
+    let dir = path.parent().unwrap_or(Path::new(""));
+    let mut options = front_end_options(include, defines);
+    options.texture_info = Some(texture_info(dir));
+    let parse = |file: &Path, sources: &mut SourceMap| {
+        shadenet_lang::parse_file(sources, file, &options)
+            .map_err(|d| compile_error(file, sources, d))
+    };
+    let mut sources = SourceMap::new();
+    let surface = parse(path, &mut sources)?;
+    let disp = parse(displacement, &mut sources)?;
+    let mut program = shadenet_lang::lower::compile_displaced(&surface, &disp)
+        .map_err(|d| compile_error(path, &sources, d))?;
+    program.resolve_textures(dir);
+    Ok(Compiled {
+        program,
+        lights: Vec::new(),
+    })
+}
+
 /// The extension of OSL shader-group files (`shade --group` reads any name).
 pub const GROUP_EXTENSION: &str = "oslgroup";
 

@@ -307,6 +307,10 @@ pub struct MaterialSpec {
     /// Overrides `"node.input" = value`, applied to the network before linking.
     #[serde(default)]
     pub set: BTreeMap<String, toml::Value>,
+    /// A displacement shader (`.osl` or `.sl`), relative to the scene file: the material
+    /// (a shader source) shades with its displaced normal (bump mapping).
+    #[serde(default)]
+    pub displacement: Option<String>,
 }
 
 /// `[meshes.NAME]`: where a mesh's triangles come from.
@@ -550,6 +554,9 @@ pub struct MaterialRef {
     /// (a MaterialX material's string-valued `geompropvalueuniform` nodes read them); empty
     /// as the scene names it.
     pub geomprops: BTreeMap<String, String>,
+    /// `displacement = "…"`: a displacement shader the material shades with (already made
+    /// absolute or relative to the working directory).
+    pub displacement: Option<PathBuf>,
 }
 
 /// The camera, resolved.
@@ -928,6 +935,7 @@ fn resolve_materials(
             source,
             overrides,
             geomprops: BTreeMap::new(),
+            displacement: m.displacement.as_ref().map(|d| cx.file(d)),
         });
     }
     Ok(materials)

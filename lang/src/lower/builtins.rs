@@ -80,7 +80,9 @@ fn signature(name: &str) -> &'static str {
         "faceforward" => "(normal N, vector I[, normal Nref]) -> normal",
         "reflect" => "(vector I, normal N) -> vector",
         "refract" => "(vector I, normal N, float eta) -> vector",
-        "fresnel" => "(vector I, normal N, float eta, output float Kr, output float Kt[, output vector R, output vector T])",
+        "fresnel" => {
+            "(vector I, normal N, float eta, output float Kr, output float Kt[, output vector R, output vector T])"
+        }
         "xcomp" | "ycomp" | "zcomp" => "(point) -> float",
         "comp" => "(triple, constant 0, 1 or 2) -> float",
         "ambient" => "() -> color",

@@ -23,10 +23,12 @@ mod closure;
 mod colorspace;
 mod components;
 mod derivs;
+mod displace;
 mod expr;
 mod geometry;
 mod group;
 pub mod light;
+pub use displace::compile_displaced;
 mod loops;
 mod matrix;
 mod messages;
@@ -443,13 +445,19 @@ fn compile_here(parsed: &Parsed, name: Option<&str>) -> Result<Program, Diagnost
         .into());
     };
     let built = match parsed.dialect {
-        Dialect::Rsl => matches!(shader.kind, ShaderKind::Surface | ShaderKind::Light),
-        Dialect::Osl => matches!(shader.kind, ShaderKind::Surface | ShaderKind::Shader),
+        Dialect::Rsl => matches!(
+            shader.kind,
+            ShaderKind::Surface | ShaderKind::Light | ShaderKind::Displacement
+        ),
+        Dialect::Osl => matches!(
+            shader.kind,
+            ShaderKind::Surface | ShaderKind::Shader | ShaderKind::Displacement
+        ),
     };
     if !built {
         return Err(Diagnostic::error(
             format!(
-                "{} shaders are not compiled yet: built are RSL `surface` and `light` shaders and OSL `surface` and `shader` shaders (issues 21, 22)",
+                "{} shaders are not compiled yet: built are RSL `surface`, `light` and `displacement` shaders and OSL `surface`, `shader` and `displacement` shaders (issues 21, 22)",
                 kind_name(shader.kind)
             ),
             shader.kind_span,
@@ -489,6 +497,11 @@ fn lower_shader<'a>(
     lower.message_types = message_types;
     let mut b = Builder::new(&shader.name.name);
     match (parsed.dialect, shader.kind) {
+        (_, ShaderKind::Displacement) => {
+            let (p, n) = lower.displacement(&mut b, shader);
+            b.output("P", None, p);
+            b.output("N", None, n);
+        }
         (Dialect::Osl, _) => lower.osl_shader(&mut b, shader),
         (Dialect::Rsl, ShaderKind::Light) => lower.light(&mut b, shader),
         (Dialect::Rsl, _) => lower.surface(&mut b, shader),
@@ -549,13 +562,7 @@ impl<'a> Lower<'a> {
 
     /// A surface shader: the globals, the parameters, the body, the outputs.
     fn surface(&mut self, b: &mut Builder, shader: &'a ast::ShaderDef) {
-        self.globals(b);
-        for p in &shader.params {
-            self.param(b, p);
-        }
-        self.scopes.push(HashMap::new());
-        self.block(b, &shader.body);
-        self.scopes.pop();
+        self.surface_body(b, shader);
         for out in ["Ci", "Oi"] {
             let v = match self.lookup(out).map(|v| v.val.clone()) {
                 Some(Val::V { v, .. }) => v,
@@ -563,6 +570,17 @@ impl<'a> Lower<'a> {
             };
             b.output(out, None, v);
         }
+    }
+
+    /// An RSL surface or displacement shader's globals, parameters and body.
+    fn surface_body(&mut self, b: &mut Builder, shader: &'a ast::ShaderDef) {
+        self.globals(b);
+        for p in &shader.params {
+            self.param(b, p);
+        }
+        self.scopes.push(HashMap::new());
+        self.block(b, &shader.body);
+        self.scopes.pop();
     }
 
     /// RSL's surface globals: the streams, `E`, `s`/`t`, `Cs`/`Os` (white: the scene gives

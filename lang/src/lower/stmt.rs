@@ -283,7 +283,7 @@ impl<'a> Lower<'a> {
 
     /// Every variable `stmts` may assign (arrays and structs expanded to their hidden
     /// variables), with the return and loop flags they may set.
-    fn assigned_places(&self, stmts: &[&'a Stmt]) -> Vec<ast::Ident> {
+    pub(crate) fn assigned_places(&self, stmts: &[&'a Stmt]) -> Vec<ast::Ident> {
         let mut names: Vec<ast::Ident> = Vec::new();
         for s in stmts {
             walk_stmt(s, &mut |e| {
