@@ -7,21 +7,6 @@
 mod common;
 use common::*;
 use shadenet::lang::Dialect;
-use shadenet::runtime::Backend;
-
-/// Shades `body` (which sets `output color out`) at the plane fragment; f64 and f32 values.
-fn shade(body: &str) -> (Vec<f64>, Vec<f64>) {
-    let src = format!("shader s(output color out = 0) {{ {body} }}");
-    let p = compile_shader(&src, Dialect::Osl).unwrap_or_else(|e| panic!("{e}"));
-    let o = run_program(&p, &plane_fragment(), &[], u32::MAX);
-    (o.get("out"), o.get32("out"))
-}
-
-fn close(body: &str, want: [f64; 3], tol: f64) {
-    let (a, b) = shade(body);
-    assert_close(&a, &want, tol, &format!("{body} (f64)"));
-    assert_close(&b, &want, tol.max(2e-6), &format!("{body} (f32)"));
-}
 
 /// The D65 white point's XYZ at Y = 1 (x = 0.3127, y = 0.3290).
 const D65: [f64; 3] = [0.3127 / 0.3290, 1.0, (1.0 - 0.3127 - 0.3290) / 0.3290];
@@ -30,66 +15,66 @@ const D65: [f64; 3] = [0.3127 / 0.3290, 1.0, (1.0 - 0.3127 - 0.3290) / 0.3290];
 fn color_spaces_are_osls() {
     // XYZ: RGB white is the D65 white; red is the first primary's XYZ scaled, whose
     // chromaticity is Rec. 709's (0.64, 0.33) and whose Y is Rec. 709's luma weight.
-    close("out = transformc(\"rgb\", \"XYZ\", color(1));", D65, 1e-6);
-    let (red, _) = shade("out = transformc(\"rgb\", \"XYZ\", color(1, 0, 0));");
+    osl_close("out = transformc(\"rgb\", \"XYZ\", color(1));", D65, 1e-6);
+    let (red, _) = shade_osl_body("out = transformc(\"rgb\", \"XYZ\", color(1, 0, 0));");
     let sum: f64 = red.iter().sum();
     assert!((red[0] / sum - 0.64).abs() < 1e-6, "{red:?}");
     assert!((red[1] / sum - 0.33).abs() < 1e-6, "{red:?}");
     assert!((red[1] - 0.2126).abs() < 1e-4, "{red:?}");
     // xyY of the white: the white's chromaticity, luminance 1; black stays 0 (the guard).
-    close(
+    osl_close(
         "out = transformc(\"rgb\", \"xyY\", color(1));",
         [0.3127, 0.3290, 1.0],
         1e-6,
     );
-    close(
+    osl_close(
         "out = transformc(\"rgb\", \"xyY\", color(0));",
         [0.0; 3],
         0.0,
     );
-    close(
+    osl_close(
         "out = transformc(\"xyY\", \"rgb\", color(0.3127, 0.3290, 1));",
         [1.0; 3],
         1e-5,
     );
     // YIQ: OSL's matrix rows.
-    close(
+    osl_close(
         "out = transformc(\"rgb\", \"YIQ\", color(1, 0, 0));",
         [0.299, 0.596, 0.212],
         1e-6,
     );
-    close("out = color(\"YIQ\", 1, 0, 0);", [1.0; 3], 1e-6);
+    osl_close("out = color(\"YIQ\", 1, 0, 0);", [1.0; 3], 1e-6);
     // hsl: pure red is hue 0, saturation 1, lightness ½; a dark and a light colour take
     // the two saturation formulas; a grey has saturation 0.
-    close(
+    osl_close(
         "out = transformc(\"rgb\", \"hsl\", color(1, 0, 0));",
         [0.0, 1.0, 0.5],
         1e-6,
     );
-    close(
+    osl_close(
         "out = transformc(\"rgb\", \"hsl\", color(0.1, 0.2, 0.4));",
         [0.6111111, 0.6, 0.25],
         1e-6,
     );
-    close(
+    osl_close(
         "out = transformc(\"rgb\", \"hsl\", color(0.6, 0.8, 0.9));",
         [0.5555556, 0.6, 0.75],
         1e-6,
     );
-    close(
+    osl_close(
         "out = transformc(\"rgb\", \"hsl\", color(0.3));",
         [0.0, 0.0, 0.3],
         1e-7,
     );
-    close("out = color(\"hsl\", 0, 1, 0.5);", [1.0, 0.0, 0.0], 1e-6);
-    close("out = color(\"hsl\", 0.5, 0.5, 0);", [0.0; 3], 0.0);
+    osl_close("out = color(\"hsl\", 0, 1, 0.5);", [1.0, 0.0, 0.0], 1e-6);
+    osl_close("out = color(\"hsl\", 0.5, 0.5, 0);", [0.0; 3], 0.0);
     // sRGB: the transfer function's two pieces.
-    close(
+    osl_close(
         "out = transformc(\"sRGB\", \"rgb\", color(0.5, 0.04, 1));",
         [0.2140411, 0.04 / 12.92, 1.0],
         1e-6,
     );
-    close(
+    osl_close(
         "out = transformc(\"linear\", \"sRGB\", color(0.2140411, 0.001, 0));",
         [0.5, 0.01292, 0.0],
         1e-6,
@@ -98,14 +83,14 @@ fn color_spaces_are_osls() {
     // other: 5·10⁻⁵ there).
     for s in ["hsv", "hsl", "YIQ", "XYZ", "xyY", "sRGB", "RGB"] {
         let tol = if s == "YIQ" { 5e-5 } else { 2e-6 };
-        close(
+        osl_close(
             &format!(
                 "out = transformc(\"{s}\", \"rgb\", transformc(\"rgb\", \"{s}\", color(0.2, 0.5, 0.7)));"
             ),
             [0.2, 0.5, 0.7],
             tol,
         );
-        close(
+        osl_close(
             &format!(
                 "out = transformc(\"XYZ\", \"{s}\", transformc(\"{s}\", \"XYZ\", color(0.3, 0.4, 0.2)));"
             ),
@@ -124,20 +109,7 @@ fn color_spaces_run_on_the_jit_as_on_the_interpreter() {
             + color("YIQ", u, 0.1, -0.1) + transformc("sRGB", "XYZ", c);
     }"#;
     let p = compile_shader(src, Dialect::Osl).unwrap();
-    let env = shadenet::shade::grid_env(&[]);
-    let spec = shadenet::graph::opt::Specialization::default();
-    let (o, _) = shadenet::graph::opt::run(&p, &spec);
-    let interp = shadenet::shade::shade_grid::<f32>(&o, &env, 7, 5, spec.components).unwrap();
-    let m = shadenet_jit::JitBackend::new().compile(&p, &spec).unwrap();
-    let bits = |v: Vec<f64>| v.iter().map(|x| (*x as f32).to_bits()).collect::<Vec<_>>();
-    for batch in [false, true] {
-        let g = shadenet::shade::shade_grid_with(&*m, &env, 7, 5, spec.components, batch);
-        assert_eq!(
-            bits(interp.pixel_values()),
-            bits(g.pixel_values()),
-            "batch {batch}"
-        );
-    }
+    assert_jit_is_interp(&p, 7, 5);
 }
 
 #[test]

@@ -9,7 +9,6 @@ mod common;
 use common::*;
 use shadenet::graph::ir::Program;
 use shadenet::lang::{Dialect, Options, SourceMap, lower, parse_str};
-use shadenet::runtime::Backend;
 use shadenet::runtime::Fragment;
 
 const BUMP: &str = "displacement bumpy(float amp = 0.05, float freq = 8) {
@@ -108,20 +107,7 @@ fn an_rsl_displacement_sets_its_own_normal() {
         let l = (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
         assert_close(&o.get("Ci"), &m.map(|x| x / l), 1e-6, "Ci");
     }
-    let env = shadenet::shade::grid_env(&[]);
-    let spec = shadenet::graph::opt::Specialization::default();
-    let (o, _) = shadenet::graph::opt::run(&p, &spec);
-    let interp = shadenet::shade::shade_grid::<f32>(&o, &env, 9, 7, spec.components).unwrap();
-    let m = shadenet_jit::JitBackend::new().compile(&p, &spec).unwrap();
-    let bits = |v: Vec<f64>| v.iter().map(|x| (*x as f32).to_bits()).collect::<Vec<_>>();
-    for batch in [false, true] {
-        let g = shadenet::shade::shade_grid_with(&*m, &env, 9, 7, spec.components, batch);
-        assert_eq!(
-            bits(interp.pixel_values()),
-            bits(g.pixel_values()),
-            "batch {batch}"
-        );
-    }
+    assert_jit_is_interp(&p, 9, 7);
 }
 
 #[test]

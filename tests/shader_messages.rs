@@ -7,7 +7,6 @@
 mod common;
 use common::*;
 use shadenet::lang::Dialect;
-use shadenet::runtime::Backend;
 
 /// Runs `src` (OSL, one shader) at a fragment with `u` and `v`.
 fn run_at(p: &shadenet::graph::ir::Program, u: f64, v: f64) -> Outputs {
@@ -76,17 +75,7 @@ fn messages_within_a_shader() {
 #[test]
 fn messages_run_on_the_jit_as_on_the_interpreter() {
     let p = compile_shader(ONE_SHADER, Dialect::Osl).unwrap_or_else(|e| panic!("{e}"));
-    let env = shadenet::shade::grid_env(&[]);
-    let spec = shadenet::graph::opt::Specialization::default();
-    let (o, _) = shadenet::graph::opt::run(&p, &spec);
-    let interp = shadenet::shade::shade_grid::<f32>(&o, &env, 9, 7, spec.components).unwrap();
-    let m = shadenet_jit::JitBackend::new().compile(&p, &spec).unwrap();
-    let bits = |v: Vec<f64>| v.iter().map(|x| (*x as f32).to_bits()).collect::<Vec<_>>();
-    let want = bits(interp.pixel_values());
-    for batch in [false, true] {
-        let g = shadenet::shade::shade_grid_with(&*m, &env, 9, 7, spec.components, batch);
-        assert_eq!(want, bits(g.pixel_values()), "batch {batch}");
-    }
+    assert_jit_is_interp(&p, 9, 7);
 }
 
 /// A group: the first layer sets messages (one only where `u > 0.5`), the second reads

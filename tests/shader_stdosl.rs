@@ -8,21 +8,6 @@
 mod common;
 use common::*;
 use shadenet::lang::Dialect;
-use shadenet::runtime::Backend;
-
-/// Runs `body` (which assigns `output color out`) at the plane fragment: (f64, f32) values.
-fn shade(body: &str) -> (Vec<f64>, Vec<f64>) {
-    let src = format!("shader s(output color out = 0) {{ {body} }}");
-    let p = compile_shader(&src, Dialect::Osl).unwrap_or_else(|e| panic!("{e}\n{src}"));
-    let o = run_program(&p, &plane_fragment(), &[], u32::MAX);
-    (o.get("out"), o.get32("out"))
-}
-
-fn close(body: &str, want: [f64; 3], tol: f64) {
-    let (a, b) = shade(body);
-    assert_close(&a, &want, tol, &format!("{body} (f64)"));
-    assert_close(&b, &want, tol.max(2e-6), &format!("{body} (f32)"));
-}
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
@@ -44,10 +29,10 @@ fn distance_to_a_segment() {
             "out = distance(point(0), point(2, 0, 0), point({}, {}, {}));",
             q[0], q[1], q[2]
         );
-        close(&body, [want; 3], 1e-6);
+        osl_close(&body, [want; 3], 1e-6);
     }
     // A degenerate segment is its point.
-    close(
+    osl_close(
         "out = distance(point(1, 1, 1), point(1, 1, 1), point(1, 4, 5));",
         [5.0; 3],
         1e-6,
@@ -85,7 +70,7 @@ fn rotate(p: [f64; 3], angle: f64, a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 #[test]
 fn rotate_is_stdosls() {
     // A quarter turn about +z takes x to y (right-handed).
-    close(
+    osl_close(
         "out = color(rotate(point(1, 0, 0), M_PI / 2, vector(0, 0, 1)));",
         [0.0, 1.0, 0.0],
         1e-6,
@@ -93,19 +78,19 @@ fn rotate_is_stdosls() {
     // About an oblique line off the origin, against the header's matrix.
     let (p, a, b) = ([0.3, -1.2, 2.0], [1.0, 0.5, -0.5], [2.0, 3.0, 1.0]);
     let want = rotate(p, 0.7, a, b);
-    close(
+    osl_close(
         "out = color(rotate(point(0.3, -1.2, 2), 0.7, point(1, 0.5, -0.5), point(2, 3, 1)));",
         want,
         1e-5,
     );
     // A full turn comes back; the axis form is the two-point form from the origin.
-    close(
+    osl_close(
         "out = color(rotate(point(0.3, -1.2, 2), 2 * M_PI, point(1, 0.5, -0.5), point(2, 3, 1)));",
         p,
         1e-5,
     );
     let want = rotate(p, -1.1, [0.0; 3], [1.0, 2.0, 2.0]);
-    close(
+    osl_close(
         "out = color(rotate(point(0.3, -1.2, 2), -1.1, vector(1, 2, 2)));",
         want,
         1e-5,
@@ -129,7 +114,7 @@ fn fresnel(i: [f64; 3], n: [f64; 3], eta: f64) -> (f64, f64, bool) {
 #[test]
 fn fresnel_is_stdosls() {
     // Normal incidence into glass (eta = 1/1.5): Kr = ((n − 1)/(n + 1))² = 0.04.
-    close(
+    osl_close(
         "float kr, kt; fresnel(vector(0, 0, -1), normal(0, 0, 1), 1 / 1.5, kr, kt); out = color(kr, kt, 0);",
         [0.04, 0.96 / 2.25, 0.0],
         1e-6,
@@ -150,7 +135,7 @@ fn fresnel_is_stdosls() {
         );
         // R mirrors I's normal component; T is a unit vector unless totally reflected.
         let t = if tir { 0.0 } else { 10.0 };
-        close(&body, [kr, kt, angle.cos() + t], 2e-5);
+        osl_close(&body, [kr, kt, angle.cos() + t], 2e-5);
     }
     // eta = 1.5 from inside at 0.9 rad is beyond the critical angle (asin(1/1.5) ≈ 0.73).
     assert!(fresnel([0.9f64.sin(), 0.0, -0.9f64.cos()], [0.0, 0.0, 1.0], 1.5).2);
@@ -180,13 +165,13 @@ fn logb_is_the_exact_exponent() {
         ("0", -126.0),
         ("3e38", 127.0),
     ] {
-        close(
+        osl_close(
             &format!("out = color(logb({x}), 0, 0);"),
             [want, 0.0, 0.0],
             0.0,
         );
     }
-    close("out = logb(color(0.3, 5, 1e10));", [-2.0, 2.0, 33.0], 0.0);
+    osl_close("out = logb(color(0.3, 5, 1e10));", [-2.0, 2.0, 33.0], 0.0);
 }
 
 /// All of them on a grid: the JIT's scalar and batch entries give the interpreter's bits.
@@ -207,17 +192,7 @@ fn they_run_on_the_jit_as_on_the_interpreter() {
              + distance(point(0), point(1, v, 0), point(u, 1, 0));
     }"#;
     let p = compile_shader(src, Dialect::Osl).unwrap_or_else(|e| panic!("{e}"));
-    let env = shadenet::shade::grid_env(&[]);
-    let spec = shadenet::graph::opt::Specialization::default();
-    let (o, _) = shadenet::graph::opt::run(&p, &spec);
-    let interp = shadenet::shade::shade_grid::<f32>(&o, &env, 9, 7, spec.components).unwrap();
-    let m = shadenet_jit::JitBackend::new().compile(&p, &spec).unwrap();
-    let bits = |v: Vec<f64>| v.iter().map(|x| (*x as f32).to_bits()).collect::<Vec<_>>();
-    let want = bits(interp.pixel_values());
-    for batch in [false, true] {
-        let g = shadenet::shade::shade_grid_with(&*m, &env, 9, 7, spec.components, batch);
-        assert_eq!(want, bits(g.pixel_values()), "batch {batch}");
-    }
+    assert_jit_is_interp(&p, 9, 7);
 }
 
 #[test]

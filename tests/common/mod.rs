@@ -252,3 +252,41 @@ pub fn compile_shader(src: &str, dialect: shadenet::lang::Dialect) -> Result<Pro
         .map_err(|d| d.render(&sources))?;
     lower::compile(&parsed, None).map_err(|d| d.render(&sources))
 }
+
+/// Shades `program` (optimized for the default specialization) on a `w × h` grid with the
+/// interpreter in f32 and with the JIT's scalar and batch entries, asserts that all three
+/// give the same bits, and returns them (every pixel's values as f32 bits).
+pub fn assert_jit_is_interp(program: &Program, w: u32, h: u32) -> Vec<u32> {
+    use shadenet_runtime::Backend;
+    let env = shadenet::shade::grid_env(&[]);
+    let spec = shadenet_graph::opt::Specialization::default();
+    let (o, _) = shadenet_graph::opt::run(program, &spec);
+    let interp = shadenet::shade::shade_grid::<f32>(&o, &env, w, h, spec.components).unwrap();
+    let m = shadenet_jit::JitBackend::new()
+        .compile(program, &spec)
+        .unwrap();
+    let bits = |v: Vec<f64>| v.iter().map(|x| (*x as f32).to_bits()).collect::<Vec<_>>();
+    let want = bits(interp.pixel_values());
+    for batch in [false, true] {
+        let g = shadenet::shade::shade_grid_with(&*m, &env, w, h, spec.components, batch);
+        assert_eq!(want, bits(g.pixel_values()), "JIT batch entry {batch}");
+    }
+    want
+}
+
+/// Runs OSL `body` (which assigns `output color out`) at the plane fragment: the f64 and the
+/// f32 values.
+pub fn shade_osl_body(body: &str) -> (Vec<f64>, Vec<f64>) {
+    let src = format!("shader s(output color out = 0) {{ {body} }}");
+    let p =
+        compile_shader(&src, shadenet::lang::Dialect::Osl).unwrap_or_else(|e| panic!("{e}\n{src}"));
+    let o = run_program(&p, &plane_fragment(), &[], u32::MAX);
+    (o.get("out"), o.get32("out"))
+}
+
+/// [`shade_osl_body`]'s values within `tol` of `want` (f32 within at least 2e-6).
+pub fn osl_close(body: &str, want: [f64; 3], tol: f64) {
+    let (a, b) = shade_osl_body(body);
+    assert_close(&a, &want, tol, &format!("{body} (f64)"));
+    assert_close(&b, &want, tol.max(2e-6), &format!("{body} (f32)"));
+}
