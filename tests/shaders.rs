@@ -493,3 +493,40 @@ fn parameter_default_expressions_are_hoisted_once_per_instance() {
         "b = a·3 = 6, times u = 0.5",
     );
 }
+
+/// RSL `output` parameters: a surface's are program outputs after `Ci` and `Oi` (arbitrary
+/// output variables), a function's write the caller's variables (also under a varying
+/// `if`); a light shader's are refused.
+#[test]
+fn rsl_output_parameters() {
+    let p = compile(
+        "void split(color c; output float r; output float g) { r = comp(c, 0); g = comp(c, 1); }
+         surface aov(output varying color albedo = 0; output varying float mask = 1) {
+             float r, g;
+             split(color(u, v, 0.5), r, g);
+             if (u > 0.6) split(color(2, 3, 4), r, g);
+             albedo = color(r, g, 0);
+             mask = r + g;
+             Ci = albedo;
+         }",
+    )
+    .unwrap();
+    let names: Vec<&str> = p.outputs.iter().map(|o| o.name.as_str()).collect();
+    assert_eq!(names, ["Ci", "Oi", "albedo", "mask"]);
+    for (u, want) in [(0.25f32, [0.25, 0.5]), (0.75, [2.0, 3.0])] {
+        let mut f = plane_fragment();
+        f.uv = [u, 0.5];
+        let o = run_program(&p, &f, &[], u32::MAX);
+        assert_close(&o.get("albedo"), &[want[0], want[1], 0.0], 1e-6, "albedo");
+        assert_close(&o.get("mask"), &[want[0] + want[1]], 1e-6, "mask");
+    }
+    let err = compile_shader(
+        "light l(output float x = 0) { illuminate(P) { Cl = 1; } }",
+        Dialect::Rsl,
+    )
+    .unwrap_err();
+    assert!(
+        err.contains("output parameters of light shaders are not built yet"),
+        "{err}"
+    );
+}

@@ -560,7 +560,8 @@ impl<'a> Lower<'a> {
         }
     }
 
-    /// A surface shader: the globals, the parameters, the body, the outputs.
+    /// A surface shader: the globals, the parameters, the body, the outputs (`Ci`, `Oi`, then
+    /// the `output` parameters).
     fn surface(&mut self, b: &mut Builder, shader: &'a ast::ShaderDef) {
         self.surface_body(b, shader);
         for out in ["Ci", "Oi"] {
@@ -570,17 +571,55 @@ impl<'a> Lower<'a> {
             };
             b.output(out, None, v);
         }
+        for p in shader.params.iter().filter(|p| p.ty.output.is_some()) {
+            if let Some(Var {
+                val: Val::V { v, .. },
+                ..
+            }) = self.lookup(&p.name.name)
+            {
+                b.output(&p.name.name, None, *v);
+            }
+        }
     }
 
     /// An RSL surface or displacement shader's globals, parameters and body.
     fn surface_body(&mut self, b: &mut Builder, shader: &'a ast::ShaderDef) {
         self.globals(b);
         for p in &shader.params {
-            self.param(b, p);
+            match &p.ty.output {
+                Some(_) => self.rsl_output_param(b, p),
+                None => self.param(b, p),
+            }
         }
         self.scopes.push(HashMap::new());
         self.block(b, &shader.body);
         self.scopes.pop();
+    }
+
+    /// An RSL `output` parameter of a surface (an arbitrary output variable, RenderMan's
+    /// AOV): a varying variable holding its default, read back as a program output after
+    /// `Ci` and `Oi` ([`Lower::surface`]).
+    fn rsl_output_param(&mut self, b: &mut Builder, p: &'a ast::Param) {
+        if p.array.is_some() || p.ty.base == ast::BaseType::String {
+            self.error(
+                "output parameters that are arrays or strings are not built (floats, triples and matrices are)",
+                p.span,
+                "`output`",
+            );
+            return;
+        }
+        let Some(ty) = self.declared_type(&p.ty) else {
+            return;
+        };
+        let v = match &p.default {
+            Some(d) => self.expr_as(b, d, ty),
+            None => Val::V {
+                v: b.zero(ty.ir()),
+                ty,
+                varying: false,
+            },
+        };
+        self.declare(&p.name, v, false);
     }
 
     /// RSL's surface globals: the streams, `E`, `s`/`t`, `Cs`/`Os` (white: the scene gives
@@ -690,7 +729,11 @@ impl<'a> Lower<'a> {
             return;
         };
         if p.ty.output.is_some() {
-            self.error("output parameters are not built yet", p.span, "`output`");
+            self.error(
+                "output parameters of light shaders are not built yet (a light shader's result is `Cl`)",
+                p.span,
+                "`output`",
+            );
             return;
         }
         let uniform = !matches!(p.ty.rate, Some((ast::Rate::Varying, _)));

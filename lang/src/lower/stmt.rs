@@ -1019,9 +1019,6 @@ impl<'a> Lower<'a> {
         span: Span,
     ) {
         for (p, a) in f.params.iter().zip(args) {
-            if p.ty.output.is_some() && self.dialect == crate::Dialect::Rsl {
-                self.error("output parameters are not built yet", p.span, "`output`");
-            }
             if p.array.is_some() {
                 self.bind_array_param(b, p, a, span);
             } else if let (ast::BaseType::Struct(_), Val::Struct(..)) = (&p.ty.base, &a) {
