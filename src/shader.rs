@@ -163,16 +163,22 @@ pub fn set_overrides(
     overrides: &[(String, String, serde_json::Value)],
 ) -> Result<(), String> {
     for (node, input, value) in overrides {
-        if node != &program.name {
+        // A parameter named `node.input` itself: a group layer's, a displacement shader's.
+        let full = format!("{node}.{input}");
+        let name = if program.params.iter().any(|p| p.name == full) {
+            full.as_str()
+        } else if node == &program.name {
+            input.as_str()
+        } else {
             return Err(format!(
-                "set \"{node}.{input}\": the shader is `{}` (write \"{}.{input}\")",
+                "set \"{full}\": the shader is `{}` (write \"{}.{input}\"; a group layer's or a displacement shader's parameter is \"layer.NAME\" or \"displacement.NAME\")",
                 program.name, program.name
             ));
-        }
+        };
         let values = json_numbers(value).ok_or_else(|| {
-            format!("set \"{node}.{input}\": {value} is not a number or a list of numbers")
+            format!("set \"{full}\": {value} is not a number or a list of numbers")
         })?;
-        set_param(program, input, &values).map_err(|e| format!("set \"{node}.{input}\": {e}"))?;
+        set_param(program, name, &values).map_err(|e| format!("set \"{full}\": {e}"))?;
     }
     Ok(())
 }

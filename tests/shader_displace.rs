@@ -161,6 +161,18 @@ fn a_scene_material_takes_a_displacement_shader() {
         "{differ} of {} values differ",
         flat.len()
     );
+    // The displacement's parameters are set as "displacement.NAME".
+    let stronger = render(&scene(
+        "displacement = \"bumpy.osl\"\nset = { \"displacement.amp\" = 0.6 }",
+    ))
+    .unwrap();
+    assert_ne!(stronger, bumped);
+    let err = render(&scene(
+        "displacement = \"bumpy.osl\"\nset = { \"displacement.amplitude\" = 0.6 }",
+    ))
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("displacement.amplitude"), "{err}");
     let err = render(&scene("displacement = \"bumpy.osl\"").replace(
         "network = \"matte.osl\"",
         "inline = { nodes = [{ id = \"l\", type = \"lambert\" }], outputs = { color = \"l.outColor\" } }",
