@@ -10,7 +10,7 @@
 //! a message nothing sets reads as not set (0). A `setmessage` under an `if` or in a loop
 //! reaches later statements through the regions' yields, as an assignment would (the
 //! statements that call it, directly or through a user function, count as assigning every
-//! message: [`Lower::stmts_set_messages`]).
+//! message: [`ALL_MESSAGES`]).
 //!
 //! A variable needs its type before the first region that may assign it, and only lowering
 //! `setmessage`'s argument tells it; so a file or group that calls `setmessage` is lowered
@@ -26,6 +26,10 @@ use crate::Parsed;
 use crate::ast::{self, Expr, ExprKind, Item, Stmt};
 use crate::source::Span;
 use shadenet_graph::ir::Builder;
+
+/// Stands, among the names a statement may assign, for every message's hidden variables
+/// (what a `setmessage` — directly or in a called function — may set).
+pub(crate) const ALL_MESSAGES: &str = "$msg.*";
 
 /// The hidden variable holding message `name`'s value.
 fn value_var(name: &str) -> String {
@@ -107,11 +111,6 @@ impl<'a> Lower<'a> {
             .flat_map(|n| [value_var(n), set_var(n)])
             .map(|name| ast::Ident { name, span })
             .collect()
-    }
-
-    /// Whether any of `stmts` calls `setmessage`, directly or through a user function.
-    pub(crate) fn stmts_set_messages(&self, stmts: &[&'a Stmt]) -> bool {
-        self.stmts_call(stmts, "setmessage", &self.facts.messaging)
     }
 
     /// The messages the lowering found, with their types (for the second lowering).

@@ -56,7 +56,7 @@ use crate::{Dialect, Parsed};
 use shadenet_graph::closure::Closure;
 use shadenet_graph::ir::{BinOp, Builder, Program, Stream, Value};
 use shadenet_graph::{ConstValue, Type};
-use std::collections::{BTreeMap, HashMap, HashSet};
+use std::collections::{BTreeMap, HashMap};
 
 pub use group::compile_group;
 
@@ -336,40 +336,25 @@ pub(crate) struct Lower<'a> {
     pub(crate) messages_found: BTreeMap<String, (Ty, Span)>,
 }
 
-/// Facts about a parsed file's user functions, each a fixpoint over the call graph, found
-/// once per file (kept in [`Parsed`]: a module of many shaders, as MaterialX's, lowers each
+/// Facts about a parsed file's user functions, a fixpoint over the call graph found once
+/// per file (kept in [`Parsed`]: a module of many shaders, as MaterialX's, lowers each
 /// with the same functions) so that asking them of a statement never walks the call graph.
 #[derive(Debug, Default)]
 pub(crate) struct FileFacts {
-    /// The functions that run OSL's `trace`, directly or through the functions they call
-    /// ([`probe`]).
-    pub(crate) tracing: HashSet<String>,
-    /// The functions that call `setmessage`, likewise ([`messages`]).
-    pub(crate) messaging: HashSet<String>,
     /// The names each function may assign beyond its own variables (the globals it writes,
-    /// directly or through its calls): a call of it assigns them too
-    /// ([`Lower::function_writes`]).
+    /// the hidden variables of the `trace` and `setmessage` it calls, directly or through
+    /// its calls): a call of it assigns them too ([`Lower::function_writes`]).
     pub(crate) globals_written: HashMap<String, Vec<String>>,
 }
 
 impl FileFacts {
     /// The facts of `parsed` (see [`FileFacts`]).
     fn of(parsed: &Parsed) -> FileFacts {
-        let functions = function_map(parsed);
-        let owned = |set: HashSet<&str>| set.into_iter().map(str::to_string).collect();
-        let mut facts = FileFacts {
-            tracing: owned(walk::functions_calling(parsed.dialect, &functions, "trace")),
-            messaging: owned(walk::functions_calling(
-                parsed.dialect,
-                &functions,
-                "setmessage",
-            )),
-            globals_written: HashMap::new(),
-        };
+        let mut facts = FileFacts::default();
         // What each function's own statements assign, once; then each pass adds what the
         // functions it calls assign (at most one pass per level of calls).
         let (mut writes, calls) = Lower::with_facts(parsed, &facts).function_writes();
-        for _ in 0..=functions.len() {
+        for _ in 0..=calls.len() {
             let mut grew = false;
             for (f, callees) in &calls {
                 let mut add: Vec<String> = callees

@@ -8,13 +8,13 @@
 //! them. Because they are variables, a `trace` under an `if` or in a loop reaches a
 //! `getmessage` after it through the regions' yields, as an assignment would (the
 //! statements that call `trace`, directly or through a user function, count as assigning
-//! them: [`Lower::stmts_trace`], with the tracing functions found once per file); probes no `getmessage` reads are removed as dead
+//! them: `Lower::hidden_writes`, with what user functions write found once per file); probes no `getmessage` reads are removed as dead
 //! code, and equal ones merged. Options: `"mindist"`, `"maxdist"` (floats, default 0 and
 //! 10³⁰); `"shade"` only 0 (what a probe hits is not shaded), `"traceset"` is not built.
 //! Owns these two builtins; the ray itself is the runtime's and the renderer's.
 
 use super::{Lower, Ty, Val};
-use crate::ast::{self, Expr, Stmt};
+use crate::ast::{self, Expr};
 use crate::source::Span;
 use shadenet_graph::ir::{Builder, ProbeField, Value};
 use shadenet_graph::types::{ConstValue, Type};
@@ -64,12 +64,6 @@ impl<'a> Lower<'a> {
                 },
             );
         }
-    }
-
-    /// Whether any of `stmts` runs an OSL `trace`, directly or through a user function
-    /// ([`super::FileFacts::tracing`]).
-    pub(crate) fn stmts_trace(&self, stmts: &[&'a Stmt]) -> bool {
-        self.stmts_call(stmts, "trace", &self.facts.tracing)
     }
 
     /// `trace(pos, dir, "option", value, …)`: one probe per property into the hidden

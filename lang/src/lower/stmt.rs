@@ -292,14 +292,12 @@ impl<'a> Lower<'a> {
                         vec![&**target]
                     }
                     ExprKind::Call { callee, args } => {
-                        // The globals a user function assigns are the call's too.
-                        let written = self.facts.globals_written.get(callee.name.as_str());
-                        for w in written.into_iter().flatten() {
-                            if !names.iter().any(|n| n.name == *w) {
-                                names.push(ast::Ident {
-                                    name: w.clone(),
-                                    span: e.span,
-                                });
+                        // What the call writes beyond its output arguments: a user
+                        // function's globals, the hidden variables of OSL's `trace` and
+                        // `setmessage`.
+                        for w in self.hidden_writes(&callee.name, e.span) {
+                            if !names.iter().any(|n| n.name == w.name) {
+                                names.push(w);
                             }
                         }
                         self.output_args(&callee.name, args)
@@ -333,18 +331,12 @@ impl<'a> Lower<'a> {
         {
             names.extend(self.return_names(first.span));
         }
-        // A `trace` (directly or in a called function) sets the hidden trace variables.
-        if let Some(first) = stmts.first()
-            && self.stmts_trace(stmts)
+        // A `setmessage` (or a function that calls one) may set every message.
+        if let Some(all) = names
+            .iter()
+            .find(|n| n.name == super::messages::ALL_MESSAGES)
         {
-            names.extend(super::probe::trace_vars(first.span));
-        }
-        // So does a `setmessage` every message's.
-        if let Some(first) = stmts.first()
-            && !self.message_types.is_empty()
-            && self.stmts_set_messages(stmts)
-        {
-            names.extend(self.message_vars(first.span));
+            names.extend(self.message_vars(all.span));
         }
         if let Some(first) = stmts.iter().find(|s| has_jump(s)) {
             for f in &self.loops {
@@ -358,6 +350,26 @@ impl<'a> Lower<'a> {
         }
         // An array or a struct stands for its hidden variables.
         names.into_iter().flat_map(|n| self.expand(n)).collect()
+    }
+
+    /// What a call of `callee` assigns besides its arguments: the names a user function
+    /// writes ([`super::FileFacts::globals_written`]: its globals, through the functions it
+    /// calls too), `trace`'s hidden variables, and for `setmessage`
+    /// [`super::messages::ALL_MESSAGES`], which stands for every message's.
+    fn hidden_writes(&self, callee: &str, span: Span) -> Vec<ast::Ident> {
+        let ident = |name: &str| ast::Ident {
+            name: name.to_string(),
+            span,
+        };
+        if self.functions.contains_key(callee) {
+            let written = self.facts.globals_written.get(callee);
+            return written.into_iter().flatten().map(|n| ident(n)).collect();
+        }
+        match (self.dialect, callee) {
+            (crate::Dialect::Osl, "trace") => super::probe::trace_vars(span),
+            (crate::Dialect::Osl, "setmessage") => vec![ident(super::messages::ALL_MESSAGES)],
+            _ => Vec::new(),
+        }
     }
 
     /// The arguments of a call of `callee` that it may assign: those passed for an

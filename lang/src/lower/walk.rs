@@ -1,81 +1,8 @@
 //! Walks over the syntax tree: every expression of a statement or an expression, nested
 //! ones included, in source order. Shared by the lowering's analyses (what a statement
-//! assigns, whether it traces or sets a message); it must not lower anything.
+//! assigns, what the file's functions write); it must not lower anything.
 
-use super::Lower;
 use crate::ast::{self, Expr, ExprKind, Stmt, StmtKind};
-use std::collections::{HashMap, HashSet};
-
-/// The user functions of an OSL file that call `builtin` (`trace`, `setmessage`: calls
-/// whose effect reaches past the statement), directly or through the functions they call:
-/// a fixpoint over the call graph (each pass adds the callers of what it knows). Computed
-/// once per file, so that asking it of a statement never walks the call graph again.
-pub(crate) fn functions_calling<'a>(
-    dialect: crate::Dialect,
-    functions: &HashMap<&'a str, Vec<&'a ast::FunctionDef>>,
-    builtin: &str,
-) -> HashSet<&'a str> {
-    let mut set = HashSet::new();
-    if dialect != crate::Dialect::Osl {
-        return set;
-    }
-    loop {
-        let before = set.len();
-        for (name, defs) in functions {
-            if set.contains(name) {
-                continue;
-            }
-            let mut calls = false;
-            for s in defs.iter().flat_map(|f| &f.body.stmts) {
-                walk_stmt(s, &mut |e| {
-                    if let ExprKind::Call { callee, .. } = &e.kind {
-                        let c = callee.name.as_str();
-                        calls |= if functions.contains_key(c) {
-                            set.contains(c)
-                        } else {
-                            c == builtin
-                        };
-                    }
-                });
-            }
-            if calls {
-                set.insert(*name);
-            }
-        }
-        if set.len() == before {
-            return set;
-        }
-    }
-}
-
-impl<'a> Lower<'a> {
-    /// Whether any of `stmts` calls OSL's `builtin`, itself or through a user function of
-    /// `callers` (its [`functions_calling`] set).
-    pub(crate) fn stmts_call(
-        &self,
-        stmts: &[&'a Stmt],
-        builtin: &str,
-        callers: &HashSet<String>,
-    ) -> bool {
-        if self.dialect != crate::Dialect::Osl {
-            return false;
-        }
-        let mut found = false;
-        for s in stmts {
-            walk_stmt(s, &mut |e| {
-                if let ExprKind::Call { callee, .. } = &e.kind {
-                    let c = callee.name.as_str();
-                    found |= if self.functions.contains_key(c) {
-                        callers.contains(c)
-                    } else {
-                        c == builtin
-                    };
-                }
-            });
-        }
-        found
-    }
-}
 
 /// Calls `f` on every expression of `s`, nested ones included.
 pub(crate) fn walk_stmt<'s>(s: &'s Stmt, f: &mut dyn FnMut(&'s Expr)) {
