@@ -90,14 +90,13 @@ fn compile_file(
     include: &[PathBuf],
     defines: &[String],
 ) -> Result<(Program, ShaderKind), ShaderError> {
-    let mut options = front_end_options(include, defines);
-    options.texture_info = Some(texture_info(path.parent().unwrap_or(Path::new(""))));
-    let mut sources = SourceMap::new();
-    let fail = |sources: &SourceMap, d| compile_error(path, sources, d);
     if path.extension().is_some_and(|e| e == GROUP_EXTENSION) {
         // A group's program is a material (its layers are surfaces and patterns).
         return load_group(path, include, defines).map(|c| (c.program, ShaderKind::Surface));
     }
+    let options = front_end_options(include, defines, path.parent().unwrap_or(Path::new("")));
+    let mut sources = SourceMap::new();
+    let fail = |sources: &SourceMap, d| compile_error(path, sources, d);
     let parsed =
         shadenet_lang::parse_file(&mut sources, path, &options).map_err(|d| fail(&sources, d))?;
     let program = shadenet_lang::lower::compile(&parsed, None).map_err(|d| fail(&sources, d))?;
@@ -115,10 +114,12 @@ fn compile_file(
 
 /// What answers `gettextureinfo` for a shader whose textures are relative to `dir` (as
 /// [`shadenet_graph::ir::Program::resolve_textures`] resolves them): the file's header, read
-/// by the texture system's decoder within its memory budget.
+/// by the texture system's decoder within its memory budget, once per file name (a shader
+/// asks several queries of one file; a group's layers share the source).
 fn texture_info(dir: &Path) -> shadenet_lang::TextureInfoSource {
+    type Answer = Result<shadenet_lang::TextureInfo, String>;
     let dir = dir.to_path_buf();
-    shadenet_lang::TextureInfoSource(std::sync::Arc::new(move |name: &str| {
+    let read = move |name: &str| -> Answer {
         let p = Path::new(name);
         let path = if p.is_relative() {
             dir.join(p)
@@ -132,13 +133,24 @@ fn texture_info(dir: &Path) -> shadenet_lang::TextureInfoSource {
             height,
             channels: channels as u32,
         })
+    };
+    let seen = std::sync::Mutex::new(std::collections::HashMap::<String, Answer>::new());
+    shadenet_lang::TextureInfoSource(std::sync::Arc::new(move |name: &str| {
+        let mut seen = seen
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        seen.entry(name.to_string())
+            .or_insert_with(|| read(name))
+            .clone()
     }))
 }
 
-/// The front end's options for `-I` folders `include` and `-D` macros `defines`.
-fn front_end_options(include: &[PathBuf], defines: &[String]) -> Options {
+/// The front end's options for `-I` folders `include` and `-D` macros `defines`, with
+/// `gettextureinfo` reading textures relative to `dir` (as the loader resolves them).
+fn front_end_options(include: &[PathBuf], defines: &[String], dir: &Path) -> Options {
     let mut options = Options {
         include_dirs: include.to_vec(),
+        texture_info: Some(texture_info(dir)),
         ..Options::default()
     };
     for d in defines {
@@ -203,8 +215,7 @@ pub fn load_displaced(
     defines: &[String],
 ) -> Result<Compiled, ShaderError> {
     let dir = path.parent().unwrap_or(Path::new(""));
-    let mut options = front_end_options(include, defines);
-    options.texture_info = Some(texture_info(dir));
+    let options = front_end_options(include, defines, dir);
     let parse = |file: &Path, sources: &mut SourceMap| {
         shadenet_lang::parse_file(sources, file, &options)
             .map_err(|d| compile_error(file, sources, d))
@@ -233,15 +244,14 @@ pub fn load_group(
     include: &[PathBuf],
     defines: &[String],
 ) -> Result<Compiled, ShaderError> {
-    let mut options = front_end_options(include, defines);
-    options.texture_info = Some(texture_info(path.parent().unwrap_or(Path::new(""))));
+    let dir = path.parent().unwrap_or(Path::new(""));
+    let options = front_end_options(include, defines, dir);
     let mut sources = SourceMap::new();
     let fail = |sources: &SourceMap, d| compile_error(path, sources, d);
     let loaded =
         shadenet_lang::group::load(&mut sources, path, &options).map_err(|d| fail(&sources, d))?;
     let mut program =
         shadenet_lang::lower::compile_group(&loaded).map_err(|d| fail(&sources, d))?;
-    let dir = path.parent().unwrap_or(Path::new(""));
     program.resolve_textures(dir);
     Ok(Compiled {
         program,

@@ -320,11 +320,7 @@ impl<'a> Lower<'a> {
             let val = Val::V { v: r, ty, varying };
             self.store_output_arg(b, &args[k], val, (k + 1, "sincos"));
         }
-        Val::V {
-            v: b.float(0.0),
-            ty: Ty::Float,
-            varying: false,
-        }
+        Self::void(b)
     }
 
     /// Whether `name` is a builtin of the dialect (or an OSL closure).

@@ -18,7 +18,6 @@ use crate::diag::{Diagnostic, Diagnostics};
 use crate::{Dialect, Parsed};
 use shadenet_graph::Type;
 use shadenet_graph::ir::{BinOp, Builder, Program, Stream, UnOp, Value};
-use std::collections::BTreeMap;
 
 impl<'a> Lower<'a> {
     /// Lowers displacement shader `shader` (globals, parameters, body): the displaced `P`
@@ -137,7 +136,6 @@ fn compile_displaced_here(surface: &Parsed, displacement: &Parsed) -> Result<Pro
     let n = b.retype(Type::Vec3, n);
     b.push_overrides(&[(Stream::N, n)]);
     let mut sl = Lower::new(surface);
-    sl.message_types = BTreeMap::new();
     match surface.dialect {
         Dialect::Osl => sl.osl_shader(&mut b, s),
         Dialect::Rsl => sl.surface(&mut b, s),
@@ -147,12 +145,5 @@ fn compile_displaced_here(surface: &Parsed, displacement: &Parsed) -> Result<Pro
     if diags.has_errors() {
         return Err(diags);
     }
-    b.finish().map_err(|e| {
-        Diagnostic::error(
-            format!("internal error: the lowered program is invalid: {e}"),
-            s.span,
-            "while lowering this shader",
-        )
-        .into()
-    })
+    super::finish(b, s)
 }

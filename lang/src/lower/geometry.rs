@@ -119,11 +119,7 @@ impl<'a> Lower<'a> {
         args: &'a [Expr],
         span: Span,
     ) -> Val {
-        let void = |b: &mut Builder| Val::V {
-            v: b.float(0.0),
-            ty: Ty::Float,
-            varying: false,
-        };
+        let void = Self::void;
         let fits = super::numbers(b, &vals[..vals.len().min(3)]).filter(|vs| {
             matches!(vs.as_slice(), [(_, ti, _), (_, tn, _), (_, Ty::Float, _)]
                 if ti.is_geometric() && tn.is_geometric())

@@ -309,8 +309,9 @@ impl<'a> Lower<'a> {
         }
     }
 
-    /// Declares a hidden variable (a loop flag) in the current scope.
-    fn declare_hidden(&mut self, name: &str, val: Val) {
+    /// Declares a hidden variable (a loop flag; with the globals, the trace's and the
+    /// messages' variables) in the current scope.
+    pub(crate) fn declare_hidden(&mut self, name: &str, val: Val) {
         let scope = self.scopes.last_mut().expect("a scope");
         let var = super::Var {
             val,

@@ -76,8 +76,8 @@ fn storable(ty: Ty) -> bool {
 }
 
 impl<'a> Lower<'a> {
-    /// Declares the hidden variables of every message of known type in the globals' scope:
-    /// zero, not set.
+    /// Declares the hidden variables of every message of known type (called with the
+    /// globals' scope current): zero, not set.
     pub(crate) fn declare_message_vars(&mut self, b: &mut Builder) {
         let types: Vec<(String, Ty)> = self
             .message_types
@@ -85,21 +85,9 @@ impl<'a> Lower<'a> {
             .map(|(n, t)| (n.clone(), *t))
             .collect();
         for (name, ty) in types {
-            for (var, ty) in [(value_var(&name), ty), (set_var(&name), Ty::Int)] {
-                let v = b.zero(ty.ir());
-                self.scopes[0].insert(
-                    var,
-                    super::Var {
-                        val: Val::V {
-                            v,
-                            ty,
-                            varying: false,
-                        },
-                        uniform: false,
-                        decl: None,
-                    },
-                );
-            }
+            let (zero, unset) = (Self::poison(b, ty), Self::poison(b, Ty::Int));
+            self.declare_hidden(&value_var(&name), zero);
+            self.declare_hidden(&set_var(&name), unset);
         }
     }
 
@@ -123,11 +111,7 @@ impl<'a> Lower<'a> {
 
     /// `setmessage(name, value)`.
     pub(crate) fn setmessage(&mut self, b: &mut Builder, args: &[(Val, Span)], span: Span) -> Val {
-        let void = |b: &mut Builder| Val::V {
-            v: b.float(0.0),
-            ty: Ty::Float,
-            varying: false,
-        };
+        let void = Self::void;
         let [(name, nat), (value, vat)] = args else {
             self.error(
                 "`setmessage` takes (string name, value)",
@@ -217,8 +201,14 @@ impl<'a> Lower<'a> {
             return Self::poison(b, Ty::Int);
         };
         let read = |me: &Self, var: &str| me.lookup(var).map(|v| v.val.clone());
-        let (Some(msg), Some(Val::V { v: set, .. })) =
-            (read(self, &value_var(name)), read(self, &set_var(name)))
+        let (
+            Some(msg),
+            Some(Val::V {
+                v: set,
+                varying: set_varying,
+                ..
+            }),
+        ) = (read(self, &value_var(name)), read(self, &set_var(name)))
         else {
             // Nothing sets it (or this is the first lowering): not set.
             return Val::V {
@@ -247,12 +237,9 @@ impl<'a> Lower<'a> {
         };
         let found = super::nonzero(b, set, Ty::Int);
         let new = b.select(found, got, old_v);
-        let varying = matches!(msg, Val::V { varying: true, .. })
-            || matches!(old, Val::V { varying: true, .. })
-            || matches!(
-                read(self, &set_var(name)),
-                Some(Val::V { varying: true, .. })
-            );
+        let varying = set_varying
+            || matches!(msg, Val::V { varying: true, .. })
+            || matches!(old, Val::V { varying: true, .. });
         self.store_output_arg(
             b,
             target,

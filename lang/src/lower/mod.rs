@@ -462,6 +462,11 @@ fn compile_here(parsed: &Parsed, name: Option<&str>) -> Result<Program, Diagnost
     if lower.diags.has_errors() {
         return Err(lower.diags);
     }
+    finish(b, shader)
+}
+
+/// The program `b` built for `shader`; an invalid one is an internal error at the shader.
+fn finish(b: Builder, shader: &ast::ShaderDef) -> Result<Program, Diagnostics> {
     b.finish().map_err(|e| {
         Diagnostic::error(
             format!("internal error: the lowered program is invalid: {e}"),
@@ -847,6 +852,12 @@ impl<'a> Lower<'a> {
             ty,
             varying: false,
         }
+    }
+
+    /// The value of a builtin that returns nothing (`printf`, `sincos`, `setmessage`,
+    /// `fresnel`): a float 0.
+    pub(crate) fn void(b: &mut Builder) -> Val {
+        Self::poison(b, Ty::Float)
     }
 }
 

@@ -15,7 +15,7 @@
 //!
 //! [`Op::Print`]: shadenet_graph::ir::Op::Print
 
-use super::{Lower, Ty, Val};
+use super::{Lower, Val};
 use crate::options::Dialect;
 use crate::source::Span;
 use shadenet_graph::ir::{BinOp, Builder, Severity, UnOp, Value};
@@ -41,11 +41,7 @@ impl Lower<'_> {
         args: &[(Val, Span)],
         span: Span,
     ) -> Val {
-        let void = |b: &mut Builder| Val::V {
-            v: b.float(0.0),
-            ty: Ty::Float,
-            varying: false,
-        };
+        let void = Self::void;
         let Some((Val::Str(format), _)) = args.first() else {
             self.error(
                 format!("`{name}` takes a format string first (a string known at compile time)"),

@@ -47,22 +47,12 @@ pub(crate) fn trace_vars(span: Span) -> Vec<ast::Ident> {
 }
 
 impl<'a> Lower<'a> {
-    /// Declares the hidden trace variables in the globals' scope: zero (no trace yet).
+    /// Declares the hidden trace variables (called with the globals' scope current): zero
+    /// (no trace yet).
     pub(crate) fn declare_trace_vars(&mut self, b: &mut Builder) {
         for (f, ty) in FIELDS {
-            let v = b.zero(ty.ir());
-            self.scopes[0].insert(
-                hidden(f),
-                super::Var {
-                    val: Val::V {
-                        v,
-                        ty,
-                        varying: false,
-                    },
-                    uniform: false,
-                    decl: None,
-                },
-            );
+            let zero = Self::poison(b, ty);
+            self.declare_hidden(&hidden(f), zero);
         }
     }
 

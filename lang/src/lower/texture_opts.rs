@@ -357,31 +357,21 @@ fn footprint(b: &mut Builder, uv: Value, o: &Options) -> Option<[Value; 2]> {
         let w = b.construct(Type::Vec2, &[sw, tw]);
         (b.mul(dx, w), b.mul(dy, w))
     };
-    let widen = |b: &mut Builder, d: Value, k: usize, amount: Value| {
-        let c = [b.extract(d, 0), b.extract(d, 1)];
+    // Component `k` of `d` lengthened by the blur along that axis, where one is given.
+    let mut widen = |d: Value, k: usize| {
+        if o.blur[k].is_none() {
+            return d;
+        }
+        let amount = float(b, o.blur[k], 0.0);
+        let mut c = [b.extract(d, 0), b.extract(d, 1)];
         let zero = b.float(0.0);
         let neg = b.binary(BinOp::Lt, c[k], zero);
         let minus = b.unary(UnOp::Neg, amount);
         let step = b.select(neg, minus, amount);
-        let mut c = c;
         c[k] = b.add(c[k], step);
         b.construct(Type::Vec2, &c)
     };
-    let dx = match o.blur[0] {
-        Some(_) => {
-            let sb = float(b, o.blur[0], 0.0);
-            widen(b, dx, 0, sb)
-        }
-        None => dx,
-    };
-    let dy = match o.blur[1] {
-        Some(_) => {
-            let tb = float(b, o.blur[1], 0.0);
-            widen(b, dy, 1, tb)
-        }
-        None => dy,
-    };
-    Some([dx, dy])
+    Some([widen(dx, 0), widen(dy, 1)])
 }
 
 /// The lat-long map coordinates `(s, t)` of direction `r` (OSL's `t` down from the top

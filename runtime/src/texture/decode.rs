@@ -70,17 +70,40 @@ pub fn check_size(width: u32, height: u32, budget: u64) -> Result<(), String> {
 
 /// Reads and decodes a texture file whose decoded pyramid must fit `budget` bytes.
 pub fn decode(path: &Path, budget: u64) -> Result<Decoded, String> {
-    let bytes = input::read(path, FileKind::Image, "texture").map_err(|e| match e {
-        // The path is the caller's to name: only the cause goes into the message.
+    let bytes = read(path)?;
+    match format(&bytes) {
+        Format::Hdr => decode_hdr(&bytes, budget),
+        Format::Exr => decode_exr(&bytes, budget),
+        Format::Image => decode_image(&bytes, budget),
+    }
+}
+
+/// A texture file's bytes; the path is the caller's to name: only the cause goes into the
+/// message.
+fn read(path: &Path) -> Result<Vec<u8>, String> {
+    input::read(path, FileKind::Image, "texture").map_err(|e| match e {
         input::InputError::Io { source, .. } => source.to_string(),
         other => other.to_string(),
-    })?;
+    })
+}
+
+/// What a texture file is, by its first bytes.
+enum Format {
+    /// Radiance `.hdr` (`#?`).
+    Hdr,
+    /// OpenEXR (its magic number).
+    Exr,
+    /// Anything else: PNG or JPEG for the `image` crate, which says if it is neither.
+    Image,
+}
+
+fn format(bytes: &[u8]) -> Format {
     if bytes.starts_with(b"#?") {
-        decode_hdr(&bytes, budget)
+        Format::Hdr
     } else if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
-        decode_exr(&bytes, budget)
+        Format::Exr
     } else {
-        decode_image(&bytes, budget)
+        Format::Image
     }
 }
 
@@ -89,38 +112,37 @@ pub fn decode(path: &Path, budget: u64) -> Result<Decoded, String> {
 /// it where it could not load as a texture within `budget` bytes — what OSL's
 /// `gettextureinfo` reads.
 pub fn header(path: &Path, budget: u64) -> Result<(u32, u32, usize), String> {
-    let bytes = input::read(path, FileKind::Image, "texture").map_err(|e| e.to_string())?;
-    if bytes.starts_with(b"#?") {
-        let d = decode_hdr(&bytes, budget)?;
-        return Ok((d.width, d.height, d.channels));
+    let bytes = read(path)?;
+    match format(&bytes) {
+        Format::Hdr => {
+            let d = decode_hdr(&bytes, budget)?;
+            Ok((d.width, d.height, d.channels))
+        }
+        Format::Exr => {
+            let meta = exr_headers(&bytes, budget)?;
+            let h = meta.headers.first().ok_or("the file has no image")?;
+            let (w, ht) = (side(h.layer_size.0), side(h.layer_size.1));
+            Ok((w, ht, h.channels.list.len()))
+        }
+        Format::Image => {
+            let (decoder, width, height) = image_decoder(&bytes, budget)?;
+            let channels = image::ImageDecoder::color_type(&decoder).channel_count();
+            Ok((width, height, usize::from(channels)))
+        }
     }
-    if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
-        let limit = FileKind::Image.limit().map_err(|e| e.to_string())?;
-        let meta = check_exr_header(&bytes, limit)?;
-        let h = meta.headers.first().ok_or("the file has no image")?;
-        let side = |n: usize| u32::try_from(n).unwrap_or(u32::MAX);
-        let (w, ht) = (side(h.layer_size.0), side(h.layer_size.1));
-        check_size(w, ht, budget)?;
-        return Ok((w, ht, h.channels.list.len()));
-    }
-    let reader = image::ImageReader::new(Cursor::new(&bytes))
-        .with_guessed_format()
-        .map_err(|e| e.to_string())?;
-    if reader.format().is_none() {
-        return Err(
-            "not a PNG, JPEG, Radiance HDR or OpenEXR file (unrecognized first bytes)".into(),
-        );
-    }
-    let decoder = reader.into_decoder().map_err(|e| e.to_string())?;
-    let (width, height) = image::ImageDecoder::dimensions(&decoder);
-    check_size(width, height, budget)?;
-    let channels = image::ImageDecoder::color_type(&decoder).channel_count();
-    Ok((width, height, usize::from(channels)))
 }
 
-/// PNG and JPEG through the `image` crate: the decoder reads the header, the size is
-/// checked, then the texels are decoded.
-fn decode_image(bytes: &[u8], budget: u64) -> Result<Decoded, String> {
+/// A side's length as a `u32` (saturating: a side that large fails the size check).
+fn side(n: usize) -> u32 {
+    u32::try_from(n).unwrap_or(u32::MAX)
+}
+
+/// The `image` crate's decoder of a PNG or JPEG, having read its header, with the size
+/// checked against `budget`: the decoder, width and height.
+fn image_decoder(
+    bytes: &[u8],
+    budget: u64,
+) -> Result<(impl image::ImageDecoder + '_, u32, u32), String> {
     let mut reader = image::ImageReader::new(Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| e.to_string())?;
@@ -135,6 +157,13 @@ fn decode_image(bytes: &[u8], budget: u64) -> Result<Decoded, String> {
     let decoder = reader.into_decoder().map_err(|e| e.to_string())?;
     let (width, height) = image::ImageDecoder::dimensions(&decoder);
     check_size(width, height, budget)?;
+    Ok((decoder, width, height))
+}
+
+/// PNG and JPEG through the `image` crate: the decoder reads the header, the size is
+/// checked, then the texels are decoded.
+fn decode_image(bytes: &[u8], budget: u64) -> Result<Decoded, String> {
+    let (decoder, width, height) = image_decoder(bytes, budget)?;
     let img = image::DynamicImage::from_decoder(decoder).map_err(|e| e.to_string())?;
     use image::DynamicImage as D;
     let (channels, samples) = match img {
@@ -225,16 +254,21 @@ fn read_checked_exr(bytes: &[u8]) -> Result<ExrLayerImage, String> {
         .map_err(|e| e.to_string())
 }
 
-/// OpenEXR through the `exr` crate: the first valid layer's `R`, `G`, `B` (and `A`), else
-/// `Y` (and `A`), else a layer's `NAME.R`, `NAME.G`, `NAME.B`, else its only channel.
-fn decode_exr(bytes: &[u8], budget: u64) -> Result<Decoded, String> {
+/// An EXR file's headers, refused where they promise more than the image limit
+/// ([`check_exr_header`]) or a layer too large for `budget`.
+fn exr_headers(bytes: &[u8], budget: u64) -> Result<exr::meta::MetaData, String> {
     let limit = FileKind::Image.limit().map_err(|e| e.to_string())?;
     let meta = check_exr_header(bytes, limit)?;
     for h in meta.headers.iter() {
-        let (w, ht) = (h.layer_size.0, h.layer_size.1);
-        let side = |n: usize| u32::try_from(n).unwrap_or(u32::MAX);
-        check_size(side(w), side(ht), budget)?;
+        check_size(side(h.layer_size.0), side(h.layer_size.1), budget)?;
     }
+    Ok(meta)
+}
+
+/// OpenEXR through the `exr` crate: the first valid layer's `R`, `G`, `B` (and `A`), else
+/// `Y` (and `A`), else a layer's `NAME.R`, `NAME.G`, `NAME.B`, else its only channel.
+fn decode_exr(bytes: &[u8], budget: u64) -> Result<Decoded, String> {
+    exr_headers(bytes, budget)?;
     let image = read_checked_exr(bytes)?;
     let (width, height) = (
         image.layer_data.size.0 as u32,
